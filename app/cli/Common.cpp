@@ -1,0 +1,121 @@
+#include "app/cli/Common.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "core/common/Error.h"
+
+namespace ps::cli {
+
+std::vector<double> parseNumbers(const std::string& text, const std::string& option) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const double d = std::strtod(item.c_str(), &end);
+    if (item.empty() || end == item.c_str() || *end != '\0' || !std::isfinite(d))
+      throw ParameterError(option + ": expected comma-separated finite numbers, got \"" + text +
+                           "\"");
+    v.push_back(d);
+  }
+  return v;
+}
+
+Vec3 parseVec3(const std::string& text, const std::string& option) {
+  const auto v = parseNumbers(text, option);
+  if (v.size() != 3)
+    throw ParameterError(option + ": expected X,Y,Z (3 numbers), got " + std::to_string(v.size()));
+  return {v[0], v[1], v[2]};
+}
+
+void RigOptions::add(CLI::App& cmd) {
+  cmd.add_option("--sun", suns,
+                 "Sun: DX,DY,DZ,E[,R,G,B] — direction from the scene towards the sun, irradiance "
+                 "(W/m^2) on a surface facing it, optional colour; repeatable");
+  cmd.add_option("--env", env, "Sky: constant radiance R,G,B (W/m^2/sr)");
+  cmd.add_option("--point", points,
+                 "Point light: X,Y,Z,I[,R,G,B] — position (m), radiant intensity (W/sr), optional "
+                 "colour; repeatable");
+}
+
+LightingRig RigOptions::build() const {
+  LightingRig rig;
+  for (const std::string& s : suns) {
+    const auto v = parseNumbers(s, "--sun");
+    if (v.size() != 4 && v.size() != 7)
+      throw ParameterError("--sun: expected DX,DY,DZ,E or DX,DY,DZ,E,R,G,B, got \"" + s + "\"");
+    const Vec3 d(v[0], v[1], v[2]);
+    if (length(d) == 0) throw ParameterError("--sun: the direction must not be zero");
+    if (v[3] < 0) throw ParameterError("--sun: the irradiance must not be negative");
+    Light l;
+    l.type = LightType::Directional;
+    l.name = "sun";
+    l.direction = -normalize(d);  // stored as the direction the light travels
+    const Rgb colour = v.size() == 7 ? Rgb(v[4], v[5], v[6]) : Rgb(1, 1, 1);
+    l.intensity = colour * v[3];
+    rig.lights.push_back(l);
+  }
+  for (const std::string& s : points) {
+    const auto v = parseNumbers(s, "--point");
+    if (v.size() != 4 && v.size() != 7)
+      throw ParameterError("--point: expected X,Y,Z,I or X,Y,Z,I,R,G,B, got \"" + s + "\"");
+    if (v[3] < 0) throw ParameterError("--point: the intensity must not be negative");
+    Light l;
+    l.type = LightType::Point;
+    l.name = "point";
+    l.position = {v[0], v[1], v[2]};
+    const Rgb colour = v.size() == 7 ? Rgb(v[4], v[5], v[6]) : Rgb(1, 1, 1);
+    l.intensity = colour * v[3];
+    rig.lights.push_back(l);
+  }
+  if (!env.empty()) {
+    const auto v = parseNumbers(env, "--env");
+    if (v.size() != 3) throw ParameterError("--env: expected R,G,B, got \"" + env + "\"");
+    if (v[0] < 0 || v[1] < 0 || v[2] < 0)
+      throw ParameterError("--env: the radiance must not be negative");
+    rig.skyRadiance = {v[0], v[1], v[2]};
+  }
+  return rig;
+}
+
+std::vector<Vec3> readPointsFile(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw FileError(path.string(), "", "cannot be opened for reading");
+  std::vector<Vec3> pts;
+  std::string line;
+  int lineNo = 0;
+  while (std::getline(in, line)) {
+    ++lineNo;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream ls(line);
+    Vec3 p;
+    std::string extra;
+    if (!(ls >> p.x >> p.y >> p.z) || (ls >> extra) || !isFinite(p))
+      throw FileError(path.string(), "line " + std::to_string(lineNo),
+                      "expected three finite numbers \"x y z\", got \"" + line + "\"");
+    pts.push_back(p);
+  }
+  if (pts.empty())
+    throw FileError(path.string(), "", "no points (expected one \"x y z\" per line)");
+  return pts;
+}
+
+ProgressFn terminalProgress(const std::string& label) {
+  if (!::isatty(2)) return {};
+  return [label, last = -1](double f) mutable {
+    const int pct = static_cast<int>(f * 100);
+    if (pct != last) {
+      std::fprintf(stderr, "\r%s %3d%%%s", label.c_str(), pct, pct >= 100 ? "\n" : "");
+      last = pct;
+    }
+    return true;
+  };
+}
+
+}  // namespace ps::cli

@@ -1,0 +1,43 @@
+#pragma once
+// Shared pieces of the probestudio subcommands.
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/common/Progress.h"
+#include "core/io/ProbeSet.h"
+#include "core/scene/LightingRig.h"
+#include "core/traversal/ProbeVolume.h"
+
+namespace ps::cli {
+
+/// Lighting-rig options shared by capture and place: --sun, --env, --point.
+struct RigOptions {
+  std::vector<std::string> suns, points;
+  std::string env;
+  void add(CLI::App& cmd);
+  /// Throws ps::ParameterError naming the option and what was expected.
+  LightingRig build() const;
+};
+
+/// "x,y,z" (or more numbers) -> doubles; throws ParameterError naming `option`.
+std::vector<double> parseNumbers(const std::string& text, const std::string& option);
+Vec3 parseVec3(const std::string& text, const std::string& option);
+
+/// Reads one "x y z" per line (blank lines and lines starting with # skipped).
+/// Throws ps::FileError naming the file and the line.
+std::vector<Vec3> readPointsFile(const std::filesystem::path& path);
+
+/// Stderr progress bar for long stages ("label  42%"), silent when stderr is not a terminal.
+ProgressFn terminalProgress(const std::string& label);
+
+void registerPlace(CLI::App& app);
+void registerBake(CLI::App& app);
+void registerCapture(CLI::App& app);
+void registerTetra(CLI::App& app);
+void registerQuery(CLI::App& app);
+void registerEval(CLI::App& app);
+void registerInfo(CLI::App& app);
+
+}  // namespace ps::cli

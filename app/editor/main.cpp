@@ -1,0 +1,180 @@
+// probestudio-editor [SCENE] [--probes SET.json] [--screenshot OUT.png] [--size WxH]
+// The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
+// probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
+// projected pixel position of every probe) and exits: 0 on success, 1 with a one-line error.
+#include <QApplication>
+#include <QCommandLineParser>
+#include <QElapsedTimer>
+#include <QFile>
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
+#include <QRegularExpression>
+#include <QTimer>
+#include <cstdio>
+#include <exception>
+
+#include "core/common/Error.h"
+#include "ui/Document.h"
+#include "ui/MainWindow.h"
+#include "ui/Viewport.h"
+
+namespace {
+
+void fail(const QString& message) {
+  std::fprintf(stderr, "probestudio-editor: %s\n", qPrintable(message));
+  std::fflush(stderr);
+}
+
+QJsonArray rgb(const QColor& c) {
+  return QJsonArray{c.red(), c.green(), c.blue()};
+}
+
+/// Renders the viewport, writes the PNG and its JSON sidecar. Returns false on failure.
+bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) {
+  ps::ui::Viewport* vp = w.viewport();
+  vp->frameAll();
+  const QImage image = vp->grabFramebuffer();
+  if (image.isNull() || !image.save(out)) {
+    fail(QStringLiteral("%1: cannot render or write the screenshot").arg(out));
+    return false;
+  }
+  if (timeFrames > 0) {
+    QElapsedTimer timer;
+    timer.start();
+    for (int i = 0; i < timeFrames; ++i) (void)vp->grabFramebuffer();
+    std::fprintf(stderr, "viewport frame time: %.1f ms (mean of %d frames incl. readback)\n",
+                 double(timer.nsecsElapsed()) / 1e6 / timeFrames, timeFrames);
+  }
+  const double scale = double(image.width()) / std::max(vp->width(), 1);
+  QJsonArray probes;
+  const QVector3D right = vp->camera().right();
+  for (const ps::Probe& p : w.document()->probes()) {
+    QJsonObject o;
+    o["id"] = qint64(p.id);
+    o["state"] = QString::fromLatin1(ps::toString(p.state));
+    const auto px = vp->project(p.position);
+    const float r = vp->drawnRadius(p);
+    const auto edge =
+        vp->project(p.position + ps::Vec3(right.x() * r, right.y() * r, right.z() * r));
+    o["x"] = px ? px->x() * scale : -1.0;
+    o["y"] = px ? px->y() * scale : -1.0;
+    o["radiusPx"] = px && edge ? QLineF(*px, *edge).length() * scale : 0.0;
+    o["onScreen"] = bool(px) && vp->onScreen(*px);
+    // Mean incident radiance (luminance of the L00 term), for checks and for debugging.
+    if (p.sh) o["meanRadiance"] = ps::luminance(p.sh->c[0]) * 0.282095;
+    probes.append(o);
+  }
+  QJsonObject root;
+  root["image"] = QJsonObject{{"width", image.width()}, {"height", image.height()}};
+  root["background"] = QJsonObject{{"top", rgb(ps::ui::Viewport::backgroundTop())},
+                                   {"bottom", rgb(ps::ui::Viewport::backgroundBottom())}};
+  root["probesVisible"] = vp->probesVisible();
+  root["probes"] = probes;
+  QFile f(out + ".json");
+  if (!f.open(QIODevice::WriteOnly) || f.write(QJsonDocument(root).toJson()) < 0) {
+    fail(QStringLiteral("%1: cannot write").arg(out + ".json"));
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  QSurfaceFormat::setDefaultFormat(ps::ui::Viewport::surfaceFormat());
+  QApplication app(argc, argv);
+  QApplication::setApplicationName("ProbeStudio");
+  QApplication::setOrganizationName("ProbeStudio");
+
+  QCommandLineParser parser;
+  parser.setApplicationDescription("ProbeStudio light-probe editor");
+  parser.addHelpOption();
+  parser.addPositionalArgument("scene", "glTF scene to open (.gltf, .glb)", "[SCENE]");
+  const QCommandLineOption probesOpt("probes", "Probe set to open.", "SET.json");
+  const QCommandLineOption shotOpt(
+      "screenshot", "Render the viewport to OUT.png (+ OUT.png.json) and exit.", "OUT.png");
+  const QCommandLineOption sizeOpt("size", "Viewport size for --screenshot.", "WxH", "1024x768");
+  const QCommandLineOption noProbesOpt("no-probes", "Hide the probes (screenshot tests).");
+  const QCommandLineOption timeOpt("time-frames", "After the screenshot, time N frames.", "N", "0");
+  parser.addOptions({probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt});
+  parser.process(app);
+
+  const QString shot = parser.value(shotOpt);
+  const bool screenshot = !shot.isEmpty();
+  const QStringList positional = parser.positionalArguments();
+  const QString scenePath = positional.isEmpty() ? QString() : positional.first();
+  const QString probesPath = parser.value(probesOpt);
+
+  const auto m = QRegularExpression("^(\\d+)x(\\d+)$").match(parser.value(sizeOpt));
+  if (!m.hasMatch() || m.captured(1).toInt() < 16 || m.captured(2).toInt() < 16) {
+    fail(QStringLiteral("--size: expected WxH (e.g. 1024x768), got '%1'")
+             .arg(parser.value(sizeOpt)));
+    return 1;
+  }
+  const QSize size(m.captured(1).toInt(), m.captured(2).toInt());
+
+  try {
+    ps::ui::MainWindow w;
+    w.setPromptOnClose(!screenshot);
+    w.setQuiet(screenshot);
+    w.viewport()->setProbesVisible(!parser.isSet(noProbesOpt));
+    if (screenshot) w.viewport()->setFixedSize(size);
+    ps::ui::Document* doc = w.document();
+    doc->setAutoPropose(probesPath.isEmpty());
+
+    bool ok = true;
+    if (!scenePath.isEmpty()) ok = w.openScene(scenePath);
+    if (ok && !probesPath.isEmpty()) {
+      if (doc->hasScene()) {
+        try {
+          doc->openProbeSet(probesPath, /*keepScene=*/true);
+        } catch (const ps::Error& e) {
+          ok = false;
+          if (screenshot)
+            fail(QString::fromStdString(e.what()));
+          else
+            w.openProbeSet(probesPath);  // shows the error interactively
+        }
+      } else {
+        ok = w.openProbeSet(probesPath);
+      }
+    }
+    if (screenshot && !ok) {
+      if (!w.lastError().isEmpty()) fail(w.lastError());
+      return 1;
+    }
+    w.show();
+    if (!screenshot) {
+      doc->setAutoPropose(true);
+      return app.exec();
+    }
+    if (!doc->hasScene()) {
+      fail("--screenshot needs a scene or a probe set");
+      return 1;
+    }
+
+    int result = 0;
+    const int timeFrames = parser.value(timeOpt).toInt();
+    auto take = [&] {
+      // Let the window map and lay out before rendering.
+      QTimer::singleShot(50, &app, [&] {
+        result = writeScreenshot(w, shot, timeFrames) ? 0 : 1;
+        app.exit(result);
+      });
+    };
+    QObject::connect(doc, &ps::ui::Document::jobFinished, &app, [&](const QString& error) {
+      if (!error.isEmpty()) fail(QStringLiteral("warning: ") + error);  // not fatal
+      take();
+    });
+    if (!doc->isBusy()) take();
+    const int rc = app.exec();
+    return rc != 0 ? rc : result;
+  } catch (const ps::Error& e) {
+    fail(QString::fromStdString(e.what()));
+    return 1;
+  } catch (const std::exception& e) {
+    fail(QStringLiteral("internal error: ") + e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,370 @@
+// Probe capture by path tracing (Kontkanen & Laine sec. 4-5; Sukys 3.1.2 for IndirectOnly).
+//
+// Estimator. Incident radiance L(w) at the probe is projected to SH L2:
+//   c_i = integral over the sphere of L(w) Y_i(w) dw  ~=  (4 pi / N) sum_j L(w_j) Y_i(w_j)
+// with w_j uniform on the sphere (pdf 1 / 4 pi). The directions are a Cranley-Patterson-rotated
+// R2 sequence (Roberts 2018) mapped to the sphere by the equal-area map z = 1 - 2u, phi = 2 pi v:
+// every point of a randomly rotated sequence is uniform, so the estimate is unbiased, and the
+// low discrepancy lowers the variance of the first dimension.
+//
+// Radiance along a ray: a Lambertian path tracer with next-event estimation (NEE) to the delta
+// lights (sun, point, spot), cosine-weighted bounces, Russian roulette by throughput after
+// kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces and the
+// constant sky are reached by sampled rays only (no NEE for them), so nothing is counted twice.
+// A single-sided surface seen from behind ends the path with zero radiance (the inside of a
+// solid is black); the first hit from the probe counts towards backfaceFraction.
+//
+// Delta lights (DirectLight.h: inverse square, glTF's windowed range falloff and smooth spot
+// cone) are never hit by a ray, so the light they send straight to the probe is added
+// analytically: a delta of irradiance E from direction w projects to c_i = E Y_i(w). CaptureMode
+// ::IndirectOnly leaves out exactly this term (Sukys 3.1.2, "light decoupling"); their light
+// reflected by surfaces (NEE at path vertices) is indirect at the probe and stays.
+#include "core/capture/Capture.h"
+
+#include "core/capture/DirectLight.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "core/common/Check.h"
+#include "core/common/Error.h"
+
+namespace ps {
+
+namespace {
+
+/// Paths never get longer than this many surface vertices (Russian roulette ends nearly all
+/// of them much earlier; the cap only guards against albedo-1 scenes).
+constexpr int kMaxBounces = 128;
+/// Russian roulette starts after this many bounces.
+constexpr int kRussianRouletteStartBounce = 3;
+/// Cancellation is polled every this many probe samples.
+constexpr int kCancelPollSamples = 1024;
+
+// ---- Random numbers ------------------------------------------------------------------------
+
+/// splitmix64 (Steele, Lea & Flood 2014): the state is a Weyl counter, the output a mix of it.
+uint64_t splitmix64(uint64_t& state) {
+  uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+/// Uniform double in [0, 1) with 53 random bits.
+double uniform01(uint64_t& state) {
+  return static_cast<double>(splitmix64(state) >> 11) * 0x1.0p-53;
+}
+
+/// The initial state of an independent stream for (seed, index).
+uint64_t streamState(uint64_t seed, uint64_t index) {
+  uint64_t a = seed;
+  uint64_t b = index ^ 0xD1B54A32D192ED03ull;
+  const uint64_t hs = splitmix64(a);
+  const uint64_t hi = splitmix64(b);
+  uint64_t c = hs ^ (hi + 0x9E3779B97F4A7C15ull + (hs << 6) + (hs >> 2));
+  return splitmix64(c);
+}
+
+/// Point j of the R2 sequence, rotated by `offset` (Cranley-Patterson), in [0, 1)^2.
+/// alpha = (1/g, 1/g^2) with g the plastic number (Roberts 2018).
+void r2Point(uint64_t j, const double offset[2], double& u, double& v) {
+  constexpr double g = 1.32471795724474602596;
+  constexpr double a1 = 1.0 / g, a2 = 1.0 / (g * g);
+  const double jd = static_cast<double>(j);
+  u = offset[0] + a1 * jd;
+  v = offset[1] + a2 * jd;
+  u -= std::floor(u);
+  v -= std::floor(v);
+}
+
+// ---- Sampling ------------------------------------------------------------------------------
+
+/// Equal-area map of [0,1)^2 to the unit sphere (pdf 1 / 4 pi).
+Vec3 uniformSphere(double u, double v) {
+  const double z = 1.0 - 2.0 * u;
+  const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+  const double phi = 2.0 * kPi * v;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+/// Cosine-weighted direction around the unit normal n (pdf cos / pi), Malley's method.
+Vec3 cosineHemisphere(Vec3 n, double u, double v) {
+  const double r = std::sqrt(u);
+  const double phi = 2.0 * kPi * v;
+  const double z = std::sqrt(std::max(0.0, 1.0 - u));
+  Vec3 t, b;
+  orthonormalBasis(n, t, b);
+  return normalize(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * z);
+}
+
+bool isFinite(Rgb c) {
+  return std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b);
+}
+
+// ---- Path tracer ---------------------------------------------------------------------------
+
+class PathTracer {
+ public:
+  PathTracer(const Tracer& tracer, const LightingRig& rig)
+      : tracer_(tracer),
+        scene_(tracer.scene()),
+        lights_(allLights(tracer.scene(), rig)),
+        sky_(rig.skyRadiance),
+        eps_(tracer.rayEpsilon()) {
+    // O(1) here: traceRadiance builds one per ray. Material indices are checked per hit.
+    PS_CHECK_EQ(scene_.triangleMaterial.size(), scene_.triangleCount());
+  }
+
+  const std::vector<Light>& lights() const { return lights_; }
+  Rgb sky() const { return sky_; }
+
+  /// Also checks every triangle's material index (once per capture).
+  bool hasEmissiveSurface() const {
+    bool any = false;
+    for (uint32_t m : scene_.triangleMaterial) {
+      PS_CHECK_LT(size_t{m}, scene_.materials.size());
+      any = any || !scene_.materials[m].emission.isBlack();
+    }
+    return any;
+  }
+
+  /// What the delta light delivers at p through an unoccluded segment (p is a probe or a point
+  /// already offset from its surface), or nothing when it is blocked or dark.
+  std::optional<DeltaLightArrival> visibleArrival(const Light& light, Vec3 p) const {
+    auto a = deltaLightArrival(light, p);
+    // A degenerate light (zero direction, light at p) must not bring NaN into a probe.
+    if (!a || !isFinite(a->directionToLight) || !isFinite(a->irradiance)) return std::nullopt;
+    if (!deltaLightVisible(tracer_, p, *a)) return std::nullopt;
+    return a;
+  }
+
+  /// Radiance arriving at `origin` from direction -dir (travelling along dir from origin).
+  /// `firstHitBackface` is set when the first surface hit is the back of single-sided geometry.
+  Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rng, bool* firstHitBackface) const {
+    if (firstHitBackface) *firstHitBackface = false;
+    Rgb L;
+    Rgb beta{1, 1, 1};
+    Vec3 o = origin;
+    Vec3 d = dir;
+    for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
+      const auto hit = tracer_.intersect(Ray{o, d});
+      if (!hit) {
+        L += beta * sky_;  // escaped: the constant sky
+        break;
+      }
+      const uint32_t materialIndex = scene_.triangleMaterial[hit->triangle];
+      PS_CHECK_LT(size_t{materialIndex}, scene_.materials.size());
+      const Material& m = scene_.materials[materialIndex];
+      if (!hit->frontFace && !m.doubleSided) {
+        // Inside of a solid (Kontkanen & Laine sec. 5): black, and the probe sees a back face.
+        if (bounce == 0 && firstHitBackface) *firstHitBackface = true;
+        break;
+      }
+      L += beta * m.emission;  // emission, reached by sampled rays only
+      if (m.albedo.isBlack()) break;
+
+      // Shade on the side the ray arrived from.
+      const Vec3 n = hit->frontFace ? hit->geometricNormal : -hit->geometricNormal;
+      const Vec3 p = o + d * hit->t + n * eps_;
+      // Next-event estimation to the delta lights: L_r = albedo / pi * E * max(0, cos).
+      Rgb e;
+      for (const Light& light : lights_) {
+        const auto a = visibleArrival(light, p);
+        if (!a) continue;
+        const double cosTheta = dot(n, a->directionToLight);
+        if (cosTheta > 0) e += a->irradiance * cosTheta;
+      }
+      const Rgb brdfPi = m.albedo * (1.0 / kPi);
+      L += beta * brdfPi * e;
+
+      // Lambertian bounce, cosine-weighted: f cos / pdf = albedo.
+      const double u1 = uniform01(rng), u2 = uniform01(rng);
+      d = cosineHemisphere(n, u1, u2);
+      o = p;
+      beta = beta * m.albedo;
+      if (bounce + 1 >= kRussianRouletteStartBounce) {
+        const double q = std::min(1.0, beta.maxComponent());  // survival by throughput
+        if (!(q > 0) || uniform01(rng) >= q) break;
+        beta *= 1.0 / q;
+      }
+    }
+    // NaN guard: a degenerate configuration must not poison a probe.
+    return isFinite(L) ? L : Rgb{};
+  }
+
+  /// SH of the radiance arriving at p straight from the delta lights (unoccluded ones).
+  ShRgb directDeltaSh(Vec3 p) const {
+    ShRgb sh;
+    for (const Light& light : lights_) {
+      const auto a = visibleArrival(light, p);
+      if (!a) continue;
+      sh.addSample(a->directionToLight, a->irradiance, 1.0);  // c_i = E Y_i(w)
+    }
+    return sh;
+  }
+
+ private:
+  const Tracer& tracer_;
+  const Scene& scene_;
+  std::vector<Light> lights_;
+  Rgb sky_;
+  double eps_;
+};
+
+/// Running mean and variance (Welford) of the 27 per-sample estimators 4 pi L Y_i.
+struct ShAccumulator {
+  std::array<Rgb, kShCoeffCount> mean{};
+  std::array<Rgb, kShCoeffCount> m2{};
+  int n = 0;
+
+  void add(Vec3 d, Rgb radiance) {
+    ++n;
+    const auto y = shBasis(d);
+    const double inv = 1.0 / n;
+    for (int i = 0; i < kShCoeffCount; ++i) {
+      const Rgb x = radiance * (4.0 * kPi * y[i]);
+      for (int ch = 0; ch < 3; ++ch) {
+        const double delta = x[ch] - mean[i][ch];
+        mean[i][ch] += delta * inv;
+        m2[i][ch] += delta * (x[ch] - mean[i][ch]);
+      }
+    }
+  }
+};
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig& rig,
+                                        std::span<const Vec3> points,
+                                        const CaptureSettings& settings,
+                                        const ProgressFn& progress) {
+  if (settings.samplesPerProbe < 1)
+    throw ParameterError("capture: samplesPerProbe is " + std::to_string(settings.samplesPerProbe) +
+                         ", expected at least 1");
+  if (settings.threads < 0)
+    throw ParameterError("capture: threads is " + std::to_string(settings.threads) +
+                         ", expected 0 (all) or a positive count");
+  const PathTracer pt(tracer, rig);
+  if (pt.lights().empty() && pt.sky().isBlack() && !pt.hasEmissiveSurface())
+    throw ParameterError(
+        "the scene has no light: it brings no punctual light and no emissive surface, and the "
+        "rig is empty; add a sun (--sun DX,DY,DZ,E) or a sky (--env R,G,B)");
+  for (size_t i = 0; i < points.size(); ++i)
+    if (!isFinite(points[i]))
+      throw ParameterError("capture: probe " + std::to_string(i) +
+                           " has a non-finite position, expected finite coordinates");
+
+  std::vector<ProbeCapture> out(points.size());
+  const int n = settings.samplesPerProbe;
+  std::atomic<bool> cancelled{false};
+  size_t done = 0;  // guarded by progressMutex
+  std::mutex progressMutex;
+
+  auto captureOne = [&](size_t probe) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const Vec3 p = points[probe];
+    uint64_t rng = streamState(settings.seed, probe);
+    const double offset[2] = {uniform01(rng), uniform01(rng)};
+    ShAccumulator acc;
+    int backfaces = 0;
+    for (int j = 0; j < n; ++j) {
+      if (j % kCancelPollSamples == kCancelPollSamples - 1 && cancelled.load()) return;
+      double u, v;
+      r2Point(static_cast<uint64_t>(j), offset, u, v);
+      const Vec3 dir = uniformSphere(u, v);
+      bool backface = false;
+      const Rgb L = pt.radiance(p, dir, rng, &backface);
+      backfaces += backface ? 1 : 0;
+      acc.add(dir, L);
+    }
+    ProbeCapture& c = out[probe];
+    c.samples = n;
+    c.backfaceFraction = static_cast<double>(backfaces) / n;
+    for (int i = 0; i < kShCoeffCount; ++i) {
+      c.sh.c[i] = acc.mean[i];
+      for (int ch = 0; ch < 3; ++ch) {
+        // Standard error of the mean: sample standard deviation / sqrt(N).
+        const double var = n > 1 ? acc.m2[i][ch] / (n - 1) : 0.0;
+        c.shStdError.c[i][ch] = std::sqrt(std::max(0.0, var) / n);
+      }
+    }
+    if (settings.mode == CaptureMode::Full) c.sh += pt.directDeltaSh(p);
+    for (int i = 0; i < kShCoeffCount; ++i) {
+      PS_CHECK(isFinite(c.sh.c[i]));
+      PS_CHECK(isFinite(c.shStdError.c[i]));
+    }
+    c.seconds = secondsSince(t0);
+
+    if (progress) {
+      // Counted under the lock so that the reported fractions increase and end at exactly 1.
+      std::lock_guard<std::mutex> lock(progressMutex);
+      const size_t finished = ++done;
+      if (!cancelled.load() &&
+          !progress(static_cast<double>(finished) / static_cast<double>(points.size())))
+        cancelled.store(true);
+    }
+  };
+
+  auto run = [&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size(), 1),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        for (size_t i = r.begin(); i != r.end(); ++i) {
+                          if (cancelled.load()) return;
+                          captureOne(i);
+                        }
+                      });
+  };
+  if (settings.threads > 0) {
+    tbb::task_arena arena(settings.threads);
+    arena.execute(run);
+  } else {
+    run();
+  }
+  if (cancelled.load()) throw Cancelled();
+  return out;
+}
+
+double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
+  if (rays < 1)
+    throw ParameterError("backfaceFraction: rays is " + std::to_string(rays) +
+                         ", expected at least 1");
+  const Scene& scene = tracer.scene();
+  PS_CHECK_EQ(scene.triangleMaterial.size(), scene.triangleCount());
+  uint64_t rng = streamState(seed, 0);
+  const double offset[2] = {uniform01(rng), uniform01(rng)};
+  int backfaces = 0;
+  for (int j = 0; j < rays; ++j) {
+    double u, v;
+    r2Point(static_cast<uint64_t>(j), offset, u, v);
+    const auto hit = tracer.intersect(Ray{p, uniformSphere(u, v)});
+    if (!hit || hit->frontFace) continue;
+    const uint32_t materialIndex = scene.triangleMaterial[hit->triangle];
+    PS_CHECK_LT(size_t{materialIndex}, scene.materials.size());
+    if (!scene.materials[materialIndex].doubleSided) ++backfaces;
+  }
+  return static_cast<double>(backfaces) / rays;
+}
+
+Rgb traceRadiance(const Tracer& tracer, const LightingRig& rig, Vec3 origin, Vec3 dir,
+                  uint64_t& rngState, CaptureMode /*mode*/) {
+  // The mode changes nothing along a ray: delta lights are never hit by rays, and the light
+  // they send straight to a point is added from DirectLight.h by the caller.
+  const PathTracer pt(tracer, rig);
+  return pt.radiance(origin, dir, rngState, nullptr);
+}
+
+}  // namespace ps

@@ -1,0 +1,51 @@
+#include "core/capture/DirectLight.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ps {
+
+std::optional<DeltaLightArrival> deltaLightArrival(const Light& light, Vec3 p) {
+  DeltaLightArrival a;
+  if (light.type == LightType::Directional) {
+    a.directionToLight = -normalize(light.direction);
+    a.distance = std::numeric_limits<double>::infinity();
+    a.irradiance = light.intensity;
+    return a;
+  }
+  const Vec3 toLight = light.position - p;
+  const double d2 = dot(toLight, toLight);
+  if (d2 <= 0) return std::nullopt;
+  a.distance = std::sqrt(d2);
+  a.directionToLight = toLight / a.distance;
+  double scale = 1.0 / d2;
+  if (light.rangeMeters > 0) {
+    // KHR_lights_punctual's recommended range window.
+    const double r = a.distance / light.rangeMeters;
+    const double w = std::clamp(1.0 - r * r * r * r, 0.0, 1.0);
+    scale *= w * w;
+  }
+  if (light.type == LightType::Spot) {
+    // KHR_lights_punctual's spot falloff: smooth between the outer and inner cone.
+    const double cosOuter = std::cos(light.outerConeRad);
+    const double cosInner = std::cos(light.innerConeRad);
+    const double cd = dot(-a.directionToLight, normalize(light.direction));
+    const double t = std::clamp((cd - cosOuter) / std::max(1e-9, cosInner - cosOuter), 0.0, 1.0);
+    scale *= t * t;
+  }
+  if (scale <= 0) return std::nullopt;
+  a.irradiance = light.intensity * scale;
+  return a;
+}
+
+bool deltaLightVisible(const Tracer& tracer, Vec3 p, const DeltaLightArrival& a) {
+  Ray r;
+  r.origin = p;
+  r.direction = a.directionToLight;
+  r.tMin = tracer.rayEpsilon();
+  r.tMax = std::isfinite(a.distance) ? a.distance * (1.0 - 1e-6)
+                                     : std::numeric_limits<double>::infinity();
+  return !tracer.occluded(r);
+}
+
+}  // namespace ps

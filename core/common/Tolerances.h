@@ -1,0 +1,26 @@
+#pragma once
+// Every tolerance of the project, named, with what it means. Geometry that decides topology
+// (orientation, in-sphere) is exact and needs none.
+namespace ps::tol {
+
+/// Ray origins are offset from surfaces by this fraction of the scene's bounding-box diagonal
+/// (plus an absolute floor), so that a bounce or shadow ray never hits the surface it left.
+inline constexpr double kRayOffsetRelative = 1e-5;
+inline constexpr double kRayOffsetAbsolute = 1e-6;
+
+/// A probe is inside geometry ("invalid", Kontkanen & Laine sec. 5) when more than this fraction
+/// of its rays hit back faces of single-sided geometry.
+inline constexpr double kDefaultInvalidBackfaceFraction = 0.25;
+
+/// Barycentric weights of a query point inside a (possibly sliver) tetrahedron may fall this far
+/// outside [0, 1] through float rounding; the walk treats -kBarycentricSlack as "inside".
+inline constexpr float kBarycentricSlack = 1e-5f;
+
+/// Relative volume of a tetrahedron: 6 * volume / (longest edge)^3 (0.707 for a regular one).
+/// Below kThinTetRelativeVolume, the float barycentric matrix can be off by more than
+/// kBarycentricSlack / 10 (error ~ 6e-8 / relative volume), so the walk decides with double
+/// orientations instead. Below kFlatTetRelativeVolume the tet is treated as flat (no interior).
+inline constexpr double kThinTetRelativeVolume = 1e-2;
+inline constexpr double kFlatTetRelativeVolume = 1e-12;
+
+}  // namespace ps::tol

@@ -1,0 +1,49 @@
+#pragma once
+// The probe set: what the artist edits and keeps in version control (format: docs/formats.md).
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/math/Sh.h"
+#include "core/scene/LightingRig.h"
+
+namespace ps {
+
+enum class ProbeState { Candidate, Accepted, Rejected };
+
+struct Probe {
+  uint64_t id = 0;  ///< stable across edits and saves; never reused within a set
+  Vec3 position;
+  ProbeState state = ProbeState::Candidate;
+  bool locked = false;      ///< placement keeps locked probes where they are
+  std::string method;       ///< provenance: the placement method, or "manual"
+  double score = 0;         ///< method-specific (error removed, cluster size, ...)
+  std::optional<ShRgb> sh;  ///< captured incident radiance, when captured
+};
+
+struct PlacementSettings {
+  std::string method = "uniform";
+  double spacingMeters = 1.0;
+  int budget = 0;  ///< 0 = no budget
+};
+
+struct ProbeSet {
+  static constexpr int kFormatVersion = 1;
+  std::string scenePath;  ///< relative to the probe-set file when saved
+  LightingRig rig;
+  PlacementSettings placement;
+  std::vector<Probe> probes;
+  uint64_t nextId = 1;
+
+  /// Appends a probe with a fresh id and returns that id.
+  uint64_t add(Probe p) {
+    p.id = nextId++;
+    probes.push_back(std::move(p));
+    return probes.back().id;
+  }
+};
+
+const char* toString(ProbeState s);
+
+}  // namespace ps

@@ -1,0 +1,203 @@
+#include "core/io/ProbeSetFile.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/common/Error.h"
+#include "core/io/JsonFields.h"
+
+namespace ps {
+
+namespace fs = std::filesystem;
+using ojson = nlohmann::ordered_json;
+
+const char* toString(ProbeState s) {
+  switch (s) {
+    case ProbeState::Candidate:
+      return "candidate";
+    case ProbeState::Accepted:
+      return "accepted";
+    case ProbeState::Rejected:
+      return "rejected";
+  }
+  return "candidate";
+}
+
+namespace {
+
+ProbeState parseState(const JsonField& f) {
+  const std::string s = f.string();
+  if (s == "candidate") return ProbeState::Candidate;
+  if (s == "accepted") return ProbeState::Accepted;
+  if (s == "rejected") return ProbeState::Rejected;
+  f.fail("expected one of \"candidate\", \"accepted\", \"rejected\", got \"" + s + "\"");
+}
+
+}  // namespace
+
+void saveProbeSet(const ProbeSet& set, const fs::path& path) {
+  ojson j;
+  j["format"] = "probestudio.probeset";
+  j["version"] = ProbeSet::kFormatVersion;
+  std::string scene = set.scenePath;
+  if (!scene.empty()) {
+    const fs::path base = fs::absolute(path).parent_path();
+    std::error_code ec;
+    const fs::path rel = fs::relative(fs::absolute(set.scenePath), base, ec);
+    if (!ec && !rel.empty()) scene = rel.generic_string();
+  }
+  j["scene"] = scene;
+  j["rig"] = rigToJson(set.rig);
+  j["placement"] = {{"method", set.placement.method},
+                    {"spacing_m", set.placement.spacingMeters},
+                    {"budget", set.placement.budget}};
+  j["next_id"] = set.nextId;
+  ojson probes = ojson::array();
+  for (const Probe& p : set.probes) {
+    ojson o;
+    o["id"] = p.id;
+    o["position"] = vecToJson(p.position);
+    o["state"] = toString(p.state);
+    o["locked"] = p.locked;
+    o["method"] = p.method;
+    o["score"] = p.score;
+    if (p.sh) {
+      ojson sh = ojson::array();
+      for (const Rgb& c : p.sh->c) sh.push_back(rgbToJson(c));
+      o["sh"] = std::move(sh);
+    }
+    probes.push_back(std::move(o));
+  }
+  j["probes"] = std::move(probes);
+  writeFileAtomic(path, j.dump(1, '\t') + "\n");
+}
+
+ProbeSet loadProbeSet(const fs::path& path) {
+  const std::string file = path.string();
+  const std::string text = readWholeFile(path);
+  ojson j;
+  try {
+    j = ojson::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw FileError(file, "", std::string("not valid JSON: ") + e.what());
+  }
+  const JsonField root(file, "", &j);
+  if (!j.is_object()) root.fail("expected a JSON object (a ProbeStudio probe set)");
+  if (root.at("format").string() != "probestudio.probeset")
+    root.at("format").fail("expected \"probestudio.probeset\"");
+  const int version = root.at("version").integer();
+  if (version > ProbeSet::kFormatVersion)
+    root.at("version").fail("version " + std::to_string(version) +
+                            " is newer than this build reads (" +
+                            std::to_string(ProbeSet::kFormatVersion) + "); update ProbeStudio");
+  if (version < 1)
+    root.at("version").fail("expected a version >= 1, got " + std::to_string(version));
+
+  ProbeSet set;
+  const std::string scene = root.at("scene").string();
+  if (!scene.empty()) {
+    fs::path sp(scene);
+    if (sp.is_relative()) sp = fs::absolute(path).parent_path() / sp;
+    set.scenePath = sp.lexically_normal().string();
+  }
+  if (root.has("rig")) set.rig = rigFromJson(root.at("rig"));
+  if (root.has("placement")) {
+    const JsonField pl = root.at("placement");
+    set.placement.method = pl.at("method").string();
+    set.placement.spacingMeters = pl.at("spacing_m").number();
+    set.placement.budget = pl.at("budget").integer();
+  }
+  const JsonField probes = root.at("probes");
+  const size_t n = probes.arraySize();
+  set.probes.reserve(n);
+  uint64_t maxId = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const JsonField pf = probes.index(i);
+    Probe p;
+    const int64_t id = pf.at("id").integer64();
+    if (id <= 0) pf.at("id").fail("expected a positive integer, got " + std::to_string(id));
+    p.id = static_cast<uint64_t>(id);
+    for (const Probe& q : set.probes)
+      if (q.id == p.id) pf.at("id").fail("duplicate id " + std::to_string(id));
+    p.position = pf.at("position").vec3();
+    p.state = parseState(pf.at("state"));
+    if (pf.has("locked")) p.locked = pf.at("locked").boolean();
+    if (pf.has("method")) p.method = pf.at("method").string();
+    if (pf.has("score")) p.score = pf.at("score").number();
+    if (pf.has("sh")) {
+      const JsonField shf = pf.at("sh");
+      if (shf.arraySize() != kShCoeffCount)
+        shf.fail("expected 9 coefficients, got " + std::to_string(shf.arraySize()));
+      ShRgb sh;
+      for (int c = 0; c < kShCoeffCount; ++c) sh.c[c] = shf.index(c).rgb();
+      p.sh = sh;
+    }
+    maxId = std::max(maxId, p.id);
+    set.probes.push_back(std::move(p));
+  }
+  set.nextId = std::max<uint64_t>(
+      maxId + 1, root.has("next_id")
+                     ? static_cast<uint64_t>(std::max<int64_t>(root.at("next_id").integer64(), 1))
+                     : 1);
+  return set;
+}
+
+std::string readWholeFile(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw FileError(path.string(), "", "no such file");
+  if (fs::is_directory(path, ec)) throw FileError(path.string(), "", "is a directory, not a file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FileError(path.string(), "", "cannot be opened for reading");
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw FileError(path.string(), "", "read error");
+  return s.str();
+}
+
+void writeFileAtomic(const fs::path& path, const std::string& bytes) {
+  const fs::path target = fs::absolute(path);
+  const fs::path dir = target.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    throw FileError(path.string(), "", "cannot save: folder " + dir.string() + " does not exist");
+  // Hidden temp file in the same folder, so the rename is atomic.
+  std::string tmpName = target.filename().string();
+  tmpName.insert(tmpName.begin(), '.');
+  tmpName.append(".tmp-XXXXXX");
+  std::string tmpl = (dir / tmpName).string();
+  const int fd = ::mkstemp(tmpl.data());
+  if (fd < 0) throw FileError(path.string(), "", "cannot save: cannot create a temporary file");
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t w = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (w <= 0) {
+      ::close(fd);
+      ::unlink(tmpl.c_str());
+      throw FileError(path.string(), "", "cannot save: write failed (disk full?)");
+    }
+    written += static_cast<size_t>(w);
+  }
+  ::fchmod(fd, 0644);
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    ::unlink(tmpl.c_str());
+    throw FileError(path.string(), "", "cannot save: fsync failed");
+  }
+  if (::rename(tmpl.c_str(), target.c_str()) != 0) {
+    ::unlink(tmpl.c_str());
+    throw FileError(path.string(), "", "cannot save: rename failed");
+  }
+  // Make the rename itself durable.
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+}
+
+}  // namespace ps

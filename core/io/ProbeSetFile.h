@@ -1,0 +1,25 @@
+#pragma once
+// Probe-set JSON files: versioned, stable key order, atomic save.
+#include <filesystem>
+#include <string>
+
+#include "core/io/ProbeSet.h"
+
+namespace ps {
+
+/// Reads a probe set. `scenePath` in the result is resolved against the file's folder.
+/// Throws ps::FileError naming the file and the JSON path of the bad field
+/// (`probes[12].position: expected 3 numbers, got 2`), or a version newer than this build.
+ProbeSet loadProbeSet(const std::filesystem::path& path);
+
+/// Writes atomically (temp file, fsync, rename); `scenePath` is stored relative to the file's
+/// folder. Throws ps::FileError when the file cannot be written; the old file is then intact.
+void saveProbeSet(const ProbeSet& set, const std::filesystem::path& path);
+
+/// The whole content of a file. Throws ps::FileError when it is missing or unreadable.
+std::string readWholeFile(const std::filesystem::path& path);
+
+/// Writes `bytes` to `path` atomically: a temp file beside it, fsync, rename.
+void writeFileAtomic(const std::filesystem::path& path, const std::string& bytes);
+
+}  // namespace ps

@@ -1,0 +1,182 @@
+#include "core/io/VolumeFile.h"
+
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstring>
+
+#include "core/common/Error.h"
+#include "core/io/ProbeSetFile.h"
+
+// Layout (docs/formats.md, "Probe volume"), all little-endian:
+//   char[8]  magic "PSVOLUM1"
+//   u32      version (1)
+//   u32      sh order (2 = 9 coefficients)
+//   u32      probe count P, tet count T, hull face count H, metadata byte count M
+//   f32[3P]  positions        f32[27P] SH (probe-major, coefficient-major, RGB)
+//   i32[4T]  tets             i32[4T]  neighbours (-1 on the hull)
+//   f32[9T]  barycentric matrices (row-major)
+//   i32[2H]  hull faces (tet, local vertex opposite the face)
+//   u8[M]    metadata (UTF-8 JSON)
+//   u32      CRC-32 (IEEE) of every byte before it
+namespace ps {
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'S', 'V', 'O', 'L', 'U', 'M', '1'};
+constexpr uint32_t kVersion = 1;
+constexpr uint32_t kShOrder = 2;
+constexpr size_t kHeaderBytes = 8 + 6 * 4;
+
+static_assert(std::endian::native == std::endian::little,
+              "the volume writer assumes a little-endian host");
+
+class Writer {
+ public:
+  void bytes(const void* p, size_t n) { buf_.append(static_cast<const char*>(p), n); }
+  void u32(uint32_t v) { bytes(&v, 4); }
+  template <typename T>
+  void array(const std::vector<T>& v) {
+    if (!v.empty()) bytes(v.data(), v.size() * sizeof(T));
+  }
+  std::string& str() { return buf_; }
+
+ private:
+  std::string buf_;
+};
+
+class Reader {
+ public:
+  Reader(const std::string& file, const std::string& data) : file_(file), data_(data) {}
+  [[noreturn]] void fail(const std::string& field, const std::string& problem) const {
+    throw FileError(file_, field, problem);
+  }
+  void need(size_t n, const char* field) const {
+    if (n > data_.size() - pos_)
+      fail(field, "truncated: needs " + std::to_string(n) + " bytes at offset " +
+                      std::to_string(pos_) + ", file has " + std::to_string(data_.size()));
+  }
+  uint32_t u32(const char* field) {
+    need(4, field);
+    uint32_t v;
+    std::memcpy(&v, data_.data() + pos_, 4);
+    pos_ += 4;
+    return v;
+  }
+  template <typename T>
+  void array(std::vector<T>& out, size_t count, const char* field) {
+    need(count * sizeof(T), field);
+    out.resize(count);
+    if (count) std::memcpy(out.data(), data_.data() + pos_, count * sizeof(T));
+    pos_ += count * sizeof(T);
+  }
+  size_t pos() const { return pos_; }
+  void skip(size_t n) { pos_ += n; }
+
+ private:
+  const std::string& file_;
+  const std::string& data_;
+  size_t pos_ = 0;
+};
+
+}  // namespace
+
+uint32_t crc32(const void* data, size_t size, uint32_t crc) {
+  static const auto table = [] {
+    std::array<uint32_t, 256> t{};
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  const auto* p = static_cast<const uint8_t*>(data);
+  crc = ~crc;
+  for (size_t i = 0; i < size; ++i) crc = table[(crc ^ p[i]) & 0xFF] ^ (crc >> 8);
+  return ~crc;
+}
+
+void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
+  const ProbeVolume& v = vf.volume;
+  Writer w;
+  w.bytes(kMagic, 8);
+  w.u32(kVersion);
+  w.u32(kShOrder);
+  w.u32(static_cast<uint32_t>(v.probeCount()));
+  w.u32(static_cast<uint32_t>(v.tets.size()));
+  w.u32(static_cast<uint32_t>(v.hullFaces.size()));
+  w.u32(static_cast<uint32_t>(vf.metadataJson.size()));
+  w.array(v.positions);
+  w.array(v.sh);
+  w.array(v.tets);
+  w.array(v.neighbors);
+  w.array(v.matrices);
+  w.array(v.hullFaces);
+  w.bytes(vf.metadataJson.data(), vf.metadataJson.size());
+  w.u32(crc32(w.str().data(), w.str().size()));
+  writeFileAtomic(path, w.str());
+}
+
+VolumeFile loadVolume(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  const std::string data = readWholeFile(path);
+  Reader r(file, data);
+  r.need(8, "magic");
+  if (std::memcmp(data.data(), kMagic, 8) != 0)
+    r.fail("magic", "not a ProbeStudio volume (expected magic \"PSVOLUM1\")");
+  r.skip(8);
+  const uint32_t version = r.u32("version");
+  if (version != kVersion)
+    r.fail("version", "unsupported version " + std::to_string(version) + " (this build reads " +
+                          std::to_string(kVersion) + ")");
+  const uint32_t order = r.u32("sh_order");
+  if (order != kShOrder) r.fail("sh_order", "expected SH order 2, got " + std::to_string(order));
+  const uint64_t P = r.u32("probe_count"), T = r.u32("tet_count"), H = r.u32("hull_face_count"),
+                 M = r.u32("metadata_bytes");
+  // Refuse counts the file cannot hold before allocating anything.
+  const uint64_t body = P * (3 + 27) * 4 + T * (4 + 4 + 9) * 4 + H * 2 * 4 + M + 4;
+  if (kHeaderBytes + body != data.size())
+    r.fail("header", "counts (" + std::to_string(P) + " probes, " + std::to_string(T) + " tets, " +
+                         std::to_string(H) + " hull faces, " + std::to_string(M) +
+                         " metadata bytes) need " + std::to_string(kHeaderBytes + body) +
+                         " bytes, file has " + std::to_string(data.size()));
+  uint32_t stored;
+  std::memcpy(&stored, data.data() + data.size() - 4, 4);
+  if (crc32(data.data(), data.size() - 4) != stored)
+    r.fail("crc32", "checksum mismatch: the file is corrupted");
+  if (P < 4 || T < 1) r.fail("header", "a volume needs at least 4 probes and 1 tetrahedron");
+
+  VolumeFile vf;
+  ProbeVolume& v = vf.volume;
+  r.array(v.positions, P * 3, "positions");
+  r.array(v.sh, P * 27, "sh");
+  r.array(v.tets, T, "tets");
+  r.array(v.neighbors, T, "neighbors");
+  r.array(v.matrices, T, "matrices");
+  r.array(v.hullFaces, H, "hull_faces");
+  vf.metadataJson.assign(data.data() + r.pos(), M);
+
+  for (size_t i = 0; i < v.positions.size(); ++i)
+    if (!std::isfinite(v.positions[i])) r.fail("positions", "NaN or infinite coordinate");
+  for (size_t i = 0; i < v.sh.size(); ++i)
+    if (!std::isfinite(v.sh[i])) r.fail("sh", "NaN or infinite coefficient");
+  for (size_t t = 0; t < T; ++t)
+    for (int k = 0; k < 4; ++k) {
+      if (v.tets[t][k] < 0 || static_cast<uint64_t>(v.tets[t][k]) >= P)
+        r.fail("tets[" + std::to_string(t) + "]", "probe index out of range");
+      if (v.neighbors[t][k] < -1 || v.neighbors[t][k] >= static_cast<int64_t>(T))
+        r.fail("neighbors[" + std::to_string(t) + "]", "tetrahedron index out of range");
+    }
+  for (size_t t = 0; t < T; ++t)
+    for (float m : v.matrices[t])
+      if (!std::isfinite(m)) r.fail("matrices[" + std::to_string(t) + "]", "NaN or infinite");
+  for (size_t h = 0; h < H; ++h)
+    if (v.hullFaces[h][0] < 0 || static_cast<uint64_t>(v.hullFaces[h][0]) >= T ||
+        v.hullFaces[h][1] < 0 || v.hullFaces[h][1] > 3)
+      r.fail("hull_faces[" + std::to_string(h) + "]", "index out of range");
+  buildLocator(v);  // derived search data is not stored
+  return vf;
+}
+
+}  // namespace ps

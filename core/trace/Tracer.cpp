@@ -1,0 +1,162 @@
+// The Embree 3 wrapper: one device, one scene, one triangle geometry over Scene's arrays.
+#include "core/trace/Tracer.h"
+
+#include <embree3/rtcore.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "core/common/Check.h"
+#include "core/common/Error.h"
+#include "core/common/Tolerances.h"
+
+namespace ps {
+
+namespace {
+
+const char* errorName(RTCError e) {
+  switch (e) {
+    case RTC_ERROR_NONE:
+      return "no error";
+    case RTC_ERROR_UNKNOWN:
+      return "unknown error";
+    case RTC_ERROR_INVALID_ARGUMENT:
+      return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION:
+      return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY:
+      return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU:
+      return "unsupported CPU";
+    case RTC_ERROR_CANCELLED:
+      return "cancelled";
+  }
+  return "unrecognised error";
+}
+
+/// Embree takes floats; infinity stays infinity, finite values are rounded.
+float toFloat(double x) {
+  return static_cast<float>(x);
+}
+
+void fillRay(const Ray& ray, RTCRay& r) {
+  r.org_x = toFloat(ray.origin.x);
+  r.org_y = toFloat(ray.origin.y);
+  r.org_z = toFloat(ray.origin.z);
+  r.dir_x = toFloat(ray.direction.x);
+  r.dir_y = toFloat(ray.direction.y);
+  r.dir_z = toFloat(ray.direction.z);
+  r.tnear = toFloat(ray.tMin);
+  r.tfar = ray.tMax >= static_cast<double>(std::numeric_limits<float>::max())
+               ? std::numeric_limits<float>::infinity()
+               : toFloat(ray.tMax);
+  r.time = 0.0f;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+}
+
+}  // namespace
+
+struct Tracer::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  void throwIfError(const char* what) const {
+    const RTCError e = rtcGetDeviceError(device);
+    if (e != RTC_ERROR_NONE)
+      throw Error(std::string("Embree: ") + what + " failed: " + errorName(e));
+  }
+};
+
+Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>()) {
+  PS_CHECK_EQ(scene.indices.size() % 3, size_t{0});
+  PS_CHECK_EQ(scene.positions.size() % 3, size_t{0});
+
+  impl_->device = rtcNewDevice(nullptr);
+  if (!impl_->device)
+    throw Error(std::string("Embree: cannot create a device: ") +
+                errorName(rtcGetDeviceError(nullptr)));
+  impl_->scene = rtcNewScene(impl_->device);
+  impl_->throwIfError("rtcNewScene");
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+
+  const size_t vertexCount = scene.vertexCount();
+  const size_t triangleCount = scene.triangleCount();
+  if (triangleCount > 0) {
+    RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    impl_->throwIfError("rtcNewGeometry");
+    // Copied (not shared) buffers: Embree needs 16 bytes of readable padding after a vertex
+    // buffer, which a std::vector does not promise.
+    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), vertexCount));
+    auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), triangleCount));
+    if (!vertices || !indices) {
+      rtcReleaseGeometry(geom);
+      impl_->throwIfError("rtcSetNewGeometryBuffer");
+      throw Error("Embree: rtcSetNewGeometryBuffer returned no buffer");
+    }
+    for (size_t i = 0; i < scene.positions.size(); ++i) vertices[i] = scene.positions[i];
+    for (size_t i = 0; i < scene.indices.size(); ++i) {
+      PS_CHECK_LT(static_cast<size_t>(scene.indices[i]), vertexCount);
+      indices[i] = scene.indices[i];
+    }
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(impl_->scene, geom);
+    rtcReleaseGeometry(geom);
+  }
+  rtcCommitScene(impl_->scene);
+  impl_->throwIfError("rtcCommitScene");
+
+  rayEpsilon_ = tol::kRayOffsetRelative * scene.bounds.diagonal() + tol::kRayOffsetAbsolute;
+}
+
+Tracer::~Tracer() = default;
+
+std::optional<Hit> Tracer::intersect(const Ray& ray) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rh;
+  fillRay(ray, rh.ray);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &context, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+
+  Hit hit;
+  hit.t = rh.ray.tfar;
+  hit.triangle = rh.hit.primID;
+  hit.u = rh.hit.u;
+  hit.v = rh.hit.v;
+  // Geometric normal from the counter-clockwise winding, in double (Embree's Ng has its own
+  // sign convention and float precision).
+  const uint32_t* tri = &scene_.indices[3 * static_cast<size_t>(hit.triangle)];
+  const Vec3 p0 = scene_.vertex(tri[0]), p1 = scene_.vertex(tri[1]), p2 = scene_.vertex(tri[2]);
+  const Vec3 n = cross(p1 - p0, p2 - p0);
+  const double len = length(n);
+  // A degenerate triangle Embree still reported: face the ray.
+  hit.geometricNormal = len > 0 ? n / len : normalize(-ray.direction);
+  hit.frontFace = dot(ray.direction, hit.geometricNormal) < 0;
+  return hit;
+}
+
+bool Tracer::occluded(const Ray& ray) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay r;
+  fillRay(ray, r);
+  rtcOccluded1(impl_->scene, &context, &r);
+  // Embree sets tfar to -inf when something is hit.
+  return r.tfar < 0.0f && std::isinf(r.tfar);
+}
+
+}  // namespace ps

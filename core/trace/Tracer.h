@@ -1,0 +1,53 @@
+#pragma once
+// The one long-lived stateful object of the core: an RAII wrapper around an Embree 3 scene
+// built over a Scene's triangles. Thread-safe for concurrent queries once constructed.
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "core/math/Vec3.h"
+#include "core/scene/Scene.h"
+
+namespace ps {
+
+struct Ray {
+  Vec3 origin;
+  Vec3 direction;  ///< need not be unit; t is in units of its length
+  double tMin = 0;
+  double tMax = std::numeric_limits<double>::infinity();
+};
+
+struct Hit {
+  double t = 0;
+  uint32_t triangle = 0;
+  double u = 0, v = 0;    ///< barycentrics of vertices 1 and 2 of the triangle
+  Vec3 geometricNormal;   ///< unit, world space, on the counter-clockwise (front) side
+  bool frontFace = true;  ///< the ray arrived against geometricNormal
+};
+
+class Tracer {
+ public:
+  /// Builds the BVH. The scene must outlive the tracer.
+  explicit Tracer(const Scene& scene);
+  ~Tracer();
+  Tracer(const Tracer&) = delete;
+  Tracer& operator=(const Tracer&) = delete;
+
+  /// Closest hit in (tMin, tMax), or nothing.
+  std::optional<Hit> intersect(const Ray& ray) const;
+  /// True when anything lies in (tMin, tMax).
+  bool occluded(const Ray& ray) const;
+
+  /// Distance by which ray origins are offset from surfaces (scaled to the scene,
+  /// tol::kRayOffsetRelative of the bounds diagonal).
+  double rayEpsilon() const { return rayEpsilon_; }
+  const Scene& scene() const { return scene_; }
+
+ private:
+  struct Impl;
+  const Scene& scene_;
+  std::unique_ptr<Impl> impl_;
+  double rayEpsilon_ = 0;
+};
+
+}  // namespace ps

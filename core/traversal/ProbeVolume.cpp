@@ -1,0 +1,404 @@
+// The runtime probe volume and its traversal (Sukys 2014, sec. 3.2.1 "Interpolation with
+// barycentric coordinates", "Traversal" and "Drawbacks", after Cupisz 2012).
+#include "core/traversal/ProbeVolume.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+
+#include "core/common/Check.h"
+#include "core/common/Tolerances.h"
+
+namespace ps {
+namespace {
+
+std::atomic<uint64_t> gBruteForceCount{0};
+
+double orient(Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
+  return dot(b - a, cross(c - a, d - a));
+}
+
+double longestEdge(const Vec3 (&v)[4]) {
+  double l2 = 0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) l2 = std::max(l2, dot(v[i] - v[j], v[i] - v[j]));
+  return std::sqrt(l2);
+}
+
+void tetVertices(const ProbeVolume& v, int32_t t, Vec3 (&out)[4]) {
+  for (int i = 0; i < 4; ++i) out[i] = v.position(v.tets[t][i]);
+}
+
+bool isFlat(const std::array<float, 9>& m) {
+  for (float x : m)
+    if (x != 0.0f) return false;
+  return true;
+}
+
+// Sukys 3.2.1 "Drawbacks": the precomputed 3x3 matrix turns (p - v3) into barycentrics.
+std::array<double, 4> matrixWeights(const ProbeVolume& v, int32_t t, Vec3 p) {
+  const auto& m = v.matrices[t];
+  const Vec3 d = p - v.position(v.tets[t][3]);
+  std::array<double, 4> w;
+  w[0] = double(m[0]) * d.x + double(m[1]) * d.y + double(m[2]) * d.z;
+  w[1] = double(m[3]) * d.x + double(m[4]) * d.y + double(m[5]) * d.z;
+  w[2] = double(m[6]) * d.x + double(m[7]) * d.y + double(m[8]) * d.z;
+  w[3] = 1.0 - w[0] - w[1] - w[2];
+  return w;
+}
+
+// Barycentrics from double orientations of the (float) vertices: w_i is the signed volume of
+// the tet with vertex i replaced by p, over the tet's volume. Accurate for thin tets. For a flat
+// tet (zero volume) returns the signed distances of p to the face planes instead, positive on
+// the tet's side, and sets `flat`.
+std::array<double, 4> orientWeights(const ProbeVolume& v, int32_t t, Vec3 p, bool& flat) {
+  Vec3 q[4];
+  tetVertices(v, t, q);
+  std::array<double, 4> o;
+  o[0] = orient(p, q[1], q[2], q[3]);
+  o[1] = orient(q[0], p, q[2], q[3]);
+  o[2] = orient(q[0], q[1], p, q[3]);
+  o[3] = orient(q[0], q[1], q[2], p);
+  flat = isFlat(v.matrices[t]);
+  if (!flat) {
+    const double vol = orient(q[0], q[1], q[2], q[3]);
+    for (double& x : o) x /= vol;
+    return o;
+  }
+  // Face i's area vector (length = 2 * area); dividing gives a signed distance.
+  for (int i = 0; i < 4; ++i) {
+    const Vec3 a = q[(i + 1) & 3], b = q[(i + 2) & 3], c = q[(i + 3) & 3];
+    const double n = length(cross(b - a, c - a));
+    o[i] = n > 0 ? o[i] / n : 0.0;
+  }
+  return o;
+}
+
+int argMin(const std::array<double, 4>& w) {
+  int k = 0;
+  for (int i = 1; i < 4; ++i)
+    if (w[i] < w[k]) k = i;
+  return k;
+}
+
+// Clamps tiny negatives and rounding, renormalises: finite, in [0, 1], sum 1.
+std::array<float, 4> cleanWeights(const std::array<double, 4>& w) {
+  std::array<double, 4> c;
+  double sum = 0;
+  for (int i = 0; i < 4; ++i) {
+    c[i] = std::isfinite(w[i]) ? std::clamp(w[i], 0.0, 1.0) : 0.0;
+    sum += c[i];
+  }
+  std::array<float, 4> out;
+  if (!(sum > 0)) {
+    out = {0.25f, 0.25f, 0.25f, 0.25f};
+    return out;
+  }
+  for (int i = 0; i < 4; ++i) out[i] = static_cast<float>(c[i] / sum);
+  return out;
+}
+
+struct WalkResult {
+  enum Kind { kInside, kOutside, kFailed } kind = kFailed;
+  int32_t tet = -1;
+  std::array<double, 4> w{};
+};
+
+// Visibility walk (Sukys 3.2.1 "Traversal"): step to the neighbour opposite the most negative
+// barycentric coordinate until none is below -slack. Stepping through a hull face means p is
+// beyond a supporting plane of the convex hull, i.e. outside. The step function depends only
+// on (tet, p), so a cycle (possible through rounding, Sukys "Drawbacks") is caught by Brent's
+// algorithm; the step cap is a second backstop.
+WalkResult walk(const ProbeVolume& v, Vec3 p, int32_t start) {
+  const bool haveThin = v.thinTets.size() == v.tets.size();
+  const size_t cap = 4 * v.tets.size() + 100;
+  int32_t t = start;
+  int32_t tortoise = t;
+  size_t power = 1, lambda = 0;
+  for (size_t step = 0; step < cap; ++step) {
+    std::array<double, 4> w;
+    bool flat = false;
+    if (haveThin && v.thinTets[t]) {
+      w = orientWeights(v, t, p, flat);
+    } else {
+      w = matrixWeights(v, t, p);
+      // A zero matrix gives w = (0, 0, 0, 1): "inside". Only then check for a flat tet.
+      if (w[3] == 1.0 && w[0] == 0.0 && w[1] == 0.0 && w[2] == 0.0 && isFlat(v.matrices[t]))
+        w = orientWeights(v, t, p, flat);
+    }
+    const int k = argMin(w);
+    if (!flat && w[k] >= -double(tol::kBarycentricSlack)) return {WalkResult::kInside, t, w};
+    const int32_t n = v.neighbors[t][k];
+    if (n < 0) return {WalkResult::kOutside, t, w};
+    t = n;
+    if (t == tortoise) return {WalkResult::kFailed, t, w};
+    if (++lambda == power) {
+      tortoise = t;
+      power *= 2;
+      lambda = 0;
+    }
+  }
+  return {WalkResult::kFailed, t, {}};
+}
+
+// Closest point to p on triangle abc, with its barycentrics (Ericson, Real-Time Collision
+// Detection, 5.1.5).
+Vec3 closestOnTriangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c, std::array<double, 3>& bary) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return bary = {1, 0, 0}, a;
+  const Vec3 bp = p - b;
+  const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return bary = {0, 1, 0}, b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double s = d1 / (d1 - d3);
+    bary = {1 - s, s, 0};
+    return a + ab * s;
+  }
+  const Vec3 cp = p - c;
+  const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return bary = {0, 0, 1}, c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double s = d2 / (d2 - d6);
+    bary = {1 - s, 0, s};
+    return a + ac * s;
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double s = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    bary = {0, 1 - s, s};
+    return b + (c - b) * s;
+  }
+  const double denom = va + vb + vc;
+  if (!(denom > 0)) {  // degenerate triangle: fall back to its first vertex
+    bary = {1, 0, 0};
+    return a;
+  }
+  const double sv = vb / denom, sw = vc / denom;
+  bary = {1 - sv - sw, sv, sw};
+  return a + ab * sv + ac * sw;
+}
+
+// Sukys 3.2.1 "Drawbacks": outside the hull, track the point along the hull surface. We clamp p
+// to the nearest point of the hull (brute force over hull faces) and return the barycentrics of
+// that point in the hull face's tet (0 for the vertex opposite the face): continuous with the
+// inside and never black.
+VolumeLocation clampToHull(const ProbeVolume& v, Vec3 p) {
+  VolumeLocation best;
+  best.outside = true;
+  double bestD2 = std::numeric_limits<double>::infinity();
+  for (const auto& [t, opp] : v.hullFaces) {
+    const int i0 = (opp + 1) & 3, i1 = (opp + 2) & 3, i2 = (opp + 3) & 3;
+    std::array<double, 3> bary;
+    const Vec3 q = closestOnTriangle(p, v.position(v.tets[t][i0]), v.position(v.tets[t][i1]),
+                                     v.position(v.tets[t][i2]), bary);
+    const double d2 = dot(q - p, q - p);
+    if (d2 < bestD2) {
+      bestD2 = d2;
+      best.tet = t;
+      std::array<double, 4> w{};
+      w[i0] = bary[0];
+      w[i1] = bary[1];
+      w[i2] = bary[2];
+      best.weights = cleanWeights(w);
+    }
+  }
+  return best;
+}
+
+// Correctness backstop: the non-flat tet in which p is deepest (largest smallest barycentric,
+// from double orientations); outside the hull, the clamp.
+VolumeLocation bruteForce(const ProbeVolume& v, Vec3 p) {
+  int32_t bestTet = -1;
+  double bestMin = -std::numeric_limits<double>::infinity();
+  std::array<double, 4> bestW{};
+  for (int32_t t = 0; t < static_cast<int32_t>(v.tets.size()); ++t) {
+    bool flat = false;
+    const auto w = orientWeights(v, t, p, flat);
+    if (flat) continue;
+    const double m = *std::min_element(w.begin(), w.end());
+    if (m > bestMin) {
+      bestMin = m;
+      bestTet = t;
+      bestW = w;
+    }
+  }
+  if (bestTet < 0 || bestMin < -double(tol::kBarycentricSlack)) return clampToHull(v, p);
+  VolumeLocation loc;
+  loc.tet = bestTet;
+  loc.weights = cleanWeights(bestW);
+  return loc;
+}
+
+int32_t coldStart(const ProbeVolume& v, Vec3 p) {
+  if (v.locatorGrid.empty()) return 0;
+  int32_t c[3];
+  for (int a = 0; a < 3; ++a) {
+    const double x = (p[a] - v.locatorLo[a]) / v.locatorCellSize[a];
+    const double clamped = std::clamp(std::isfinite(x) ? x : 0.0, 0.0, v.locatorDims[a] - 1.0);
+    c[a] = static_cast<int32_t>(clamped);
+  }
+  return v.locatorGrid[c[0] + v.locatorDims[0] * (c[1] + v.locatorDims[1] * c[2])];
+}
+
+}  // namespace
+
+ShRgb ProbeVolume::probeSh(int32_t i) const {
+  ShRgb out;
+  const float* s = sh.data() + size_t(27) * i;
+  for (int k = 0; k < kShCoeffCount; ++k) out.c[k] = Rgb(s[3 * k], s[3 * k + 1], s[3 * k + 2]);
+  return out;
+}
+
+ProbeVolume buildProbeVolume(const Tetrahedralization& t, std::span<const ShRgb> shOfVertex) {
+  PS_CHECK_EQ(shOfVertex.size(), t.vertices.size());
+  PS_CHECK_EQ(t.tets.size(), t.neighbors.size());
+  ProbeVolume v;
+  v.positions.reserve(3 * t.vertices.size());
+  for (Vec3 p : t.vertices)
+    for (int a = 0; a < 3; ++a) v.positions.push_back(static_cast<float>(p[a]));
+  v.sh.reserve(27 * shOfVertex.size());
+  for (const ShRgb& s : shOfVertex)
+    for (const Rgb& c : s.c)
+      for (int ch = 0; ch < 3; ++ch) v.sh.push_back(static_cast<float>(c[ch]));
+  v.tets = t.tets;
+  v.neighbors = t.neighbors;
+
+  // Sukys 3.2.1 "Drawbacks": per tet, the 3x3 matrix M = [v0 - v3, v1 - v3, v2 - v3]^-1 (in
+  // double, from the float positions the renderer sees), so (w0, w1, w2) = M (p - v3).
+  v.matrices.resize(v.tets.size());
+  for (size_t k = 0; k < v.tets.size(); ++k) {
+    Vec3 q[4];
+    tetVertices(v, static_cast<int32_t>(k), q);
+    const Vec3 a = q[0] - q[3], b = q[1] - q[3], c = q[2] - q[3];
+    const Vec3 r0 = cross(b, c), r1 = cross(c, a), r2 = cross(a, b);
+    const double det = dot(a, r0);
+    const double l = longestEdge(q);
+    std::array<float, 9> m{};
+    if (std::abs(det) > tol::kFlatTetRelativeVolume * l * l * l) {
+      const Vec3 rows[3] = {r0 / det, r1 / det, r2 / det};
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m[3 * i + j] = static_cast<float>(rows[i][j]);
+    }
+    v.matrices[k] = m;
+    for (int i = 0; i < 4; ++i)
+      if (v.neighbors[k][i] < 0) v.hullFaces.push_back({static_cast<int32_t>(k), i});
+  }
+  buildLocator(v);
+  return v;
+}
+
+void buildLocator(ProbeVolume& v) {
+  v.thinTets.assign(v.tets.size(), 0);
+  v.locatorGrid.clear();
+  v.locatorDims = {0, 0, 0};
+  if (v.tets.empty()) return;
+  for (size_t k = 0; k < v.tets.size(); ++k) {
+    Vec3 q[4];
+    tetVertices(v, static_cast<int32_t>(k), q);
+    const double l = longestEdge(q);
+    const double relVolume = std::abs(orient(q[0], q[1], q[2], q[3])) / (l * l * l);
+    v.thinTets[k] = !(relVolume >= tol::kThinTetRelativeVolume);
+  }
+
+  Bounds3 box;
+  for (size_t i = 0; i < v.probeCount(); ++i) box.extend(v.position(static_cast<int32_t>(i)));
+  // About one cell per probe (a handful of tets per cell), at most 2^20 cells.
+  const double target = std::clamp<double>(double(v.probeCount()), 1.0, double(1 << 20));
+  const Vec3 e = box.extent();
+  const double maxE = std::max({e.x, e.y, e.z});
+  double volume = 1;
+  for (int a = 0; a < 3; ++a) volume *= std::max(e[a], 1e-3 * maxE);
+  const double cell = std::cbrt(volume / target);
+  size_t cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    const int32_t n = static_cast<int32_t>(std::clamp(std::ceil(e[a] / cell), 1.0, 1024.0));
+    v.locatorDims[a] = n;
+    v.locatorLo[a] = static_cast<float>(box.lo[a]);
+    v.locatorCellSize[a] = static_cast<float>(std::max(e[a] / n, 1e-30));
+    cells *= n;
+  }
+  v.locatorGrid.assign(cells, 0);
+  // Each cell centre is found by walking from the previous cell's tet (coherent, cheap).
+  int32_t t = 0;
+  for (int32_t z = 0; z < v.locatorDims[2]; ++z)
+    for (int32_t y = 0; y < v.locatorDims[1]; ++y)
+      for (int32_t x = 0; x < v.locatorDims[0]; ++x) {
+        const int32_t c[3] = {x, y, z};
+        Vec3 centre;
+        for (int a = 0; a < 3; ++a)
+          centre[a] = v.locatorLo[a] + (c[a] + 0.5) * double(v.locatorCellSize[a]);
+        const WalkResult r = walk(v, centre, t);
+        if (r.kind != WalkResult::kFailed) t = r.tet;
+        v.locatorGrid[x + v.locatorDims[0] * (y + size_t(v.locatorDims[1]) * z)] = t;
+      }
+}
+
+VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet) {
+  if (v.tets.empty()) return {};
+  if (!isFinite(p)) {
+    // No meaningful place: the centre of the locator's first tet, never NaN weights.
+    VolumeLocation loc;
+    loc.tet = 0;
+    loc.weights = {0.25f, 0.25f, 0.25f, 0.25f};
+    loc.outside = true;
+    return loc;
+  }
+  const int32_t n = static_cast<int32_t>(v.tets.size());
+  const int32_t start = (hintTet >= 0 && hintTet < n) ? hintTet : coldStart(v, p);
+  const WalkResult r = walk(v, p, start);
+  switch (r.kind) {
+    case WalkResult::kInside: {
+      // The walk decided with the float matrix, as a renderer would; the weights returned are
+      // recomputed from double orientations, which are accurate even in flattish tets (float
+      // matrix weights are off by ~6e-8 / relative volume).
+      VolumeLocation loc;
+      loc.tet = r.tet;
+      bool flat = false;
+      const auto w = orientWeights(v, r.tet, p, flat);
+      loc.weights = cleanWeights(flat ? r.w : w);
+      return loc;
+    }
+    case WalkResult::kOutside:
+      return clampToHull(v, p);
+    case WalkResult::kFailed:
+      break;
+  }
+  gBruteForceCount.fetch_add(1, std::memory_order_relaxed);
+  return bruteForce(v, p);
+}
+
+void locateBatch(const ProbeVolume& v, std::span<const Vec3> points,
+                 std::span<VolumeLocation> out) {
+  PS_CHECK_EQ(points.size(), out.size());
+  int32_t hint = -1;
+  for (size_t i = 0; i < points.size(); ++i) {
+    out[i] = locate(v, points[i], hint);
+    hint = out[i].tet;
+  }
+}
+
+// Sukys 3.2.1 "Interpolation with barycentric coordinates": SH is linear, so the blend of the
+// four probes' coefficients with the barycentric weights is the interpolated function.
+ShRgb interpolate(const ProbeVolume& v, const VolumeLocation& loc) {
+  ShRgb out;
+  if (loc.tet < 0) return out;
+  for (int i = 0; i < 4; ++i) {
+    const float* s = v.sh.data() + size_t(27) * v.tets[loc.tet][i];
+    const double w = loc.weights[i];
+    for (int k = 0; k < kShCoeffCount; ++k)
+      for (int ch = 0; ch < 3; ++ch) out.c[k][ch] += w * s[3 * k + ch];
+  }
+  return out;
+}
+
+namespace detail {
+uint64_t locateBruteForceCount() {
+  return gBruteForceCount.load(std::memory_order_relaxed);
+}
+}  // namespace detail
+
+}  // namespace ps

@@ -1,0 +1,88 @@
+#pragma once
+// The runtime probe volume: compact arrays a renderer queries anywhere (Sukys 3.2, Cupisz 2012).
+// Per tetrahedron: 4 probe ids, 4 neighbour ids and a 3x3 matrix giving barycentric
+// coordinates from (p - v3). Queries outside the convex hull are clamped to the nearest point
+// of the hull, which is continuous with the inside and never black.
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/math/Sh.h"
+#include "core/tessellation/Tetrahedralization.h"
+
+namespace ps {
+
+struct ProbeVolume {
+  std::vector<float> positions;  ///< 3 per probe
+  std::vector<float> sh;         ///< 27 per probe: 9 coefficients x RGB
+  std::vector<std::array<int32_t, 4>> tets;
+  std::vector<std::array<int32_t, 4>> neighbors;  ///< -1 on the hull
+  /// Row-major; w0..2 = M (p - v3), w3 = 1 - sum. M is the inverse of the matrix with columns
+  /// v0 - v3, v1 - v3, v2 - v3 (computed in double from the float positions). All zero for a
+  /// tet that is flat at float precision (relative volume below tol::kFlatTetRelativeVolume):
+  /// such a tet has no interior and locate() never returns it for a point inside the hull.
+  std::vector<std::array<float, 9>> matrices;
+  /// Hull faces: tet index and the local index of the vertex opposite the hull face.
+  std::vector<std::array<int32_t, 2>> hullFaces;
+
+  // Derived search data, rebuilt from the arrays above by buildLocator() (buildProbeVolume calls
+  // it; a loader that does not store it should call it too). When empty, locate() still works:
+  // a cold start then begins at tet 0 and every tet is walked with its matrix.
+  /// 1 when the tet is thin (relative volume below tol::kThinTetRelativeVolume): the float
+  /// matrix is then too ill-conditioned to decide the walk, which uses double orientations.
+  std::vector<uint8_t> thinTets;
+  /// Cold-start locator: a uniform grid of locatorDims cells of size locatorCellSize from
+  /// locatorLo over the probes' bounding box; cell (x, y, z), at index
+  /// x + dims[0] * (y + dims[1] * z), holds the tet containing (or, outside the hull, the hull
+  /// tet nearest to) the cell's centre.
+  std::vector<int32_t> locatorGrid;
+  std::array<float, 3> locatorLo{};
+  std::array<float, 3> locatorCellSize{};
+  std::array<int32_t, 3> locatorDims{};
+
+  size_t probeCount() const { return positions.size() / 3; }
+  Vec3 position(int32_t i) const {
+    return {positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]};
+  }
+  ShRgb probeSh(int32_t i) const;
+};
+
+/// Builds the runtime volume. `shOfVertex` has one entry per tetrahedralization vertex.
+ProbeVolume buildProbeVolume(const Tetrahedralization& t, std::span<const ShRgb> shOfVertex);
+
+/// (Re)builds the derived search data (thinTets, locator grid) of `v` from its positions, tets,
+/// neighbours and matrices.
+void buildLocator(ProbeVolume& v);
+
+struct VolumeLocation {
+  int32_t tet = -1;
+  std::array<float, 4> weights{};  ///< barycentric, sum to 1, in [0, 1]
+  bool outside = false;            ///< the query was outside the hull and was clamped to it
+};
+
+/// Finds the tetrahedron containing p by walking from `hintTet` (the caller's last one, or -1
+/// for a cold start from the locator grid) towards the most negative barycentric coordinate
+/// (Sukys 3.2.1, "Traversal"). Weights >= -tol::kBarycentricSlack count as inside. A point
+/// outside the hull is clamped to the nearest point of the hull surface (outside = true).
+/// Terminates for every input: a walk that cycles or exceeds 4 * tets + 100 steps falls back to
+/// a brute-force scan. The walk decides with the float matrices (as a renderer would); the
+/// returned weights are recomputed from double orientations of the positions. They are finite,
+/// in [0, 1] and sum to 1. An out-of-range hint counts as -1. A non-finite p gives tet 0 with
+/// equal weights and outside = true; an empty volume (no tets) gives tet = -1.
+VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet = -1);
+
+/// locate() for each point, each walk starting from the previous point's tet (coherent queries,
+/// e.g. the samples of a moving object, are then a few steps each). `out.size()` must equal
+/// `points.size()`.
+void locateBatch(const ProbeVolume& v, std::span<const Vec3> points, std::span<VolumeLocation> out);
+
+/// SH blended with the location's barycentric weights (zero for tet = -1).
+ShRgb interpolate(const ProbeVolume& v, const VolumeLocation& loc);
+
+namespace detail {
+/// How many locate() calls (process-wide) fell back to the brute-force scan; for tests.
+uint64_t locateBruteForceCount();
+}  // namespace detail
+
+}  // namespace ps

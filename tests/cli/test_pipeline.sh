@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# The whole pipeline through the CLI on a bundled scene: place -> bake -> eval -> info -> query,
+# plus capture and tetra, checking the shape and sanity of every output.
+# Usage: test_pipeline.sh PROBESTUDIO REPO_ROOT
+set -euo pipefail
+cli="$1"; root="$2"
+tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
+scene="$root/resources/scenes/cornell.gltf"
+
+"$cli" place "$scene" --budget 40 --accept -o "$tmp/set.json"
+"$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128
+"$cli" eval "$tmp/v.psv" --queries 32 --reference-spp 256 --json >"$tmp/eval.json"
+"$cli" info "$tmp/set.json" | grep -q "accepted"
+"$cli" info "$tmp/v.psv" | grep -q "probe volume"
+"$cli" query "$tmp/v.psv" --at 0.1,0.5,0.1 --normal 0,1,0 --json >"$tmp/q.json"
+"$cli" query "$tmp/v.psv" --at 100,100,100 --json >"$tmp/qfar.json"
+"$cli" capture "$scene" --at 0,0.5,0 --spp 256 --json >"$tmp/cap.json"
+printf '0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n0 0 0\n' >"$tmp/pts.txt"
+"$cli" tetra "$tmp/pts.txt" -o "$tmp/tets.json"
+
+python3 - "$tmp" <<'PY'
+import json, math, sys
+tmp = sys.argv[1]
+s = json.load(open(f"{tmp}/set.json"))
+n = len(s["probes"])
+assert 36 <= n <= 44, f"budget 40 gave {n} probes"
+assert s["version"] == 1 and s["scene"].endswith("cornell.gltf")
+e = json.load(open(f"{tmp}/eval.json"))
+assert e["probes"] == n and e["queries"] == 32
+for k in ("rel_rmse", "p95_rel_error", "max_rel_error", "seconds"):
+    assert math.isfinite(e[k]) and e[k] >= 0, (k, e[k])
+assert e["rel_rmse"] < 1.0, e
+q = json.load(open(f"{tmp}/q.json"))[0]
+assert q["tet"] >= 0 and abs(sum(q["weights"]) - 1) < 1e-5
+assert all(c > 0 for c in q["irradiance"]), q
+far = json.load(open(f"{tmp}/qfar.json"))[0]
+assert far["outside"] is True and all(c >= 0 for c in far["irradiance"]) and sum(far["irradiance"]) > 0, far
+cap = json.load(open(f"{tmp}/cap.json"))[0]
+assert len(cap["sh"]) == 9 and len(cap["sh_std_error"]) == 9 and cap["samples"] == 256
+assert set(cap["irradiance"]) == {"+x", "-x", "+y", "-y", "+z", "-z"}
+assert cap["irradiance"]["+y"][0] > 0 and 0 <= cap["validity"] <= 1
+t = json.load(open(f"{tmp}/tets.json"))
+assert t["vertex_of_input"][5] == t["vertex_of_input"][0], "duplicate merged"
+assert len(t["vertices"]) == 5 and len(t["tets"]) >= 2 and len(t["neighbors"]) == len(t["tets"])
+print("pipeline ok:", n, "probes, rel_rmse", round(e["rel_rmse"], 4))
+PY

@@ -1,0 +1,247 @@
+// Probe-set JSON and volume binary: round trips, stable output, and clear errors naming the file
+// and the field for malformed input.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "core/common/Error.h"
+#include "core/io/ProbeSetFile.h"
+#include "core/io/VolumeFile.h"
+
+namespace fs = std::filesystem;
+using namespace ps;
+
+namespace {
+
+fs::path tempDir() {
+  const fs::path d =
+      fs::temp_directory_path() /
+      ("ps_test_io_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+void writeText(const fs::path& p, const std::string& s) {
+  std::ofstream(p, std::ios::binary) << s;
+}
+
+std::string readText(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+ProbeSet sampleSet(const fs::path& dir) {
+  ProbeSet s;
+  s.scenePath = (dir / "scenes" / "room.gltf").string();
+  s.rig.skyRadiance = {0.1, 0.2, 0.3};
+  Light sun;
+  sun.type = LightType::Directional;
+  sun.name = "sun";
+  sun.direction = normalize(Vec3(0.3, -1, 0.2));
+  sun.intensity = {3, 2.5, 2};
+  s.rig.lights.push_back(sun);
+  s.placement.method = "uniform";
+  s.placement.spacingMeters = 0.75;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-10, 10);
+  for (int i = 0; i < 20; ++i) {
+    Probe p;
+    p.position = {u(rng), u(rng), u(rng)};
+    p.state = static_cast<ProbeState>(i % 3);
+    p.locked = i % 4 == 0;
+    p.method = i % 2 ? "uniform" : "manual";
+    p.score = u(rng);
+    if (i % 3 == 1) {
+      ShRgb sh;
+      for (auto& c : sh.c) c = {u(rng), u(rng), u(rng)};
+      p.sh = sh;
+    }
+    s.add(p);
+  }
+  return s;
+}
+
+std::string loadError(const fs::path& p) {
+  try {
+    loadProbeSet(p);
+  } catch (const FileError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST(ProbeSetFile, RoundTripKeepsEverythingExactly) {
+  const fs::path dir = tempDir();
+  const ProbeSet s = sampleSet(dir);
+  saveProbeSet(s, dir / "set.json");
+  const ProbeSet r = loadProbeSet(dir / "set.json");
+  EXPECT_EQ(fs::path(r.scenePath), fs::path(s.scenePath).lexically_normal());
+  ASSERT_EQ(r.probes.size(), s.probes.size());
+  for (size_t i = 0; i < s.probes.size(); ++i) {
+    EXPECT_EQ(r.probes[i].id, s.probes[i].id);
+    EXPECT_EQ(r.probes[i].position, s.probes[i].position);  // doubles round-trip exactly
+    EXPECT_EQ(r.probes[i].state, s.probes[i].state);
+    EXPECT_EQ(r.probes[i].locked, s.probes[i].locked);
+    EXPECT_EQ(r.probes[i].method, s.probes[i].method);
+    EXPECT_EQ(r.probes[i].score, s.probes[i].score);
+    EXPECT_EQ(r.probes[i].sh.has_value(), s.probes[i].sh.has_value());
+    if (s.probes[i].sh) {
+      EXPECT_EQ(*r.probes[i].sh, *s.probes[i].sh);
+    }
+  }
+  EXPECT_EQ(r.nextId, s.nextId);
+  EXPECT_EQ(r.rig.skyRadiance, s.rig.skyRadiance);
+  ASSERT_EQ(r.rig.lights.size(), 1u);
+  EXPECT_EQ(r.rig.lights[0].intensity, s.rig.lights[0].intensity);
+  EXPECT_EQ(r.placement.spacingMeters, 0.75);
+}
+
+TEST(ProbeSetFile, SceneIsStoredRelativeToTheFile) {
+  const fs::path dir = tempDir();
+  saveProbeSet(sampleSet(dir), dir / "set.json");
+  EXPECT_NE(readText(dir / "set.json").find("\"scene\": \"scenes/room.gltf\""), std::string::npos);
+}
+
+TEST(ProbeSetFile, SavingTwiceGivesIdenticalBytes) {
+  const fs::path dir = tempDir();
+  const ProbeSet s = sampleSet(dir);
+  saveProbeSet(s, dir / "a.json");
+  saveProbeSet(loadProbeSet(dir / "a.json"), dir / "b.json");
+  EXPECT_EQ(readText(dir / "a.json"), readText(dir / "b.json"));
+}
+
+TEST(ProbeSetFile, MalformedInputNamesFileAndField) {
+  const fs::path dir = tempDir();
+  const fs::path p = dir / "bad.json";
+  const std::string head = R"({"format":"probestudio.probeset","version":1,"scene":"x.gltf",)";
+  struct Case {
+    std::string text, expected;
+  };
+  const Case cases[] = {
+      {"{not json", "not valid JSON"},
+      {"[1,2,3]", "expected a JSON object"},
+      {R"({"format":"other","version":1,"scene":"","probes":[]})",
+       "format: expected \"probestudio.probeset\""},
+      {R"({"format":"probestudio.probeset","version":99,"scene":"","probes":[]})",
+       "version: version 99 is newer than this build reads"},
+      {R"({"format":"probestudio.probeset","version":"1","scene":"","probes":[]})",
+       "version: expected an integer, got a string"},
+      {head + R"("probes":[{"id":1,"position":[1,2],"state":"accepted"}]})",
+       "probes[0].position: expected 3 numbers, got 2"},
+      {head +
+           R"("probes":[{"id":1,"position":[1,2,3],"state":"accepted"},{"id":2,"position":[1,2,"a"],"state":"accepted"}]})",
+       "probes[1].position[2]: expected a number, got a string"},
+      {head + R"("probes":[{"id":1,"position":[1,2,3],"state":"maybe"}]})",
+       "probes[0].state: expected one of"},
+      {head + R"("probes":[{"position":[1,2,3],"state":"accepted"}]})",
+       "probes[0].id: missing field"},
+      {head +
+           R"("probes":[{"id":1,"position":[1,2,3],"state":"accepted"},{"id":1,"position":[1,2,3],"state":"accepted"}]})",
+       "probes[1].id: duplicate id 1"},
+      {head + R"("probes":[{"id":1,"position":[1,2,3],"state":"accepted","sh":[[1,2,3]]}]})",
+       "probes[0].sh: expected 9 coefficients, got 1"},
+      {head + R"("probes":{}})", "probes: expected an array"},
+      {head + R"("rig":{"lights":[{"type":"laser"}]},"probes":[]})",
+       "rig.lights[0].type: expected"},
+      {R"({"format":"probestudio.probeset","version":1,"probes":[]})", "scene: missing field"},
+  };
+  for (const Case& c : cases) {
+    writeText(p, c.text);
+    const std::string msg = loadError(p);
+    EXPECT_NE(msg.find(p.string()), std::string::npos) << msg;
+    EXPECT_NE(msg.find(c.expected), std::string::npos)
+        << "got: " << msg << "\nexpected: " << c.expected;
+  }
+  EXPECT_NE(loadError(dir / "missing.json").find("no such file"), std::string::npos);
+}
+
+TEST(ProbeSetFile, FailedSaveLeavesThePreviousFileIntact) {
+  const fs::path dir = tempDir();
+  const ProbeSet s = sampleSet(dir);
+  saveProbeSet(s, dir / "set.json");
+  const std::string before = readText(dir / "set.json");
+  EXPECT_THROW(saveProbeSet(s, dir / "no-such-folder" / "set.json"), FileError);
+  EXPECT_EQ(readText(dir / "set.json"), before);
+  // No temporary files are left behind.
+  size_t files = 0;
+  for (const auto& e : fs::directory_iterator(dir)) files += e.is_regular_file();
+  EXPECT_EQ(files, 1u);
+}
+
+namespace {
+
+VolumeFile oneTetVolume() {
+  VolumeFile vf;
+  ProbeVolume& v = vf.volume;
+  v.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  v.sh.assign(4 * 27, 0.f);
+  for (int i = 0; i < 4 * 27; ++i) v.sh[i] = 0.01f * i;
+  v.tets = {{1, 2, 3, 0}};
+  v.neighbors = {{-1, -1, -1, -1}};
+  v.matrices = {{1, 0, 0, 0, 1, 0, 0, 0, 1}};
+  v.hullFaces = {{0, 0}, {0, 1}, {0, 2}, {0, 3}};
+  vf.metadataJson = R"({"scene":"a.gltf"})";
+  return vf;
+}
+
+std::string volumeError(const fs::path& p) {
+  try {
+    loadVolume(p);
+  } catch (const FileError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST(VolumeFile, RoundTripIsBitExact) {
+  const fs::path dir = tempDir();
+  const VolumeFile vf = oneTetVolume();
+  saveVolume(vf, dir / "v.psv");
+  const VolumeFile r = loadVolume(dir / "v.psv");
+  EXPECT_EQ(r.volume.positions, vf.volume.positions);
+  EXPECT_EQ(r.volume.sh, vf.volume.sh);
+  EXPECT_EQ(r.volume.tets, vf.volume.tets);
+  EXPECT_EQ(r.volume.neighbors, vf.volume.neighbors);
+  EXPECT_EQ(r.volume.matrices, vf.volume.matrices);
+  EXPECT_EQ(r.volume.hullFaces, vf.volume.hullFaces);
+  EXPECT_EQ(r.metadataJson, vf.metadataJson);
+}
+
+TEST(VolumeFile, Crc32MatchesTheStandardCheckValue) {
+  // The CRC-32 (IEEE 802.3) check value of "123456789" is 0xCBF43926.
+  EXPECT_EQ(crc32("123456789", 9), 0xCBF43926u);
+}
+
+TEST(VolumeFile, CorruptFilesAreRefusedWithTheReason) {
+  const fs::path dir = tempDir();
+  saveVolume(oneTetVolume(), dir / "v.psv");
+  const std::string good = readText(dir / "v.psv");
+  const fs::path p = dir / "bad.psv";
+  auto expectError = [&](const std::string& bytes, const std::string& expected) {
+    writeText(p, bytes);
+    const std::string msg = volumeError(p);
+    EXPECT_NE(msg.find(p.string()), std::string::npos) << msg;
+    EXPECT_NE(msg.find(expected), std::string::npos)
+        << "got: " << msg << "\nexpected: " << expected;
+  };
+  expectError("", "magic: truncated");
+  expectError("NOTAVOLUMEFILE-----------------------", "not a ProbeStudio volume");
+  expectError(good.substr(0, good.size() / 2), "header: counts");
+  std::string flipped = good;
+  flipped[40] ^= 0x5A;
+  expectError(flipped, "crc32: checksum mismatch");
+  std::string version = good;
+  version[8] = 9;
+  expectError(version, "version: unsupported version 9");
+  std::string huge = good;
+  huge[16] = huge[17] = huge[18] = '\xff';  // probe count ~16 million in a tiny file
+  expectError(huge, "header: counts");
+}

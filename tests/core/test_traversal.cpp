@@ -1,0 +1,433 @@
+// Runtime probe volume traversal (Sukys 3.2.1 "Traversal"): locate() against an exact oracle
+// (CGAL orientation of the float positions), on-boundary queries, termination from every hint,
+// continuity across the hull, slivers, linear reproduction and clamping outside the hull.
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "core/common/Tolerances.h"
+#include "core/math/Random.h"
+#include "core/traversal/ProbeVolume.h"
+
+namespace ps {
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using P3 = K::Point_3;
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr int kScale = 10;  // ASan is ~5x slower: fewer queries
+#else
+constexpr int kScale = 1;
+#endif
+
+P3 toCgal(Vec3 p) {
+  return P3(p.x, p.y, p.z);
+}
+
+// Random points with float coordinates, so the volume's float positions are the exact input.
+std::vector<Vec3> randomFloatPoints(int n, uint64_t seed, Vec3 lo = {0, 0, 0}, double size = 1) {
+  std::vector<Vec3> pts;
+  uint64_t s = streamSeed(seed, 0);
+  for (int i = 0; i < n; ++i) {
+    Vec3 p = lo + Vec3(uniform01(s), uniform01(s), uniform01(s)) * size;
+    pts.push_back({float(p.x), float(p.y), float(p.z)});
+  }
+  return pts;
+}
+
+// SH whose every coefficient is an affine function of position: barycentric interpolation
+// reproduces it exactly.
+ShRgb linearSh(Vec3 p) {
+  ShRgb s;
+  for (int k = 0; k < kShCoeffCount; ++k)
+    for (int ch = 0; ch < 3; ++ch)
+      s.c[k][ch] = 2.0 + (k + 1) * 0.1 * p.x - (ch + 1) * 0.2 * p.y + 0.05 * (k - ch) * p.z;
+  return s;
+}
+
+ProbeVolume buildLinear(const std::vector<Vec3>& pts) {
+  const Tetrahedralization t = tetrahedralize(pts);
+  std::vector<ShRgb> sh;
+  for (Vec3 v : t.vertices) sh.push_back(linearSh(Vec3(float(v.x), float(v.y), float(v.z))));
+  return buildProbeVolume(t, sh);
+}
+
+// Exact: p is in the closed tet (no face sees it on the negative side).
+bool containsExactly(const ProbeVolume& v, int32_t t, Vec3 p) {
+  P3 q[4];
+  for (int i = 0; i < 4; ++i) q[i] = toCgal(v.position(v.tets[t][i]));
+  const P3 x = toCgal(p);
+  return CGAL::orientation(x, q[1], q[2], q[3]) != CGAL::NEGATIVE &&
+         CGAL::orientation(q[0], x, q[2], q[3]) != CGAL::NEGATIVE &&
+         CGAL::orientation(q[0], q[1], x, q[3]) != CGAL::NEGATIVE &&
+         CGAL::orientation(q[0], q[1], q[2], x) != CGAL::NEGATIVE;
+}
+
+// Smallest barycentric of p in tet t, in double from orientations (for near-boundary slack).
+double minBarycentric(const ProbeVolume& v, int32_t t, Vec3 p) {
+  Vec3 q[4];
+  for (int i = 0; i < 4; ++i) q[i] = v.position(v.tets[t][i]);
+  auto o = [](Vec3 a, Vec3 b, Vec3 c, Vec3 d) { return dot(b - a, cross(c - a, d - a)); };
+  const double vol = o(q[0], q[1], q[2], q[3]);
+  return std::min({o(p, q[1], q[2], q[3]), o(q[0], p, q[2], q[3]), o(q[0], q[1], p, q[3]),
+                   o(q[0], q[1], q[2], p)}) /
+         vol;
+}
+
+int32_t bruteForceContaining(const ProbeVolume& v, Vec3 p) {
+  for (int32_t t = 0; t < int32_t(v.tets.size()); ++t)
+    if (containsExactly(v, t, p)) return t;
+  return -1;
+}
+
+void expectValidWeights(const VolumeLocation& loc, double tolerance = 1e-6) {
+  ASSERT_GE(loc.tet, 0);
+  double sum = 0;
+  for (float w : loc.weights) {
+    ASSERT_TRUE(std::isfinite(w));
+    EXPECT_GE(w, -tolerance);
+    EXPECT_LE(w, 1 + tolerance);
+    sum += w;
+  }
+  EXPECT_NEAR(sum, 1.0, 1e-5);
+}
+
+// The located tet contains p exactly, or p is within the walk's slack of it (near a face).
+void expectFound(const ProbeVolume& v, Vec3 p, const VolumeLocation& loc, int& nearMisses) {
+  ASSERT_FALSE(loc.outside) << p;
+  expectValidWeights(loc);
+  if (containsExactly(v, loc.tet, p)) return;
+  ++nearMisses;
+  EXPECT_GE(minBarycentric(v, loc.tet, p), -2.0 * tol::kBarycentricSlack) << p;
+}
+
+double relDiff(const ShRgb& a, const ShRgb& b) {
+  double d = 0, m = 0;
+  for (int k = 0; k < kShCoeffCount; ++k)
+    for (int ch = 0; ch < 3; ++ch) {
+      d = std::max(d, std::abs(a.c[k][ch] - b.c[k][ch]));
+      m = std::max({m, std::abs(a.c[k][ch]), std::abs(b.c[k][ch])});
+    }
+  return d / m;
+}
+
+// A volume whose hull is exactly the unit cube: 8 corners plus random interior points.
+std::vector<Vec3> cubeWithInterior(int n, uint64_t seed) {
+  auto pts = randomFloatPoints(n, seed, {0.05, 0.05, 0.05}, 0.9);
+  for (int c = 0; c < 8; ++c) pts.push_back({double(c & 1), double((c >> 1) & 1), double(c >> 2)});
+  return pts;
+}
+
+TEST(ProbeVolume, LayoutAndMatrices) {
+  const auto pts = randomFloatPoints(300, 3);
+  const Tetrahedralization t = tetrahedralize(pts);
+  std::vector<ShRgb> sh(t.vertices.size());
+  for (size_t i = 0; i < sh.size(); ++i)
+    for (int k = 0; k < kShCoeffCount; ++k) sh[i].c[k] = Rgb(i, k, -double(k));
+  const ProbeVolume v = buildProbeVolume(t, sh);
+  ASSERT_EQ(v.probeCount(), t.vertices.size());
+  ASSERT_EQ(v.sh.size(), 27 * t.vertices.size());
+  EXPECT_EQ(v.sh[27 * 5 + 3 * 2 + 1], 2.0f);  // coefficient-major: c[2].g of probe 5
+  for (size_t i = 0; i < sh.size(); ++i) EXPECT_EQ(v.probeSh(int32_t(i)), sh[i]);
+  // M [v0 - v3, v1 - v3, v2 - v3] = I, and each vertex gets weight 1 at itself.
+  size_t hull = 0;
+  for (size_t k = 0; k < v.tets.size(); ++k) {
+    for (int i = 0; i < 4; ++i) {
+      const Vec3 p = v.position(v.tets[k][i]);
+      const auto& m = v.matrices[k];
+      const Vec3 d = p - v.position(v.tets[k][3]);
+      for (int r = 0; r < 3; ++r) {
+        const double w = m[3 * r] * d.x + m[3 * r + 1] * d.y + m[3 * r + 2] * d.z;
+        EXPECT_NEAR(w, r == i ? 1.0 : 0.0, 1e-4);
+      }
+      hull += v.neighbors[k][i] < 0;
+    }
+  }
+  EXPECT_EQ(v.hullFaces.size(), hull);
+  for (auto [tet, face] : v.hullFaces) EXPECT_EQ(v.neighbors[tet][face], -1);
+}
+
+TEST(ProbeVolume, LocateMatchesExactOracle) {
+  const ProbeVolume v = buildLinear(randomFloatPoints(2000, 5));
+  const uint64_t fallbacksBefore = detail::locateBruteForceCount();
+  uint64_t s = streamSeed(5, 1);
+  int nearMisses = 0, inside = 0, outside = 0;
+  const int n = 100000 / kScale;
+  int32_t hint = -1;
+  for (int i = 0; i < n; ++i) {
+    const Vec3 p(uniform01(s), uniform01(s), uniform01(s));
+    const bool cold = i % 2 == 0;  // alternate cold starts and walks from the last tet
+    const VolumeLocation loc = locate(v, p, cold ? -1 : hint);
+    hint = loc.tet;
+    if (loc.outside) {
+      // Only when no tet contains p (checked exactly on a sample: brute force is slow).
+      if (outside++ < 200) {
+        EXPECT_EQ(bruteForceContaining(v, p), -1) << p;
+      }
+      expectValidWeights(loc);
+      continue;
+    }
+    ++inside;
+    expectFound(v, p, loc, nearMisses);
+    if (i < 1000 / kScale) {
+      EXPECT_NE(bruteForceContaining(v, p), -1);
+    }
+  }
+  std::printf("%d inside, %d outside, %d within slack of a face\n", inside, outside, nearMisses);
+  EXPECT_GT(inside, n / 2);
+  EXPECT_LT(nearMisses, n / 1000 + 1);
+  EXPECT_EQ(detail::locateBruteForceCount(), fallbacksBefore);
+}
+
+TEST(ProbeVolume, PointsOnVerticesEdgesAndFaces) {
+  const ProbeVolume v = buildLinear(randomFloatPoints(500, 7));
+  const uint64_t fallbacksBefore = detail::locateBruteForceCount();
+  int nearMisses = 0;
+  for (size_t k = 0; k < v.tets.size(); k += 3) {
+    const auto& t = v.tets[k];
+    Vec3 q[4];
+    for (int i = 0; i < 4; ++i) q[i] = v.position(t[i]);
+    // A vertex, an edge midpoint and a face point (exact in double for float inputs).
+    const Vec3 queries[3] = {q[k % 4], (q[0] + q[1]) * 0.5, (q[1] * 2 + q[2] + q[3]) * 0.25};
+    for (const Vec3& p : queries) {
+      for (int32_t hint : {-1, int32_t(k), int32_t((k * 7919) % v.tets.size())}) {
+        const VolumeLocation loc = locate(v, p, hint);
+        expectFound(v, p, loc, nearMisses);
+      }
+    }
+    // At a vertex, that probe's weight is 1.
+    const VolumeLocation loc = locate(v, q[0]);
+    for (int i = 0; i < 4; ++i)
+      if (v.tets[loc.tet][i] == t[0]) {
+        EXPECT_NEAR(loc.weights[i], 1.0f, 1e-5);
+      }
+  }
+  EXPECT_EQ(nearMisses, 0);
+  EXPECT_EQ(detail::locateBruteForceCount(), fallbacksBefore);
+}
+
+TEST(ProbeVolume, WalkFromEveryHintTerminates) {
+  const ProbeVolume v = buildLinear(randomFloatPoints(400, 9));
+  const uint64_t fallbacksBefore = detail::locateBruteForceCount();
+  uint64_t s = streamSeed(9, 1);
+  int nearMisses = 0;
+  for (int i = 0; i < 20 / kScale + 2; ++i) {
+    const Vec3 p(0.2 + 0.6 * uniform01(s), 0.2 + 0.6 * uniform01(s), 0.2 + 0.6 * uniform01(s));
+    const int32_t expected = locate(v, p).tet;
+    for (int32_t hint = 0; hint < int32_t(v.tets.size()); ++hint) {
+      const VolumeLocation loc = locate(v, p, hint);
+      if (loc.tet != expected) expectFound(v, p, loc, nearMisses);
+    }
+  }
+  EXPECT_EQ(nearMisses, 0);
+  EXPECT_EQ(detail::locateBruteForceCount(), fallbacksBefore);
+}
+
+TEST(ProbeVolume, InterpolationReproducesLinearFunction) {
+  const ProbeVolume v = buildLinear(cubeWithInterior(1000, 11));
+  uint64_t s = streamSeed(11, 1);
+  int32_t hint = -1;
+  for (int i = 0; i < 20000 / kScale; ++i) {
+    const Vec3 p(uniform01(s), uniform01(s), uniform01(s));
+    const VolumeLocation loc = locate(v, p, hint);
+    hint = loc.tet;
+    ASSERT_FALSE(loc.outside) << p;  // the hull is the unit cube
+    EXPECT_LT(relDiff(interpolate(v, loc), linearSh(p)), 2e-6) << p;
+  }
+}
+
+TEST(ProbeVolume, ContinuousAcrossTheHull) {
+  // Non-linear SH (random per probe) so that the check is about the located tet and weights.
+  const auto pts = randomFloatPoints(800, 13);
+  const Tetrahedralization t = tetrahedralize(pts);
+  std::vector<ShRgb> sh(t.vertices.size());
+  uint64_t s = streamSeed(13, 1);
+  for (auto& x : sh)
+    for (auto& c : x.c) c = Rgb(0.5 + uniform01(s), 0.5 + uniform01(s), 0.5 + uniform01(s));
+  const ProbeVolume v = buildProbeVolume(t, sh);
+  int outsideCount = 0, within1e4 = 0;
+  for (auto [tet, face] : v.hullFaces) {
+    Vec3 q[3];
+    for (int i = 0; i < 3; ++i) q[i] = v.position(v.tets[tet][(face + 1 + i) & 3]);
+    const Vec3 inward = v.position(v.tets[tet][face]);
+    Vec3 n = normalize(cross(q[1] - q[0], q[2] - q[0]));
+    if (dot(n, inward - q[0]) > 0) n = -n;  // outward
+    const Vec3 p = (q[0] + q[1] + q[2]) / 3.0;
+    const double eps = 1e-7;
+    const VolumeLocation in = locate(v, p - n * eps), on = locate(v, p),
+                         out = locate(v, p + n * eps);
+    expectValidWeights(in);
+    expectValidWeights(on);
+    expectValidWeights(out);
+    outsideCount += out.outside;
+    // Continuity: the interpolant is linear in the hull tet, with directional derivative along
+    // n of sum_i (grad w_i . n) s_i; outside, the value is that of the nearest hull point (or,
+    // within the walk's slack, the weights with the tiny negative one dropped). So the jump
+    // across the face is at most ~3 eps sum_i |grad w_i . n| max|s|. Hull tets of a random
+    // cloud are often flat (large gradients), so the bound is per face.
+    Vec3 x[4];
+    for (int i = 0; i < 4; ++i) x[i] = v.position(v.tets[tet][i]);
+    const Vec3 a = x[0] - x[3], b = x[1] - x[3], c = x[2] - x[3];
+    const double det = dot(a, cross(b, c));
+    const Vec3 g[3] = {cross(b, c) / det, cross(c, a) / det, cross(a, b) / det};
+    const double dn[4] = {dot(g[0], n), dot(g[1], n), dot(g[2], n), -dot(g[0] + g[1] + g[2], n)};
+    const double slope = std::abs(dn[0]) + std::abs(dn[1]) + std::abs(dn[2]) + std::abs(dn[3]);
+    const double maxS = 1.5;
+    const double jump = relDiff(interpolate(v, in), interpolate(v, out));
+    EXPECT_LT(jump, (3 * eps * slope * maxS + 1e-6) / 0.5) << "slope " << slope;
+    EXPECT_LT(relDiff(interpolate(v, on), interpolate(v, out)), (eps * slope * maxS + 1e-6) / 0.5);
+    within1e4 += jump < 1e-4;
+  }
+  std::printf("%d of %zu hull faces: jump across the hull < 1e-4 relative\n", within1e4,
+              v.hullFaces.size());
+  EXPECT_GT(outsideCount, 0);
+  EXPECT_GT(within1e4, int(v.hullFaces.size()) * 3 / 4);  // measured: 112 of 136
+}
+
+TEST(ProbeVolume, FarOutsideGivesNearestHullPoint) {
+  const ProbeVolume v = buildLinear(cubeWithInterior(300, 17));
+  // Nearest hull points are exact: on a face, and at a corner.
+  const struct {
+    Vec3 query, nearest;
+  } cases[] = {{{100, 0.3, 0.6}, {1, 0.3, 0.6}},
+               {{0.25, -50, 0.75}, {0.25, 0, 0.75}},
+               {{5, 5, 5}, {1, 1, 1}},
+               {{-1e6, 0.5, 2}, {0, 0.5, 1}}};
+  for (const auto& c : cases) {
+    for (int32_t hint : {-1, 0}) {
+      const VolumeLocation loc = locate(v, c.query, hint);
+      EXPECT_TRUE(loc.outside);
+      expectValidWeights(loc);
+      const ShRgb got = interpolate(v, loc);
+      EXPECT_LT(relDiff(got, linearSh(c.nearest)), 2e-6) << c.query;
+      EXPECT_FALSE(got.c[0].isBlack());
+    }
+  }
+}
+
+TEST(ProbeVolume, SliverTetsGiveValidWeights) {
+  const uint64_t fallbacksBefore = detail::locateBruteForceCount();
+  // (a) four nearly coplanar, nearly cospherical points plus far apexes.
+  {
+    const std::vector<Vec3> pts = {{0, 0, 0},     {1, 0, 0},      {0, 1, 0},       {1, 1, 1e-6},
+                                   {0.5, 0.5, 5}, {0.5, 0.5, -5}, {0.3, 0.6, 1e-7}};
+    const ProbeVolume v = buildLinear(pts);
+    uint64_t s = streamSeed(19, 0);
+    for (int i = 0; i < 20000 / kScale; ++i) {
+      const Vec3 p(uniform01(s), uniform01(s), 1e-6 * (uniform01(s) - 0.5));
+      const VolumeLocation loc = locate(v, p, i % 2 ? -1 : int32_t(i % v.tets.size()));
+      expectValidWeights(loc, 1e-5);
+      EXPECT_LT(relDiff(interpolate(v, loc), linearSh(p)), 1e-4) << p;
+    }
+  }
+  // (b) a grid perturbed by 1e-9: the perturbation is lost in float, so many tets are flat.
+  {
+    std::vector<Vec3> pts;
+    uint64_t s = streamSeed(23, 0);
+    for (int z = 0; z < 6; ++z)
+      for (int y = 0; y < 6; ++y)
+        for (int x = 0; x < 6; ++x)
+          pts.push_back(Vec3(x, y, z) + Vec3(uniform01(s), uniform01(s), uniform01(s)) * 1e-9);
+    const ProbeVolume v = buildLinear(pts);
+    int flat = 0;
+    for (const auto& m : v.matrices) flat += m == std::array<float, 9>{};
+    EXPECT_GT(flat, 0);
+    int nearMisses = 0;
+    int32_t hint = -1;
+    for (int i = 0; i < 20000 / kScale; ++i) {
+      const Vec3 p(5 * uniform01(s), 5 * uniform01(s), 5 * uniform01(s));
+      const VolumeLocation loc = locate(v, p, hint);
+      hint = loc.tet;
+      expectValidWeights(loc, 1e-5);
+      EXPECT_NE(v.matrices[loc.tet], (std::array<float, 9>{})) << "returned a flat tet";
+      expectFound(v, p, loc, nearMisses);
+      EXPECT_LT(relDiff(interpolate(v, loc), linearSh(p)), 1e-5) << p;
+    }
+    EXPECT_LT(nearMisses, 20);
+  }
+  EXPECT_EQ(detail::locateBruteForceCount(), fallbacksBefore);
+}
+
+TEST(ProbeVolume, CyclingWalkFallsBackToBruteForce) {
+  // Corrupt the neighbours into a ring (no hull exits), so the walk towards a far point cycles:
+  // the cycle is detected, the brute-force backstop runs, and the answer is still the clamp.
+  ProbeVolume v = buildLinear(cubeWithInterior(20, 41));
+  const int32_t n = int32_t(v.tets.size());
+  ASSERT_GT(n, 2);
+  for (int32_t k = 0; k < n; ++k)
+    v.neighbors[k] = {(k + 1) % n, (k + 1) % n, (k + 1) % n, (k + 1) % n};
+  const uint64_t before = detail::locateBruteForceCount();
+  const VolumeLocation loc = locate(v, {3, 0.5, 0.25}, 0);
+  EXPECT_EQ(detail::locateBruteForceCount(), before + 1);
+  EXPECT_TRUE(loc.outside);
+  EXPECT_LT(relDiff(interpolate(v, loc), linearSh({1, 0.5, 0.25})), 2e-6);
+  // Inside, the backstop finds the containing tet.
+  const Vec3 p(0.4, 0.55, 0.6);
+  const VolumeLocation in = locate(v, p, 0);
+  int nearMisses = 0;
+  if (in.tet != 0 || !containsExactly(v, 0, p)) {
+    expectFound(v, p, in, nearMisses);
+  }
+  EXPECT_LT(relDiff(interpolate(v, in), linearSh(p)), 2e-6);
+}
+
+TEST(ProbeVolume, LocateBatchMatchesLocate) {
+  const ProbeVolume v = buildLinear(randomFloatPoints(1000, 29));
+  std::vector<Vec3> path;
+  for (int i = 0; i < 2000; ++i) {
+    const double a = i * 0.005;
+    path.push_back(
+        {0.5 + 0.45 * std::cos(a), 0.5 + 0.45 * std::sin(a), 0.5 + 0.3 * std::sin(3 * a)});
+  }
+  std::vector<VolumeLocation> out(path.size());
+  locateBatch(v, path, out);
+  for (size_t i = 0; i < path.size(); ++i) {
+    const VolumeLocation one = locate(v, path[i]);
+    EXPECT_EQ(out[i].outside, one.outside);
+    EXPECT_LT(relDiff(interpolate(v, out[i]), interpolate(v, one)), 1e-5);
+  }
+}
+
+TEST(ProbeVolume, EmptyAndNonFiniteQueries) {
+  const ProbeVolume empty;
+  EXPECT_EQ(locate(empty, {0, 0, 0}).tet, -1);
+  EXPECT_TRUE(interpolate(empty, locate(empty, {0, 0, 0})).c[0].isBlack());
+  const ProbeVolume v = buildLinear(randomFloatPoints(50, 31));
+  expectValidWeights(locate(v, {std::nan(""), 0, 0}));
+  expectValidWeights(locate(v, {std::numeric_limits<double>::infinity(), 0, 0}, 3));
+}
+
+TEST(ProbeVolume, Timing) {
+  const int probes = 10000;
+  const ProbeVolume v = buildLinear(randomFloatPoints(probes, 37));
+  const int n = 200000 / kScale;
+  std::vector<Vec3> random, coherent;
+  uint64_t s = streamSeed(37, 1);
+  for (int i = 0; i < n; ++i) {
+    random.push_back(Vec3(0.05, 0.05, 0.05) + Vec3(uniform01(s), uniform01(s), uniform01(s)) * 0.9);
+    const double a = i * 2e-4;  // a moving object: ~0.1 mm steps along a closed curve
+    coherent.push_back(
+        {0.5 + 0.4 * std::cos(a), 0.5 + 0.4 * std::sin(a), 0.5 + 0.3 * std::sin(2 * a)});
+  }
+  std::vector<VolumeLocation> out(n);
+  auto t0 = std::chrono::steady_clock::now();
+  double sink = 0;
+  for (int i = 0; i < n; ++i) sink += locate(v, random[i]).weights[0];
+  auto t1 = std::chrono::steady_clock::now();
+  locateBatch(v, coherent, out);
+  auto t2 = std::chrono::steady_clock::now();
+  std::printf(
+      "locate on %d probes (%zu tets): cold start via locator %.0f ns/query, coherent "
+      "walk %.0f ns/query (%g)\n",
+      probes, v.tets.size(), std::chrono::duration<double, std::nano>(t1 - t0).count() / n,
+      std::chrono::duration<double, std::nano>(t2 - t1).count() / n, sink > 0 ? 1.0 : 0.0);
+  for (const auto& loc : out) ASSERT_GE(loc.tet, 0);
+}
+
+}  // namespace
+}  // namespace ps

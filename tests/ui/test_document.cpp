@@ -1,0 +1,234 @@
+// The editor's document, undo stack and probe table model, headless (QT_QPA_PLATFORM=offscreen).
+#include <QFile>
+#include <QSignalSpy>
+#include <QSortFilterProxyModel>
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include "core/common/Error.h"
+#include "core/io/ProbeSetFile.h"
+#include "ui/Document.h"
+#include "ui/MainWindow.h"
+#include "ui/ProbeTableModel.h"
+
+using namespace ps;
+using namespace ps::ui;
+
+namespace {
+const QString kScene = QStringLiteral(PS_SOURCE_DIR "/resources/scenes/two-rooms.gltf");
+
+std::vector<Probe> makeProbes(int n) {
+  std::vector<Probe> out;
+  for (int i = 0; i < n; ++i) {
+    Probe p;
+    p.position = Vec3(0.5 * i, 1.0 + 0.1 * i, -0.25 * i);
+    p.method = "manual";
+    p.score = i * 1.5;
+    out.push_back(p);
+  }
+  return out;
+}
+
+QString cell(const ProbeTableModel& m, int row, int col) {
+  return m.data(m.index(row, col)).toString();
+}
+
+/// Everything the user can see of a probe set, for "unchanged" comparisons.
+struct Snapshot {
+  std::vector<uint64_t> ids;
+  std::vector<Vec3> positions;
+  std::vector<ProbeState> states;
+  QString setPath, scenePath;
+  bool modified = false;
+  int undoCount = 0;
+  bool operator==(const Snapshot&) const = default;
+};
+Snapshot snapshot(Document& d) {
+  Snapshot s;
+  for (const Probe& p : d.probes()) {
+    s.ids.push_back(p.id);
+    s.positions.push_back(p.position);
+    s.states.push_back(p.state);
+  }
+  s.setPath = d.probeSetPath();
+  s.scenePath = d.scenePath();
+  s.modified = d.isModified();
+  s.undoCount = d.undoStack()->count();
+  return s;
+}
+}  // namespace
+
+class TestDocument : public QObject {
+  Q_OBJECT
+ private slots:
+  void initTestCase() {
+    if (!QFile::exists(kScene)) QSKIP("two-rooms.gltf not present");
+  }
+
+  void editUndoRedoSaveReload() {
+    Document doc;
+    doc.setAutoPropose(false);
+    ProbeTableModel model(&doc);
+    doc.openScene(kScene);
+    QVERIFY(doc.hasScene());
+    QVERIFY(doc.scene()->triangleCount() > 0);
+    QCOMPARE(model.rowCount(), 0);
+    QVERIFY(!doc.isModified());
+
+    const auto ids = doc.addProbes(makeProbes(5), "Add");
+    QCOMPARE(ids.size(), size_t(5));
+    QCOMPARE(model.rowCount(), 5);
+    QCOMPARE(model.columnCount(), int(ProbeTableModel::ColumnCount));
+    QCOMPARE(model.data(model.index(2, ProbeTableModel::Id)).toULongLong(), ids[2]);
+    QCOMPARE(cell(model, 2, ProbeTableModel::X), QStringLiteral("1.00"));
+    QCOMPARE(cell(model, 2, ProbeTableModel::Method), QStringLiteral("manual"));
+    QVERIFY(doc.isModified());
+
+    // Accept two, reject one, delete one.
+    QSignalSpy changed(&model, &QAbstractItemModel::dataChanged);
+    doc.setStates({ids[0], ids[1]}, ProbeState::Accepted);
+    QCOMPARE(changed.count(), 2);
+    QCOMPARE(cell(model, 0, ProbeTableModel::State), QString(toString(ProbeState::Accepted)));
+    doc.setStates({ids[2]}, ProbeState::Rejected);
+    QCOMPARE(cell(model, 2, ProbeTableModel::State), QString(toString(ProbeState::Rejected)));
+    doc.deleteProbes({ids[3]});
+    QCOMPARE(model.rowCount(), 4);
+    QCOMPARE(doc.indexOf(ids[3]), -1);
+    QCOMPARE(model.data(model.index(3, ProbeTableModel::Id)).toULongLong(), ids[4]);
+
+    // Undo the delete and the reject, redo both.
+    QUndoStack* undo = doc.undoStack();
+    undo->undo();
+    QCOMPARE(model.rowCount(), 5);
+    QCOMPARE(doc.indexOf(ids[3]), 3);
+    QCOMPARE(doc.probe(ids[3])->position, makeProbes(5)[3].position);
+    undo->undo();
+    QCOMPARE(doc.probe(ids[2])->state, ProbeState::Candidate);
+    QCOMPARE(cell(model, 2, ProbeTableModel::State), QString(toString(ProbeState::Candidate)));
+    undo->redo();
+    undo->redo();
+    QCOMPARE(doc.probe(ids[2])->state, ProbeState::Rejected);
+    QCOMPARE(model.rowCount(), 4);
+
+    // Moves of one probe merge into one undo step.
+    const int before = undo->count();
+    doc.moveProbe(ids[4], Vec3(1, 1, 1));
+    doc.moveProbe(ids[4], Vec3(2, 1, 1));
+    QCOMPARE(undo->count(), before + 1);
+    undo->undo();
+    QCOMPARE(doc.probe(ids[4])->position, makeProbes(5)[4].position);
+    undo->redo();
+    QCOMPARE(doc.probe(ids[4])->position, Vec3(2, 1, 1));
+
+    // The sorted proxy follows the model.
+    QSortFilterProxyModel proxy;
+    proxy.setSourceModel(&model);
+    proxy.setSortRole(ProbeTableModel::SortRole);
+    proxy.sort(ProbeTableModel::X, Qt::DescendingOrder);
+    QCOMPARE(proxy.data(proxy.index(0, ProbeTableModel::Id)).toULongLong(), ids[4]);
+    doc.deleteProbes({ids[4]});
+    QCOMPARE(proxy.rowCount(), 3);
+    QCOMPARE(proxy.data(proxy.index(0, ProbeTableModel::Id)).toULongLong(), ids[2]);
+
+    // Save, reload, compare.
+    QTemporaryDir dir;
+    const QString path = dir.filePath("set.json");
+    QSignalSpy modified(&doc, &Document::modifiedChanged);
+    doc.saveProbeSet(path);
+    QVERIFY(!doc.isModified());
+    QCOMPARE(doc.probeSetPath(), path);
+    QVERIFY(modified.count() >= 1);
+
+    Document reloaded;
+    reloaded.openProbeSet(path);
+    QVERIFY(reloaded.hasScene());
+    QCOMPARE(reloaded.scene()->triangleCount(), doc.scene()->triangleCount());
+    QCOMPARE(reloaded.probes().size(), doc.probes().size());
+    for (size_t i = 0; i < doc.probes().size(); ++i) {
+      const Probe& a = doc.probes()[i];
+      const Probe& b = reloaded.probes()[i];
+      QCOMPARE(b.id, a.id);
+      QCOMPARE(b.state, a.state);
+      QVERIFY(length(b.position - a.position) < 1e-9);
+    }
+    QVERIFY(!reloaded.isModified());
+    // Ids are never reused after a reload.
+    const auto more = reloaded.addProbes(makeProbes(1), "Add");
+    for (uint64_t id : ids) QVERIFY(more[0] != id);
+  }
+
+  void badFilesLeaveTheDocumentUnchanged() {
+    Document doc;
+    doc.setAutoPropose(false);
+    ProbeTableModel model(&doc);
+    doc.openScene(kScene);
+    doc.addProbes(makeProbes(3), "Add");
+    const Snapshot before = snapshot(doc);
+    const int triangles = int(doc.scene()->triangleCount());
+
+    QTemporaryDir dir;
+    const QString bad = dir.filePath("bad.json");
+    {
+      QFile f(bad);
+      QVERIFY(f.open(QIODevice::WriteOnly));
+      f.write("{\"version\": 1, \"probes\": [{\"id\": 1, \"position\": [1, 2]}]}");
+    }
+    QSignalSpy reset(&model, &QAbstractItemModel::modelReset);
+    QVERIFY_THROWS_EXCEPTION(ps::Error, doc.openProbeSet(bad));
+    QVERIFY_THROWS_EXCEPTION(ps::Error, doc.openProbeSet(dir.filePath("missing.json")));
+    QVERIFY_THROWS_EXCEPTION(ps::Error, doc.openScene(dir.filePath("missing.gltf")));
+    QVERIFY_THROWS_EXCEPTION(ps::Error, doc.saveProbeSet(dir.filePath("no/such/dir/set.json")));
+    QCOMPARE(reset.count(), 0);
+    QVERIFY(snapshot(doc) == before);
+    QCOMPARE(int(doc.scene()->triangleCount()), triangles);
+    QCOMPARE(model.rowCount(), 3);
+
+    // The window's action reports the error (quietly here) and keeps the document.
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    w.document()->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    QVERIFY(!w.openProbeSet(bad));
+    QVERIFY(w.lastError().contains("bad.json"));
+    QVERIFY(w.document()->hasScene());
+    QVERIFY(!w.openScene(dir.filePath("missing.gltf")));
+    QCOMPARE(w.document()->scenePath(), kScene);
+  }
+
+  void proposalRunsInTheBackground() {
+    Document doc;
+    ProbeTableModel model(&doc);
+    QSignalSpy finished(&doc, &Document::jobFinished);
+    doc.openScene(kScene);
+    QVERIFY(doc.isBusy());
+    QVERIFY(finished.wait(240000));
+    QVERIFY(!doc.isBusy());
+    const QString error = finished.takeFirst().at(0).toString();
+    QVERIFY2(error.isEmpty(), qPrintable(error));
+    const int n = model.rowCount();
+    QVERIFY2(n >= 20 && n <= 200, qPrintable(QString::number(n)));
+    for (const Probe& p : doc.probes()) {
+      QCOMPARE(p.state, ProbeState::Candidate);
+      QVERIFY(p.sh.has_value());
+      QVERIFY(doc.scene()->bounds.contains(p.position));
+    }
+    QVERIFY(doc.isModified());
+    doc.undoStack()->undo();  // the proposal is one undo step
+    QCOMPARE(model.rowCount(), 0);
+  }
+
+  void reopeningCancelsTheRunningProposal() {
+    Document doc;
+    doc.openScene(kScene);
+    QVERIFY(doc.isBusy());
+    doc.setAutoPropose(false);
+    doc.openScene(kScene);  // waits for the old job to stop, drops its result
+    QVERIFY(!doc.isBusy());
+    QTest::qWait(200);
+    QCOMPARE(doc.probes().size(), size_t(0));
+  }
+};
+
+QTEST_MAIN(TestDocument)
+#include "test_document.moc"

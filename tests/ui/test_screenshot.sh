@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Screenshot test of the editor under Xvfb with Mesa's software GL (label "ui").
+# usage: test_screenshot.sh EDITOR CHECKER SOURCE_DIR ARTIFACT_DIR
+set -euo pipefail
+editor=$1 checker=$2 src=$3 artifacts=$4
+scene="$src/resources/scenes/two-rooms.gltf"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+export LIBGL_ALWAYS_SOFTWARE=1
+run() { xvfb-run -a -s "-screen 0 1280x1024x24" "$editor" "$@"; }
+
+run "$scene" --screenshot "$tmp/shot.png"
+# The same view without probes, for the checker's before/after comparison.
+run "$scene" --screenshot "$tmp/bare.png" --no-probes
+mkdir -p "$artifacts"
+cp "$tmp/shot.png" "$artifacts/editor-two-rooms.png"
+cp "$tmp/shot.png.json" "$artifacts/editor-two-rooms.png.json"
+"$checker" "$tmp/shot.png" "$tmp/bare.png"
+
+# A file that fails to load: one line on stderr, exit 1, no screenshot.
+if run "$tmp/missing.gltf" --screenshot "$tmp/none.png" 2> "$tmp/err.txt"; then
+  echo "FAIL: a missing scene exited 0"; exit 1
+fi
+grep -q "missing.gltf" "$tmp/err.txt" || { echo "FAIL: error does not name the file"; cat "$tmp/err.txt"; exit 1; }
+[ ! -e "$tmp/none.png" ] || { echo "FAIL: wrote a screenshot for a missing scene"; exit 1; }
+echo "test_screenshot: OK"

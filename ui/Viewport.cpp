@@ -1,0 +1,693 @@
+#include "ui/Viewport.h"
+
+#include <QMouseEvent>
+#include <QOpenGLContext>
+#include <QWheelEvent>
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "core/scene/Scene.h"
+#include "ui/Document.h"
+
+namespace ps::ui {
+
+namespace {
+
+// ---- shaders (GLSL 3.30 core) ----
+
+const char* kBackgroundVs = R"(#version 330 core
+out float vT;
+void main() {
+  vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2) * 2.0 - 1.0;  // full-screen triangle
+  vT = p.y * 0.5 + 0.5;
+  gl_Position = vec4(p, 0.0, 1.0);
+})";
+
+const char* kBackgroundFs = R"(#version 330 core
+in float vT;
+uniform vec3 uTop;
+uniform vec3 uBottom;
+out vec4 fragColor;
+void main() { fragColor = vec4(mix(uBottom, uTop, clamp(vT, 0.0, 1.0)), 1.0); })";
+
+const char* kCommonGlsl = R"(
+vec3 linearToSrgb(vec3 c) {
+  c = clamp(c, 0.0, 1.0);
+  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
+}
+// ACES filmic fit (Narkowicz 2015).
+vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
+)";
+
+const char* kSceneVs = R"(#version 330 core
+layout(location = 0) in vec3 aPos;
+layout(location = 1) in vec3 aNormal;
+uniform mat4 uViewProj;
+out vec3 vWorld;
+out vec3 vNormal;
+void main() {
+  vWorld = aPos;
+  vNormal = aNormal;
+  gl_Position = uViewProj * vec4(aPos, 1.0);
+})";
+
+const char* kSceneFs = R"(
+in vec3 vWorld;
+in vec3 vNormal;
+uniform samplerBuffer uMaterials;     // 2 texels per material: albedo, emission
+uniform usamplerBuffer uTriMaterial;  // material index per triangle
+uniform vec3 uEye;
+uniform float uClipY;  // cut-away: nothing above this height is drawn
+uniform int uCaps;     // 1: back faces are the insides of closed solids cut open: draw as caps
+out vec4 fragColor;
+void main() {
+  if (vWorld.y > uClipY) discard;
+  if (uCaps == 1 && !gl_FrontFacing) {
+    fragColor = vec4(0.16, 0.15, 0.14, 1.0);
+    return;
+  }
+  uint m = texelFetch(uTriMaterial, gl_PrimitiveID).r;
+  vec3 albedo = texelFetch(uMaterials, int(2u * m)).rgb;
+  vec3 emission = texelFetch(uMaterials, int(2u * m + 1u)).rgb;
+  vec3 n = normalize(vNormal);
+  if (!gl_FrontFacing) n = -n;
+  vec3 v = normalize(uEye - vWorld);
+  vec3 key = normalize(vec3(0.35, 1.0, 0.55));
+  // Display-referred preview lighting: ambient + headlight + a fixed key light from above.
+  float light = 0.18 + 0.52 * max(dot(n, v), 0.0) + 0.30 * max(dot(n, key), 0.0);
+  vec3 c = albedo * light + emission / (1.0 + emission) * 0.6;
+  fragColor = vec4(linearToSrgb(c), 1.0);
+})";
+
+const char* kProbeVs = R"(#version 330 core
+layout(location = 0) in vec3 aPos;        // unit sphere; also the normal
+layout(location = 1) in vec4 iPosRadius;  // centre, drawn radius
+layout(location = 2) in vec4 iStyle;      // state (0 candidate, 1 accepted, 2 rejected), selected, hasSh, alpha
+layout(location = 3) in vec4 iSh[7];      // 27 floats: A_l * c_lm, RGB interleaved
+uniform mat4 uViewProj;
+out vec3 vWorld;
+out vec3 vNormal;
+flat out vec4 vStyle;
+flat out vec4 vSh[7];
+void main() {
+  vNormal = aPos;
+  vWorld = iPosRadius.xyz + aPos * iPosRadius.w;
+  vStyle = iStyle;
+  for (int i = 0; i < 7; ++i) vSh[i] = iSh[i];
+  gl_Position = uViewProj * vec4(vWorld, 1.0);
+})";
+
+const char* kProbeFs = R"(
+in vec3 vWorld;
+in vec3 vNormal;
+flat in vec4 vStyle;
+flat in vec4 vSh[7];
+uniform vec3 uEye;
+uniform float uExposure;
+uniform int uXray;  // 1 = pass drawing the parts hidden behind geometry
+out vec4 fragColor;
+float shf(int k) { return vSh[k / 4][k % 4]; }
+vec3 shc(int i) { return vec3(shf(3 * i), shf(3 * i + 1), shf(3 * i + 2)); }
+// Irradiance E(n) = sum A_l c_lm Y_lm(n) (Ramamoorthi & Hanrahan 2001); basis as core/math/Sh.cpp.
+vec3 irradiance(vec3 n) {
+  float x = n.x, y = n.y, z = n.z;
+  return shc(0) * 0.282095 + shc(1) * (0.488603 * y) + shc(2) * (0.488603 * z) +
+         shc(3) * (0.488603 * x) + shc(4) * (1.092548 * x * y) + shc(5) * (1.092548 * y * z) +
+         shc(6) * (0.315392 * (3.0 * z * z - 1.0)) + shc(7) * (1.092548 * x * z) +
+         shc(8) * (0.546274 * (x * x - y * y));
+}
+void main() {
+  vec3 n = normalize(vNormal);
+  vec3 v = normalize(uEye - vWorld);
+  float facing = max(dot(n, v), 0.0);
+  int state = int(vStyle.x + 0.5);
+  bool selected = vStyle.y > 0.5;
+  vec3 c;
+  if (vStyle.z > 0.5) {
+    // A white Lambertian sphere lit by the probe: radiance E(n) / pi, tone mapped.
+    c = aces(max(irradiance(n), 0.0) / 3.14159265 * uExposure);
+  } else {
+    c = vec3(0.42) * (0.35 + 0.65 * facing);  // not captured: neutral grey
+  }
+  if (state == 2) c = mix(vec3(dot(c, vec3(0.333))), vec3(0.25), 0.5);  // rejected: faded
+  // Outline ring so every probe reads against any background.
+  vec3 ring = state == 1 ? vec3(0.95) : (state == 0 ? vec3(1.0, 0.72, 0.18) : vec3(0.75, 0.25, 0.2));
+  float ringWidth = 0.42;
+  if (selected) { ring = vec3(0.15, 0.95, 1.0); ringWidth = 0.6; }
+  float edge = smoothstep(ringWidth, ringWidth - 0.1, facing);
+  c = mix(c, ring, edge);
+  float alpha = vStyle.w;
+  if (uXray == 1) alpha *= mix(0.18, 0.7, edge);
+  fragColor = vec4(linearToSrgb(c), alpha);
+})";
+
+/// True when at least 90% of the edges (vertices welded by position) are shared by exactly two
+/// triangles: the scene is made of closed solids, whose back faces are never seen uncut.
+bool isMostlyClosed(const Scene& scene) {
+  std::map<std::array<int64_t, 3>, uint32_t> weld;
+  std::vector<uint32_t> welded(scene.vertexCount());
+  const double q = 1e4 / std::max(scene.bounds.diagonal(), 1e-9);
+  for (uint32_t i = 0; i < welded.size(); ++i) {
+    const Vec3 v = scene.vertex(i) * q;
+    const std::array<int64_t, 3> key{std::llround(v.x), std::llround(v.y), std::llround(v.z)};
+    welded[i] = weld.emplace(key, uint32_t(weld.size())).first->second;
+  }
+  std::map<std::pair<uint32_t, uint32_t>, int> edges;
+  for (size_t t = 0; t + 2 < scene.indices.size(); t += 3)
+    for (int e = 0; e < 3; ++e) {
+      uint32_t a = welded[scene.indices[t + e]], b = welded[scene.indices[t + (e + 1) % 3]];
+      if (a > b) std::swap(a, b);
+      ++edges[{a, b}];
+    }
+  size_t paired = 0;
+  for (const auto& [edge, count] : edges) paired += count == 2;
+  return !edges.empty() && paired >= 0.9 * double(edges.size());
+}
+
+QVector3D toQ(Vec3 v) {
+  return QVector3D(float(v.x), float(v.y), float(v.z));
+}
+
+constexpr int kInstanceFloats = 36;
+
+}  // namespace
+
+QSurfaceFormat Viewport::surfaceFormat() {
+  QSurfaceFormat f;
+  f.setRenderableType(QSurfaceFormat::OpenGL);
+  f.setVersion(3, 3);
+  f.setProfile(QSurfaceFormat::CoreProfile);
+  f.setDepthBufferSize(24);
+  f.setSamples(4);
+  return f;
+}
+
+QColor Viewport::backgroundTop() {
+  return QColor(72, 78, 88);
+}
+QColor Viewport::backgroundBottom() {
+  return QColor(30, 32, 36);
+}
+
+Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_(doc) {
+  setFormat(surfaceFormat());
+  setFocusPolicy(Qt::StrongFocus);
+  setMinimumSize(160, 120);
+  connect(doc, &Document::sceneChanged, this, [this] {
+    // Default 3/4 view from above, looking across the scene's longer horizontal side so it
+    // spans the (landscape) frame.
+    if (const Scene* scene = doc_->scene()) {
+      const Vec3 e = scene->bounds.extent();
+      camera_.yawDeg = e.x >= e.z ? 22.0f : 68.0f;
+      camera_.pitchDeg = 52.0f;
+    }
+    sceneDirty_ = true;
+    framePending_ = true;
+    update();
+  });
+  connect(doc, &Document::probesReset, this, &Viewport::onProbesChanged);
+  connect(doc, &Document::probeInserted, this, &Viewport::onProbesChanged);
+  connect(doc, &Document::probeRemoved, this, &Viewport::onProbesChanged);
+  connect(doc, &Document::probeChanged, this, &Viewport::onProbesChanged);
+}
+
+Viewport::~Viewport() {
+  cleanup();
+}
+
+void Viewport::onProbesChanged() {
+  probesDirty_ = true;
+  updateBaseRadius();
+  updateAutoExposure();
+  update();
+}
+
+void Viewport::setSelection(const QSet<quint64>& ids) {
+  if (ids == selection_) return;
+  selection_ = ids;
+  probesDirty_ = true;
+  update();
+}
+
+void Viewport::setProbesVisible(bool on) {
+  probesVisible_ = on;
+  update();
+}
+
+void Viewport::setCutaway(bool on) {
+  cutaway_ = on;
+  update();
+}
+
+void Viewport::setExposureStops(float stops) {
+  exposureStops_ = stops;
+  update();
+}
+
+float Viewport::cutHeight() const {
+  const Scene* scene = doc_->scene();
+  if (!scene || scene->bounds.empty()) return std::numeric_limits<float>::max();
+  return float(scene->bounds.lo.y + cutFraction_ * scene->bounds.extent().y);
+}
+
+void Viewport::setCutFraction(float f) {
+  cutFraction_ = std::clamp(f, 0.05f, 1.0f);
+  update();
+}
+
+float Viewport::exposure() const {
+  return autoExposure_ * std::exp2(exposureStops_);
+}
+
+void Viewport::updateAutoExposure() {
+  // Log-average ("key", Reinhard et al. 2002) of the probes' mean radiance (L00 term) maps to
+  // a mid-tone, so dim rooms stay readable while ACES rolls off the bright ones.
+  double sumLog = 0;
+  int n = 0;
+  for (const Probe& p : doc_->probes())
+    if (p.sh) {
+      sumLog += std::log(std::max(luminance(p.sh->c[0]) * 0.282095, 0.0) + 1e-4);
+      ++n;
+    }
+  if (n == 0) return;
+  autoExposure_ = float(0.6 / std::exp(sumLog / n));
+}
+
+void Viewport::updateBaseRadius() {
+  const Scene* scene = doc_->scene();
+  const double diag = scene ? scene->bounds.diagonal() : 10.0;
+  const auto& probes = doc_->probes();
+  const size_t n = std::min<size_t>(probes.size(), 1500);
+  if (n < 2) {
+    baseRadius_ = float(diag * 0.012);
+    return;
+  }
+  std::vector<double> nn(n, std::numeric_limits<double>::infinity());
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = 0; j < n; ++j)
+      if (i != j) nn[i] = std::min(nn[i], length(probes[i].position - probes[j].position));
+  std::nth_element(nn.begin(), nn.begin() + n / 2, nn.end());
+  baseRadius_ = float(std::clamp(nn[n / 2] * 0.18, diag * 0.002, diag * 0.03));
+}
+
+float Viewport::baseRadius() const {
+  return baseRadius_;
+}
+
+float Viewport::drawnRadius(const Probe& p) const {
+  float r = baseRadius_ * (p.state == ProbeState::Accepted ? 1.0f : 0.7f);
+  if (selection_.contains(p.id)) r *= 1.25f;
+  return r;
+}
+
+void Viewport::frameAll() {
+  const Scene* scene = doc_->scene();
+  Bounds3 b;
+  if (scene) b = scene->bounds;
+  for (const Probe& p : doc_->probes()) b.extend(p.position);
+  if (b.empty()) return;
+  camera_.frame(b, float(std::max(width(), 1)) / float(std::max(height(), 1)));
+  framePending_ = false;
+  update();
+}
+
+void Viewport::frameSelection() {
+  Bounds3 b;
+  for (const Probe& p : doc_->probes())
+    if (selection_.contains(p.id)) {
+      const double r = drawnRadius(p) * 4.0;
+      b.extend(p.position - Vec3(r, r, r));
+      b.extend(p.position + Vec3(r, r, r));
+    }
+  if (b.empty()) return frameAll();
+  camera_.frame(b, float(std::max(width(), 1)) / float(std::max(height(), 1)), 0.6f);
+  update();
+}
+
+void Viewport::clipPlanes(float& nearDist, float& farDist) const {
+  const Scene* scene = doc_->scene();
+  Bounds3 b;
+  if (scene) b = scene->bounds;
+  for (const Probe& p : doc_->probes()) b.extend(p.position);
+  const QVector3D centre = b.empty() ? camera_.target : toQ(b.center());
+  const float radius = b.empty() ? 10.0f : float(b.diagonal() * 0.5) * 1.1f + baseRadius_ * 2;
+  const float dist = (camera_.eye() - centre).length();
+  farDist = dist + radius;
+  nearDist = std::max(farDist * 2e-4f, (dist - radius) * 0.9f);
+}
+
+QMatrix4x4 Viewport::viewProjection() const {
+  float n = 0, f = 0;
+  clipPlanes(n, f);
+  const float aspect = float(std::max(width(), 1)) / float(std::max(height(), 1));
+  return camera_.projection(aspect, n, f) * camera_.view();
+}
+
+std::optional<QPointF> Viewport::project(Vec3 world) const {
+  const QVector4D clip = viewProjection() * QVector4D(toQ(world), 1.0f);
+  if (clip.w() <= 0) return std::nullopt;
+  const float x = clip.x() / clip.w(), y = clip.y() / clip.w();
+  return QPointF((x * 0.5 + 0.5) * width(), (0.5 - y * 0.5) * height());
+}
+
+std::optional<quint64> Viewport::pickProbe(QPointF pos) const {
+  const QMatrix4x4 inv = viewProjection().inverted();
+  const float x = float(2.0 * pos.x() / std::max(width(), 1) - 1.0);
+  const float y = float(1.0 - 2.0 * pos.y() / std::max(height(), 1));
+  const QVector3D a = inv.map(QVector3D(x, y, -1.0f)), b = inv.map(QVector3D(x, y, 1.0f));
+  const QVector3D dir = (b - a).normalized();
+  std::optional<quint64> best;
+  float bestT = std::numeric_limits<float>::infinity();
+  for (const Probe& p : doc_->probes()) {
+    // Ray-sphere with a little slack so small spheres are easy to hit.
+    const float r = drawnRadius(p) * 1.3f;
+    const QVector3D oc = a - toQ(p.position);
+    const float bq = QVector3D::dotProduct(oc, dir);
+    const float c = QVector3D::dotProduct(oc, oc) - r * r;
+    const float disc = bq * bq - c;
+    if (disc < 0) continue;
+    const float t = -bq - std::sqrt(disc);
+    if (t > 0 && t < bestT) {
+      bestT = t;
+      best = p.id;
+    }
+  }
+  return best;
+}
+
+// ---------------------------------------------------------------- GL
+
+void Viewport::initializeGL() {
+  connect(context(), &QOpenGLContext::aboutToBeDestroyed, this, &Viewport::cleanup);
+  initializeOpenGLFunctions();
+
+  auto build = [this](const char* vs, const char* fsBody, bool common) {
+    auto compile = [this](GLenum type, const QByteArray& src) {
+      const GLuint s = glCreateShader(type);
+      const char* p = src.constData();
+      glShaderSource(s, 1, &p, nullptr);
+      glCompileShader(s);
+      GLint ok = 0;
+      glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+      if (!ok) {
+        char log[4096];
+        glGetShaderInfoLog(s, sizeof log, nullptr, log);
+        qFatal("viewport shader failed to compile: %s", log);
+      }
+      return s;
+    };
+    QByteArray fs =
+        common ? QByteArray("#version 330 core\n") + kCommonGlsl + fsBody : QByteArray(fsBody);
+    const GLuint v = compile(GL_VERTEX_SHADER, vs), f = compile(GL_FRAGMENT_SHADER, fs);
+    const GLuint prog = glCreateProgram();
+    glAttachShader(prog, v);
+    glAttachShader(prog, f);
+    glLinkProgram(prog);
+    glDeleteShader(v);
+    glDeleteShader(f);
+    GLint ok = 0;
+    glGetProgramiv(prog, GL_LINK_STATUS, &ok);
+    if (!ok) {
+      char log[4096];
+      glGetProgramInfoLog(prog, sizeof log, nullptr, log);
+      qFatal("viewport shader failed to link: %s", log);
+    }
+    return prog;
+  };
+  backgroundProgram_ = build(kBackgroundVs, kBackgroundFs, false);
+  sceneProgram_ = build(kSceneVs, kSceneFs, true);
+  probeProgram_ = build(kProbeVs, kProbeFs, true);
+
+  glGenVertexArrays(1, &emptyVao_);
+
+  // Scene buffers (filled in uploadScene).
+  glGenVertexArrays(1, &sceneVao_);
+  glGenBuffers(3, sceneVbo_);
+  glGenBuffers(1, &materialTbo_);
+  glGenTextures(1, &materialTex_);
+  glGenBuffers(1, &triMaterialTbo_);
+  glGenTextures(1, &triMaterialTex_);
+
+  // Unit UV sphere, counter-clockwise seen from outside.
+  const int rings = 16, segs = 28;
+  std::vector<float> verts;
+  std::vector<uint32_t> idx;
+  for (int i = 0; i <= rings; ++i) {
+    const double th = kPi * i / rings;
+    for (int j = 0; j <= segs; ++j) {
+      const double ph = 2 * kPi * j / segs;
+      verts.insert(verts.end(), {float(std::sin(th) * std::cos(ph)), float(std::cos(th)),
+                                 float(std::sin(th) * std::sin(ph))});
+    }
+  }
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segs; ++j) {
+      const uint32_t a = uint32_t(i * (segs + 1) + j), b = a + uint32_t(segs + 1);
+      idx.insert(idx.end(), {a, a + 1, b, a + 1, b + 1, b});
+    }
+  sphereIndexCount_ = GLsizei(idx.size());
+  glGenVertexArrays(1, &sphereVao_);
+  glGenBuffers(1, &sphereVbo_);
+  glGenBuffers(1, &sphereIbo_);
+  glGenBuffers(1, &instanceVbo_);
+  glBindVertexArray(sphereVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, sphereVbo_);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(verts.size() * sizeof(float)), verts.data(),
+               GL_STATIC_DRAW);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, sphereIbo_);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(idx.size() * sizeof(uint32_t)), idx.data(),
+               GL_STATIC_DRAW);
+  glBindBuffer(GL_ARRAY_BUFFER, instanceVbo_);
+  for (int a = 0; a < 9; ++a) {
+    glEnableVertexAttribArray(GLuint(1 + a));
+    glVertexAttribPointer(GLuint(1 + a), 4, GL_FLOAT, GL_FALSE, kInstanceFloats * sizeof(float),
+                          reinterpret_cast<const void*>(size_t(a) * 4 * sizeof(float)));
+    glVertexAttribDivisor(GLuint(1 + a), 1);
+  }
+  glBindVertexArray(0);
+
+  glReady_ = true;
+  sceneDirty_ = probesDirty_ = true;
+}
+
+void Viewport::cleanup() {
+  if (!glReady_) return;
+  makeCurrent();
+  glDeleteProgram(backgroundProgram_);
+  glDeleteProgram(sceneProgram_);
+  glDeleteProgram(probeProgram_);
+  glDeleteVertexArrays(1, &emptyVao_);
+  glDeleteVertexArrays(1, &sceneVao_);
+  glDeleteBuffers(3, sceneVbo_);
+  glDeleteBuffers(1, &materialTbo_);
+  glDeleteTextures(1, &materialTex_);
+  glDeleteBuffers(1, &triMaterialTbo_);
+  glDeleteTextures(1, &triMaterialTex_);
+  glDeleteVertexArrays(1, &sphereVao_);
+  glDeleteBuffers(1, &sphereVbo_);
+  glDeleteBuffers(1, &sphereIbo_);
+  glDeleteBuffers(1, &instanceVbo_);
+  glReady_ = false;
+  doneCurrent();
+}
+
+void Viewport::uploadScene() {
+  sceneDirty_ = false;
+  const Scene* scene = doc_->scene();
+  sceneIndexCount_ = 0;
+  if (!scene || scene->indices.empty()) return;
+  glBindVertexArray(sceneVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, sceneVbo_[0]);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(scene->positions.size() * sizeof(float)),
+               scene->positions.data(), GL_STATIC_DRAW);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+  glBindBuffer(GL_ARRAY_BUFFER, sceneVbo_[1]);
+  std::vector<float> normals = scene->normals;
+  normals.resize(scene->positions.size(), 0.0f);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(normals.size() * sizeof(float)), normals.data(),
+               GL_STATIC_DRAW);
+  glEnableVertexAttribArray(1);
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, sceneVbo_[2]);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(scene->indices.size() * sizeof(uint32_t)),
+               scene->indices.data(), GL_STATIC_DRAW);
+  glBindVertexArray(0);
+  sceneIndexCount_ = GLsizei(scene->indices.size());
+  sceneClosed_ = isMostlyClosed(*scene);
+
+  std::vector<float> mats;
+  for (const Material& m : scene->materials)
+    mats.insert(mats.end(), {float(m.albedo.r), float(m.albedo.g), float(m.albedo.b), 1.0f,
+                             float(m.emission.r), float(m.emission.g), float(m.emission.b), 0.0f});
+  if (mats.empty()) mats = {0.8f, 0.8f, 0.8f, 1, 0, 0, 0, 0};
+  const uint32_t materialCount = uint32_t(mats.size() / 8);
+  std::vector<uint32_t> triMat(scene->triangleCount(), 0);
+  for (size_t i = 0; i < triMat.size() && i < scene->triangleMaterial.size(); ++i)
+    triMat[i] = std::min(scene->triangleMaterial[i], materialCount - 1);
+  glBindBuffer(GL_TEXTURE_BUFFER, materialTbo_);
+  glBufferData(GL_TEXTURE_BUFFER, GLsizeiptr(mats.size() * sizeof(float)), mats.data(),
+               GL_STATIC_DRAW);
+  glBindTexture(GL_TEXTURE_BUFFER, materialTex_);
+  glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA32F, materialTbo_);
+  glBindBuffer(GL_TEXTURE_BUFFER, triMaterialTbo_);
+  glBufferData(GL_TEXTURE_BUFFER, GLsizeiptr(triMat.size() * sizeof(uint32_t)), triMat.data(),
+               GL_STATIC_DRAW);
+  glBindTexture(GL_TEXTURE_BUFFER, triMaterialTex_);
+  glTexBuffer(GL_TEXTURE_BUFFER, GL_R32UI, triMaterialTbo_);
+  glBindBuffer(GL_TEXTURE_BUFFER, 0);
+  glBindTexture(GL_TEXTURE_BUFFER, 0);
+}
+
+void Viewport::uploadProbes() {
+  probesDirty_ = false;
+  std::vector<float> inst;
+  const auto& probes = doc_->probes();
+  inst.reserve(probes.size() * kInstanceFloats);
+  for (const Probe& p : probes) {
+    const bool selected = selection_.contains(p.id);
+    const float alpha = p.state == ProbeState::Rejected && !selected ? 0.45f : 1.0f;
+    inst.insert(inst.end(),
+                {float(p.position.x), float(p.position.y), float(p.position.z), drawnRadius(p),
+                 float(int(p.state)), selected ? 1.0f : 0.0f, p.sh ? 1.0f : 0.0f, alpha});
+    for (int i = 0; i < kShCoeffCount; ++i) {
+      const Rgb c = p.sh ? p.sh->c[size_t(i)] * shCosineLobe(i) : Rgb();
+      inst.insert(inst.end(), {float(c.r), float(c.g), float(c.b)});
+    }
+    inst.push_back(0.0f);
+  }
+  instanceCount_ = GLsizei(probes.size());
+  glBindBuffer(GL_ARRAY_BUFFER, instanceVbo_);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(inst.size() * sizeof(float)), inst.data(),
+               GL_DYNAMIC_DRAW);
+  glBindBuffer(GL_ARRAY_BUFFER, 0);
+}
+
+void Viewport::resizeGL(int, int) {
+  if (framePending_) frameAll();
+}
+
+void Viewport::paintGL() {
+  if (framePending_) frameAll();
+  if (sceneDirty_) uploadScene();
+  if (probesDirty_) uploadProbes();
+
+  glClearColor(0, 0, 0, 1);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+
+  // Background gradient.
+  glDisable(GL_DEPTH_TEST);
+  glDepthMask(GL_FALSE);
+  glDisable(GL_BLEND);
+  glUseProgram(backgroundProgram_);
+  const QColor top = backgroundTop(), bottom = backgroundBottom();
+  glUniform3f(glGetUniformLocation(backgroundProgram_, "uTop"), float(top.redF()),
+              float(top.greenF()), float(top.blueF()));
+  glUniform3f(glGetUniformLocation(backgroundProgram_, "uBottom"), float(bottom.redF()),
+              float(bottom.greenF()), float(bottom.blueF()));
+  glBindVertexArray(emptyVao_);
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+
+  const QMatrix4x4 vp = viewProjection();
+  const QVector3D eye = camera_.eye();
+  glEnable(GL_DEPTH_TEST);
+  glDepthMask(GL_TRUE);
+  glDepthFunc(GL_LESS);
+
+  // Scene. The cut-away removes everything above a height (ceilings, wall tops) so the camera
+  // looks into the rooms. Closed solids (walls with thickness) show their cut as dark caps
+  // (their back faces); in open, single-sided geometry back faces are culled instead, so walls
+  // seen from outside vanish too.
+  if (sceneIndexCount_ > 0) {
+    const bool caps = cutaway_ && sceneClosed_;
+    if (cutaway_ && !sceneClosed_) {
+      glEnable(GL_CULL_FACE);
+      glCullFace(GL_BACK);
+    } else {
+      glDisable(GL_CULL_FACE);
+    }
+    glUseProgram(sceneProgram_);
+    glUniform1f(glGetUniformLocation(sceneProgram_, "uClipY"),
+                cutaway_ ? cutHeight() : std::numeric_limits<float>::max());
+    glUniform1i(glGetUniformLocation(sceneProgram_, "uCaps"), caps ? 1 : 0);
+    glUniformMatrix4fv(glGetUniformLocation(sceneProgram_, "uViewProj"), 1, GL_FALSE,
+                       vp.constData());
+    glUniform3f(glGetUniformLocation(sceneProgram_, "uEye"), eye.x(), eye.y(), eye.z());
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_BUFFER, materialTex_);
+    glUniform1i(glGetUniformLocation(sceneProgram_, "uMaterials"), 0);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_BUFFER, triMaterialTex_);
+    glUniform1i(glGetUniformLocation(sceneProgram_, "uTriMaterial"), 1);
+    glBindVertexArray(sceneVao_);
+    glDrawElements(GL_TRIANGLES, sceneIndexCount_, GL_UNSIGNED_INT, nullptr);
+    glActiveTexture(GL_TEXTURE0);
+  }
+
+  // Probes: a visible pass, then an x-ray pass that ghosts the parts hidden behind geometry.
+  if (probesVisible_ && instanceCount_ > 0) {
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glUseProgram(probeProgram_);
+    glUniformMatrix4fv(glGetUniformLocation(probeProgram_, "uViewProj"), 1, GL_FALSE,
+                       vp.constData());
+    glUniform3f(glGetUniformLocation(probeProgram_, "uEye"), eye.x(), eye.y(), eye.z());
+    glUniform1f(glGetUniformLocation(probeProgram_, "uExposure"), exposure());
+    glBindVertexArray(sphereVao_);
+    glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 0);
+    glDrawElementsInstanced(GL_TRIANGLES, sphereIndexCount_, GL_UNSIGNED_INT, nullptr,
+                            instanceCount_);
+    glDepthFunc(GL_GREATER);
+    glDepthMask(GL_FALSE);
+    glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 1);
+    glDrawElementsInstanced(GL_TRIANGLES, sphereIndexCount_, GL_UNSIGNED_INT, nullptr,
+                            instanceCount_);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    glDisable(GL_BLEND);
+  }
+  glBindVertexArray(0);
+  glUseProgram(0);
+}
+
+// ---------------------------------------------------------------- mouse
+
+void Viewport::mousePressEvent(QMouseEvent* e) {
+  pressPos_ = lastPos_ = e->position();
+  pressButton_ = e->button();
+  dragged_ = false;
+}
+
+void Viewport::mouseMoveEvent(QMouseEvent* e) {
+  const QPointF d = e->position() - lastPos_;
+  lastPos_ = e->position();
+  if ((e->position() - pressPos_).manhattanLength() > 3) dragged_ = true;
+  if (!dragged_) return;
+  const bool panning = (e->buttons() & Qt::MiddleButton) ||
+                       ((e->buttons() & Qt::LeftButton) && (e->modifiers() & Qt::ShiftModifier));
+  if (panning)
+    camera_.pan(float(d.x()), float(d.y()), float(height()));
+  else if (e->buttons() & Qt::LeftButton)
+    camera_.orbit(float(d.x()), float(d.y()));
+  else
+    return;
+  update();
+}
+
+void Viewport::mouseReleaseEvent(QMouseEvent* e) {
+  if (e->button() == Qt::LeftButton && pressButton_ == Qt::LeftButton && !dragged_)
+    emit probeClicked(pickProbe(e->position()), e->modifiers());
+  pressButton_ = Qt::NoButton;
+}
+
+void Viewport::wheelEvent(QWheelEvent* e) {
+  camera_.zoom(float(e->angleDelta().y()) / 120.0f);
+  update();
+}
+
+}  // namespace ps::ui
