@@ -8,8 +8,40 @@
 #include <sstream>
 
 #include "core/common/Error.h"
+#include "core/io/JsonFields.h"
 
 namespace ps::cli {
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+nlohmann::ordered_json rgbJson(Rgb c) {
+  return {c.r, c.g, c.b};
+}
+
+bool isVolumePath(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  char magic[8] = {};
+  in.read(magic, 8);
+  return in.gcount() == 8 && std::string(magic, 8) == "PSVOLUM1";
+}
+
+VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& volumePath) {
+  nlohmann::ordered_json meta;
+  try {
+    meta = nlohmann::ordered_json::parse(vf.metadataJson);
+  } catch (const nlohmann::json::parse_error&) {
+    throw FileError(volumePath.string(), "metadata", "not valid JSON");
+  }
+  const JsonField root(volumePath.string(), "metadata", &meta);
+  VolumeSource s;
+  std::filesystem::path scene(root.at("scene").string());
+  if (scene.is_relative()) scene = std::filesystem::absolute(volumePath).parent_path() / scene;
+  s.scenePath = scene.lexically_normal().string();
+  s.rig = rigFromJson(root.at("rig"));
+  return s;
+}
 
 std::vector<double> parseNumbers(const std::string& text, const std::string& option) {
   std::vector<double> v;

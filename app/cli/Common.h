@@ -1,12 +1,15 @@
 #pragma once
 // Shared pieces of the probestudio subcommands.
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "core/common/Progress.h"
 #include "core/io/ProbeSet.h"
+#include "core/io/VolumeFile.h"
 #include "core/scene/LightingRig.h"
 #include "core/traversal/ProbeVolume.h"
 
@@ -31,6 +34,23 @@ std::vector<Vec3> readPointsFile(const std::filesystem::path& path);
 
 /// Stderr progress bar for long stages ("label  42%"), silent when stderr is not a terminal.
 ProgressFn terminalProgress(const std::string& label);
+
+/// Seconds of wall time since t0.
+double secondsSince(std::chrono::steady_clock::time_point t0);
+
+/// [r, g, b] as a JSON array.
+nlohmann::ordered_json rgbJson(Rgb c);
+
+/// True when the file starts with the volume magic (it is a .psv, not a probe set).
+bool isVolumePath(const std::filesystem::path& p);
+
+/// Scene path stored in a volume's metadata, resolved against the volume's folder, and the rig.
+struct VolumeSource {
+  std::string scenePath;
+  LightingRig rig;
+};
+/// Throws ps::FileError naming the volume and the metadata field.
+VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& volumePath);
 
 void registerPlace(CLI::App& app);
 void registerBake(CLI::App& app);

@@ -1,0 +1,87 @@
+// probestudio capture: parses its options, calls the core stages and prints what it did; bad
+// input surfaces as ps::Error, caught in main.
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "app/cli/Common.h"
+#include "core/bake/Bake.h"
+#include "core/capture/Capture.h"
+#include "core/common/Error.h"
+#include "core/eval/Evaluate.h"
+#include "core/io/JsonFields.h"
+#include "core/io/ProbeSetFile.h"
+#include "core/io/VolumeFile.h"
+#include "core/placement/Uniform.h"
+#include "core/tessellation/Tetrahedralization.h"
+
+namespace ps::cli {
+
+namespace fs = std::filesystem;
+using ojson = nlohmann::ordered_json;
+
+void registerCapture(CLI::App& app) {
+  struct Opts {
+    std::string scene, at, pointsFile, mode = "full";
+    int spp = 256;
+    uint64_t seed = 1;
+    bool json = false;
+    RigOptions rig;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* cmd =
+      app.add_subcommand("capture", "Capture probes at given points and print their SH");
+  cmd->add_option("scene", o->scene, "glTF scene")->required();
+  auto* at = cmd->add_option("--at", o->at, "One point X,Y,Z");
+  auto* pf = cmd->add_option("--points", o->pointsFile, "File with one \"x y z\" per line");
+  at->excludes(pf);
+  cmd->add_option("--spp", o->spp, "Samples per probe")->check(CLI::PositiveNumber);
+  cmd->add_option("--mode", o->mode, "full or indirect")
+      ->check(CLI::IsMember({"full", "indirect"}));
+  cmd->add_option("--seed", o->seed, "Random seed");
+  cmd->add_flag("--json", o->json, "Print a JSON array (the only output format for now)");
+  o->rig.add(*cmd);
+  cmd->callback([o] {
+    if (o->at.empty() && o->pointsFile.empty())
+      throw ParameterError("capture: give --at X,Y,Z or --points FILE");
+    const std::vector<Vec3> pts =
+        o->at.empty() ? readPointsFile(o->pointsFile) : std::vector<Vec3>{parseVec3(o->at, "--at")};
+    const Scene scene = loadScene(o->scene);
+    const Tracer tracer(scene);
+    CaptureSettings cs;
+    cs.samplesPerProbe = o->spp;
+    cs.seed = o->seed;
+    cs.mode = o->mode == "indirect" ? CaptureMode::IndirectOnly : CaptureMode::Full;
+    const auto caps = captureProbes(tracer, o->rig.build(), pts, cs);
+    ojson out = ojson::array();
+    const std::pair<const char*, Vec3> axes[6] = {{"+x", {1, 0, 0}}, {"-x", {-1, 0, 0}},
+                                                  {"+y", {0, 1, 0}}, {"-y", {0, -1, 0}},
+                                                  {"+z", {0, 0, 1}}, {"-z", {0, 0, -1}}};
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const ProbeCapture& c = caps[i];
+      ojson o2;
+      o2["position"] = vecToJson(pts[i]);
+      ojson sh = ojson::array(), se = ojson::array();
+      for (int k = 0; k < kShCoeffCount; ++k) {
+        sh.push_back(rgbJson(c.sh.c[k]));
+        se.push_back(rgbJson(c.shStdError.c[k]));
+      }
+      o2["sh"] = sh;
+      o2["sh_std_error"] = se;
+      ojson irr;
+      for (const auto& [name, n] : axes) irr[name] = rgbJson(c.sh.irradiance(n));
+      o2["irradiance"] = irr;
+      o2["validity"] = 1.0 - c.backfaceFraction;
+      o2["backface_fraction"] = c.backfaceFraction;
+      o2["samples"] = c.samples;
+      o2["seconds"] = c.seconds;
+      out.push_back(o2);
+    }
+    std::cout << out.dump(2) << "\n";
+  });
+}
+
+}  // namespace ps::cli

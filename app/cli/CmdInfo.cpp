@@ -1,0 +1,59 @@
+// probestudio info: parses its options, calls the core stages and prints what it did; bad
+// input surfaces as ps::Error, caught in main.
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "app/cli/Common.h"
+#include "core/bake/Bake.h"
+#include "core/capture/Capture.h"
+#include "core/common/Error.h"
+#include "core/eval/Evaluate.h"
+#include "core/io/JsonFields.h"
+#include "core/io/ProbeSetFile.h"
+#include "core/io/VolumeFile.h"
+#include "core/placement/Uniform.h"
+#include "core/tessellation/Tetrahedralization.h"
+
+namespace ps::cli {
+
+namespace fs = std::filesystem;
+using ojson = nlohmann::ordered_json;
+
+void registerInfo(CLI::App& app) {
+  auto file = std::make_shared<std::string>();
+  CLI::App* cmd = app.add_subcommand("info", "Print what a probe set or a volume holds");
+  cmd->add_option("file", *file, "Probe set (.json) or volume (.psv)")->required();
+  cmd->callback([file] {
+    if (isVolumePath(*file)) {
+      const VolumeFile vf = loadVolume(*file);
+      const VolumeSource src = volumeSource(vf, *file);
+      std::printf("%s: probe volume, format version 1, SH order 2\n", file->c_str());
+      std::printf("  probes %zu, tetrahedra %zu, hull faces %zu\n", vf.volume.probeCount(),
+                  vf.volume.tets.size(), vf.volume.hullFaces.size());
+      std::printf("  scene %s, %zu rig lights\n", src.scenePath.c_str(), src.rig.lights.size());
+      return;
+    }
+    const ProbeSet set = loadProbeSet(*file);
+    size_t counts[3] = {0, 0, 0}, captured = 0, locked = 0;
+    for (const Probe& p : set.probes) {
+      ++counts[static_cast<int>(p.state)];
+      captured += p.sh.has_value();
+      locked += p.locked;
+    }
+    std::printf("%s: probe set, format version %d\n", file->c_str(), ProbeSet::kFormatVersion);
+    std::printf("  scene %s\n", set.scenePath.c_str());
+    std::printf(
+        "  probes %zu: %zu candidate, %zu accepted, %zu rejected; %zu locked, %zu captured\n",
+        set.probes.size(), counts[0], counts[1], counts[2], locked, captured);
+    std::printf("  placement %s, spacing %.3f m, budget %d; rig: %zu lights, sky [%g, %g, %g]\n",
+                set.placement.method.c_str(), set.placement.spacingMeters, set.placement.budget,
+                set.rig.lights.size(), set.rig.skyRadiance.r, set.rig.skyRadiance.g,
+                set.rig.skyRadiance.b);
+  });
+}
+
+}  // namespace ps::cli

@@ -1,0 +1,77 @@
+// probestudio query: parses its options, calls the core stages and prints what it did; bad
+// input surfaces as ps::Error, caught in main.
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "app/cli/Common.h"
+#include "core/bake/Bake.h"
+#include "core/capture/Capture.h"
+#include "core/common/Error.h"
+#include "core/eval/Evaluate.h"
+#include "core/io/JsonFields.h"
+#include "core/io/ProbeSetFile.h"
+#include "core/io/VolumeFile.h"
+#include "core/placement/Uniform.h"
+#include "core/tessellation/Tetrahedralization.h"
+
+namespace ps::cli {
+
+namespace fs = std::filesystem;
+using ojson = nlohmann::ordered_json;
+
+void registerQuery(CLI::App& app) {
+  struct Opts {
+    std::string volume, at, pointsFile, normal = "0,1,0", normalsFile;
+    bool json = false;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* cmd =
+      app.add_subcommand("query", "Locate points in a volume and interpolate irradiance");
+  cmd->add_option("volume", o->volume, "Baked volume (.psv)")->required();
+  auto* at = cmd->add_option("--at", o->at, "One point X,Y,Z");
+  auto* pf = cmd->add_option("--points", o->pointsFile, "File with one \"x y z\" per line");
+  at->excludes(pf);
+  auto* nn =
+      cmd->add_option("--normal", o->normal, "Normal NX,NY,NZ for every point (default 0,1,0)");
+  auto* nf = cmd->add_option("--normals", o->normalsFile, "File with one normal per point");
+  nn->excludes(nf);
+  cmd->add_flag("--json", o->json, "Print JSON (the only output format for now)");
+  cmd->callback([o] {
+    if (o->at.empty() && o->pointsFile.empty())
+      throw ParameterError("query: give --at X,Y,Z or --points FILE");
+    const VolumeFile vf = loadVolume(o->volume);
+    const std::vector<Vec3> pts =
+        o->at.empty() ? readPointsFile(o->pointsFile) : std::vector<Vec3>{parseVec3(o->at, "--at")};
+    std::vector<Vec3> normals;
+    if (!o->normalsFile.empty()) {
+      normals = readPointsFile(o->normalsFile);
+      if (normals.size() != pts.size())
+        throw FileError(o->normalsFile, "",
+                        "has " + std::to_string(normals.size()) + " normals for " +
+                            std::to_string(pts.size()) + " points");
+    } else {
+      normals.assign(pts.size(), parseVec3(o->normal, "--normal"));
+    }
+    ojson out = ojson::array();
+    int32_t hint = -1;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (length(normals[i]) == 0) throw ParameterError("normal " + std::to_string(i) + " is zero");
+      const VolumeLocation loc = locate(vf.volume, pts[i], hint);
+      hint = loc.tet;
+      ojson q;
+      q["position"] = vecToJson(pts[i]);
+      q["tet"] = loc.tet;
+      q["outside"] = loc.outside;
+      q["weights"] = loc.weights;
+      q["irradiance"] = rgbJson(interpolate(vf.volume, loc).irradiance(normalize(normals[i])));
+      out.push_back(q);
+    }
+    std::cout << out.dump(2) << "\n";
+  });
+}
+
+}  // namespace ps::cli
