@@ -69,7 +69,9 @@ void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const
   setPath_ = setPath;
   undo_.clear();
   undo_.setClean();
+  ++changeCount_;
   emit probesReset();
+  emit rigChanged();
   if (sceneChanges) emit sceneChanged();
   emit pathsChanged();
   emit modifiedChanged(false);
@@ -155,10 +157,68 @@ std::vector<uint64_t> Document::addProbes(std::vector<Probe> probes, const QStri
   return ids;
 }
 
-void Document::moveProbe(uint64_t id, Vec3 position) {
-  const Probe* p = probe(id);
-  if (!p) return;
-  undo_.push(new MoveProbeCommand(this, id, p->position, position));
+uint64_t Document::addManualProbe(Vec3 position, const QString& text) {
+  Probe p;
+  p.position = position;
+  p.state = ProbeState::Accepted;
+  p.method = "manual";
+  if (tracer_) {
+    try {
+      CaptureSettings cs;
+      cs.samplesPerProbe = proposal_.samplesPerProbe;
+      const Vec3 pts[1] = {position};
+      p.sh = captureProbes(*tracer_, set_.rig, pts, cs).at(0).sh;
+    } catch (const Error&) {
+      // No light in the scene and rig: the probe stays uncaptured (drawn grey).
+    }
+  }
+  return addProbes({p}, text).at(0);
+}
+
+void Document::moveProbe(uint64_t id, Vec3 position, int mergeKey) {
+  moveProbes({{id, position}}, mergeKey);
+}
+
+void Document::moveProbes(const std::vector<std::pair<uint64_t, Vec3>>& targets, int mergeKey) {
+  auto* cmd = new MoveProbesCommand(this, targets, mergeKey);
+  if (cmd->entries().empty()) {
+    delete cmd;
+    return;
+  }
+  undo_.push(cmd);
+}
+
+void Document::setLocked(const std::vector<uint64_t>& ids, bool locked) {
+  if (ids.empty()) return;
+  undo_.push(new SetLockedCommand(this, ids, locked));
+}
+
+void Document::setRig(const LightingRig& rig, const QString& text) {
+  undo_.push(new SetRigCommand(this, rig, text));
+}
+
+void Document::writeCopy(const QString& path) const {
+  ProbeSet set = set_;
+  if (!scenePath_.isEmpty())
+    set.scenePath = std::filesystem::absolute(toPath(scenePath_)).lexically_normal().string();
+  ps::saveProbeSet(set, toPath(path));
+}
+
+void Document::recover(const QString& recoveryPath, const QString& originalSetPath) {
+  ProbeSet set = loadProbeSet(toPath(recoveryPath));  // throws; nothing changed yet
+  if (set.scenePath.empty())
+    throw FileError(recoveryPath.toStdString(), "scene", "the recovery file names no scene");
+  const QString scenePath = QString::fromStdString(set.scenePath);
+  std::error_code ec;
+  if (scene_ && std::filesystem::equivalent(toPath(scenePath), toPath(scenePath_), ec)) {
+    replace(scene_, tracer_, std::move(set), scenePath_, originalSetPath);
+  } else {
+    LoadedScene loaded = load(scenePath);  // throws; nothing changed yet
+    replace(loaded.scene, loaded.tracer, std::move(set), scenePath, originalSetPath);
+  }
+  undo_.resetClean();  // the recovered edits are not saved anywhere but the recovery file
+  ++changeCount_;
+  emit modifiedChanged(true);
 }
 
 void Document::insertProbeRaw(int row, const Probe& p) {
@@ -166,6 +226,7 @@ void Document::insertProbeRaw(int row, const Probe& p) {
   emit probeAboutToBeInserted(row);
   set_.probes.insert(set_.probes.begin() + row, p);
   set_.nextId = std::max(set_.nextId, p.id + 1);
+  ++changeCount_;
   emit probeInserted(row);
 }
 
@@ -174,6 +235,7 @@ void Document::removeProbeRaw(uint64_t id) {
   if (row < 0) return;
   emit probeAboutToBeRemoved(row);
   set_.probes.erase(set_.probes.begin() + row);
+  ++changeCount_;
   emit probeRemoved(row);
 }
 
@@ -181,16 +243,31 @@ void Document::setProbeStateRaw(uint64_t id, ProbeState s) {
   const int row = indexOf(id);
   if (row < 0) return;
   set_.probes[size_t(row)].state = s;
+  ++changeCount_;
   emit probeChanged(row);
 }
 
-void Document::setProbePositionRaw(uint64_t id, Vec3 p) {
+void Document::setProbePositionRaw(uint64_t id, Vec3 p, const std::optional<ShRgb>& sh) {
   const int row = indexOf(id);
   if (row < 0) return;
   set_.probes[size_t(row)].position = p;
-  // The captured SH belonged to the old position.
-  set_.probes[size_t(row)].sh.reset();
+  set_.probes[size_t(row)].sh = sh;
+  ++changeCount_;
   emit probeChanged(row);
+}
+
+void Document::setProbeLockedRaw(uint64_t id, bool locked) {
+  const int row = indexOf(id);
+  if (row < 0) return;
+  set_.probes[size_t(row)].locked = locked;
+  ++changeCount_;
+  emit probeChanged(row);
+}
+
+void Document::setRigRaw(const LightingRig& rig) {
+  set_.rig = rig;
+  ++changeCount_;
+  emit rigChanged();
 }
 
 void Document::proposeCandidates() {

@@ -8,6 +8,8 @@
 #include <QUndoStack>
 #include <atomic>
 #include <memory>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include "core/io/ProbeSet.h"
@@ -62,8 +64,34 @@ class Document : public QObject {
   void deleteProbes(const std::vector<uint64_t>& ids);
   /// Adds probes (ids are assigned here) and returns their ids.
   std::vector<uint64_t> addProbes(std::vector<Probe> probes, const QString& text);
-  /// Moves one probe; successive moves of the same probe merge into one undo step.
-  void moveProbe(uint64_t id, Vec3 position);
+  /// Adds one accepted "manual" probe at `position`, captured quickly (ProposalSettings'
+  /// samplesPerProbe) when a tracer is there and the scene has light; one undo step.
+  uint64_t addManualProbe(Vec3 position, const QString& text);
+  /// Moves one probe; successive moves of the same probe with the same merge key merge into one
+  /// undo step (a negative key never merges).
+  void moveProbe(uint64_t id, Vec3 position, int mergeKey = 0);
+  /// Moves several probes as one undo step; successive calls with the same probes and the same
+  /// merge key merge (a drag of the selection is one step). Locked probes are moved too: callers
+  /// that must respect locks filter them (the viewport does).
+  void moveProbes(const std::vector<std::pair<uint64_t, Vec3>>& targets, int mergeKey);
+  /// A merge key no earlier edit used (one per drag, one per numeric edit).
+  int newMergeKey() { return ++lastMergeKey_; }
+  void setLocked(const std::vector<uint64_t>& ids, bool locked);
+  /// Replaces the lighting rig (undoable). The probes' captured SH stays as it was.
+  void setRig(const LightingRig& rig, const QString& text);
+
+  // --- recovery (autosave) ---
+  /// Writes the probe set (scene path absolute) to `path` atomically without changing the
+  /// document's file, its clean state or its undo stack. Throws ps::Error.
+  void writeCopy(const QString& path) const;
+  /// Loads a recovery copy written by writeCopy(): the document gets its probes and scene, takes
+  /// `originalSetPath` (may be empty) as its file and is marked modified. Throws ps::Error and
+  /// leaves the document unchanged then.
+  void recover(const QString& recoveryPath, const QString& originalSetPath);
+  /// Bumped by every change of the probes or the rig (autosave writes when it moved).
+  quint64 changeCount() const { return changeCount_; }
+
+  const Tracer* tracer() const { return tracer_.get(); }
 
   // --- candidate proposal in the background ---
   bool autoPropose() const { return autoPropose_; }
@@ -77,7 +105,10 @@ class Document : public QObject {
   void insertProbeRaw(int row, const Probe& p);
   void removeProbeRaw(uint64_t id);
   void setProbeStateRaw(uint64_t id, ProbeState s);
-  void setProbePositionRaw(uint64_t id, Vec3 p);
+  /// Sets the position and the captured SH (nothing = not captured at the new position).
+  void setProbePositionRaw(uint64_t id, Vec3 p, const std::optional<ShRgb>& sh);
+  void setProbeLockedRaw(uint64_t id, bool locked);
+  void setRigRaw(const LightingRig& rig);
   uint64_t allocateId() { return set_.nextId++; }
 
  signals:
@@ -91,6 +122,7 @@ class Document : public QObject {
   void probeChanged(int row);
   void modifiedChanged(bool modified);
   void pathsChanged();
+  void rigChanged();
   /// Background work: a message and the fraction done in [0, 1].
   void jobProgress(const QString& message, double fraction);
   /// Background work finished; `error` is empty on success.
@@ -112,6 +144,8 @@ class Document : public QObject {
   bool autoPropose_ = true;
   ProposalSettings proposal_;
   bool busy_ = false;
+  int lastMergeKey_ = 0;
+  quint64 changeCount_ = 0;
   int generation_ = 0;  ///< bumped by every document replacement; stale jobs are dropped
   QFutureWatcher<std::shared_ptr<Proposal>>* watcher_ = nullptr;
   std::shared_ptr<std::atomic<bool>> jobCancel_;

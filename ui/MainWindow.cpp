@@ -12,14 +12,20 @@
 #include <QMenuBar>
 #include <QMessageBox>
 #include <QProgressBar>
+#include <QPushButton>
+#include <QSettings>
 #include <QSortFilterProxyModel>
 #include <QStatusBar>
 #include <QTableView>
+#include <QToolBar>
 #include <QUndoStack>
 
 #include "core/common/Error.h"
+#include "ui/Autosave.h"
 #include "ui/Document.h"
+#include "ui/InspectorPanel.h"
 #include "ui/ProbeTableModel.h"
+#include "ui/SurfacePlacement.h"
 #include "ui/Viewport.h"
 
 namespace ps::ui {
@@ -51,6 +57,12 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   dock->setWidget(table_);
   addDockWidget(Qt::RightDockWidgetArea, dock);
 
+  inspector_ = new InspectorPanel(doc_);
+  auto* inspectorDock = new QDockWidget(tr("Inspector"), this);
+  inspectorDock->setObjectName("inspectorDock");
+  inspectorDock->setWidget(inspector_);
+  addDockWidget(Qt::RightDockWidgetArea, inspectorDock);
+
   sceneLabel_ = new QLabel(tr("No scene"));
   trianglesLabel_ = new QLabel;
   probesLabel_ = new QLabel;
@@ -72,6 +84,9 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   connect(model_, &QAbstractItemModel::modelReset, this, &MainWindow::onTableSelectionChanged);
   connect(model_, &QAbstractItemModel::rowsRemoved, this, &MainWindow::onTableSelectionChanged);
   connect(viewport_, &Viewport::probeClicked, this, &MainWindow::onProbeClicked);
+  connect(viewport_, &Viewport::boxSelected, this, &MainWindow::onBoxSelected);
+  connect(viewport_, &Viewport::addProbeRequested, this,
+          [this](const PickRay& ray) { addProbeOnSurface(ray); });
   connect(doc_, &Document::modifiedChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateStatus);
@@ -108,6 +123,9 @@ void MainWindow::createActions() {
     if (!path.isEmpty()) openProbeSet(path);
   });
   a->setShortcut(QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_O));
+  recentMenu_ = file->addMenu(tr("Open &recent"));
+  connect(recentMenu_, &QMenu::aboutToShow, this, &MainWindow::rebuildRecentMenu);
+  rebuildRecentMenu();
   file->addSeparator();
   a = file->addAction(tr("&Save probe set"), this, [this] { save(); });
   a->setShortcut(QKeySequence::Save);
@@ -136,6 +154,21 @@ void MainWindow::createActions() {
   a->setShortcut(Qt::Key_C);
   a = edit->addAction(tr("&Delete selected"), this, [this] { doc_->deleteProbes(selectedIds()); });
   a->setShortcut(QKeySequence::Delete);
+  a = edit->addAction(tr("&Lock selected"), this, [this] { doc_->setLocked(selectedIds(), true); });
+  a->setShortcut(Qt::Key_L);
+  a = edit->addAction(tr("&Unlock selected"), this,
+                      [this] { doc_->setLocked(selectedIds(), false); });
+  a->setShortcut(QKeySequence(Qt::SHIFT | Qt::Key_L));
+  edit->addSeparator();
+  QAction* addTool = edit->addAction(tr("Add probes by clicking &surfaces"));
+  addTool->setCheckable(true);
+  addTool->setShortcut(Qt::Key_N);
+  connect(addTool, &QAction::toggled, this, [this](bool on) {
+    viewport_->setTool(on ? Viewport::Tool::AddProbe : Viewport::Tool::Select);
+    statusBar()->showMessage(on ? tr("Click a surface to add a probe (N to stop)") : QString());
+  });
+  a = edit->addAction(tr("Add probe at the &camera"), this, &MainWindow::addProbeAtCamera);
+  a->setShortcut(QKeySequence(Qt::SHIFT | Qt::Key_N));
   edit->addSeparator();
   a = edit->addAction(tr("Select a&ll"), table_, &QTableView::selectAll);
   a->setShortcut(QKeySequence::SelectAll);
@@ -151,6 +184,10 @@ void MainWindow::createActions() {
   a->setCheckable(true);
   a->setChecked(true);
   a->setShortcut(Qt::Key_P);
+  a = view->addAction(tr("Show re&jected probes"), viewport_, &Viewport::setRejectedVisible);
+  a->setCheckable(true);
+  a->setChecked(true);
+  a->setShortcut(Qt::Key_H);
   a = view->addAction(tr("C&ut-away"), viewport_, &Viewport::setCutaway);
   a->setCheckable(true);
   a->setChecked(true);
@@ -171,6 +208,126 @@ void MainWindow::createActions() {
   a = view->addAction(tr("&Auto exposure"), this, [this] { viewport_->setExposureStops(0); });
   view->addSeparator();
   view->addAction(findChild<QDockWidget*>("probesDock")->toggleViewAction());
+  view->addAction(findChild<QDockWidget*>("inspectorDock")->toggleViewAction());
+
+  QToolBar* tools = addToolBar(tr("Edit"));
+  tools->setObjectName("editToolBar");
+  tools->addAction(addTool);
+}
+
+QStringList MainWindow::recentFiles() const {
+  return QSettings().value("recentFiles").toStringList();
+}
+
+void MainWindow::addRecentFile(const QString& path) {
+  const QString abs = QFileInfo(path).absoluteFilePath();
+  QStringList list = recentFiles();
+  list.removeAll(abs);
+  list.prepend(abs);
+  while (list.size() > kMaxRecent) list.removeLast();
+  QSettings().setValue("recentFiles", list);
+}
+
+void MainWindow::rebuildRecentMenu() {
+  recentMenu_->clear();
+  const QStringList list = recentFiles();
+  for (int i = 0; i < list.size(); ++i) {
+    const QString path = list[i];
+    QAction* a =
+        recentMenu_->addAction(QStringLiteral("&%1 %2").arg(i + 1).arg(QFileInfo(path).fileName()),
+                               this, [this, path] { openRecent(path); });
+    a->setToolTip(path);
+    a->setStatusTip(path);
+  }
+  recentMenu_->setEnabled(!list.isEmpty());
+  if (!list.isEmpty()) {
+    recentMenu_->addSeparator();
+    recentMenu_->addAction(tr("Clear list"), this, [this] {
+      QSettings().remove("recentFiles");
+      rebuildRecentMenu();
+    });
+  }
+}
+
+bool MainWindow::openRecent(const QString& path) {
+  return path.endsWith(QLatin1String(".json"), Qt::CaseInsensitive) ? openProbeSet(path)
+                                                                    : openScene(path);
+}
+
+void MainWindow::startAutosave(const QString& folder, int intervalMs) {
+  delete autosave_;
+  autosaveFolder_ = folder;
+  autosave_ = new Autosave(doc_, folder, intervalMs, this);
+}
+
+bool MainWindow::offerRecovery(std::optional<int> answer) {
+  if (autosaveFolder_.isEmpty()) return false;
+  const auto orphans = Autosave::findOrphans(autosaveFolder_);
+  if (orphans.empty()) return false;
+  const Autosave::Orphan& o = orphans.front();
+  const QString what = o.originalSetPath.isEmpty() ? tr("an unsaved probe set")
+                                                   : QFileInfo(o.originalSetPath).fileName();
+  int choice = answer.value_or(0);
+  if (!answer) {
+    QMessageBox box(QMessageBox::Question, tr("Recover unsaved work"),
+                    tr("ProbeStudio did not close properly. Recover the changes to %1 (scene %2) "
+                       "autosaved at %3?")
+                        .arg(what, QFileInfo(o.scenePath).fileName(),
+                             o.savedAt.toLocalTime().toString(Qt::TextDate)),
+                    QMessageBox::Yes | QMessageBox::Discard | QMessageBox::Ignore, this);
+    box.button(QMessageBox::Yes)->setText(tr("Recover"));
+    box.button(QMessageBox::Ignore)->setText(tr("Not now"));
+    choice = box.exec();
+  }
+  if (choice == QMessageBox::Discard) {
+    Autosave::discard(o);
+    return false;
+  }
+  if (choice != QMessageBox::Yes) return false;
+  try {
+    doc_->recover(o.recoveryPath, o.originalSetPath);
+  } catch (const Error& e) {
+    showError(tr("Recover"), QString::fromStdString(e.what()));
+    return false;
+  }
+  Autosave::discard(o);  // this session's autosave owns the work now
+  if (autosave_) autosave_->saveNow();
+  viewport_->frameAll();
+  return true;
+}
+
+double MainWindow::surfaceOffsetMeters() const {
+  const Scene* scene = doc_->scene();
+  const double diag = scene ? scene->bounds.diagonal() : 10.0;
+  return std::clamp(diag * 0.03, 0.05, 1.0);
+}
+
+bool MainWindow::addProbeOnSurface(const PickRay& ray) {
+  const Tracer* tracer = doc_->tracer();
+  if (!tracer) return false;
+  const Vec3 o(ray.origin.x(), ray.origin.y(), ray.origin.z());
+  const Vec3 d(ray.direction.x(), ray.direction.y(), ray.direction.z());
+  const auto placed = placeOnSurface(*tracer, o, d, surfaceOffsetMeters());
+  if (!placed) {
+    statusBar()->showMessage(tr("No surface under the cursor"), 3000);
+    return false;
+  }
+  const uint64_t id = doc_->addManualProbe(placed->position, tr("Add probe on surface"));
+  selectIds({quint64(id)});
+  return true;
+}
+
+void MainWindow::addProbeAtCamera() {
+  if (!doc_->hasScene()) return;
+  const QVector3D e = viewport_->camera().eye();
+  const uint64_t id = doc_->addManualProbe(Vec3(e.x(), e.y(), e.z()), tr("Add probe at camera"));
+  selectIds({quint64(id)});
+}
+
+void MainWindow::onBoxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers mods) {
+  QSet<quint64> sel = (mods & Qt::ShiftModifier) ? viewport_->selection() : QSet<quint64>();
+  sel.unite(ids);
+  selectIds(sel);
 }
 
 void MainWindow::showError(const QString& title, const QString& message) {
@@ -187,6 +344,7 @@ bool MainWindow::openScene(const QString& path) {
     showError(tr("Open scene"), QString::fromStdString(e.what()));
     return false;
   }
+  addRecentFile(path);
   viewport_->frameAll();
   return true;
 }
@@ -199,6 +357,7 @@ bool MainWindow::openProbeSet(const QString& path) {
     showError(tr("Open probe set"), QString::fromStdString(e.what()));
     return false;
   }
+  addRecentFile(path);
   viewport_->frameAll();
   return true;
 }
@@ -211,6 +370,7 @@ bool MainWindow::save() {
     showError(tr("Save probe set"), QString::fromStdString(e.what()));
     return false;
   }
+  addRecentFile(doc_->probeSetPath());
   statusBar()->showMessage(tr("Saved %1").arg(doc_->probeSetPath()), 3000);
   return true;
 }
@@ -233,6 +393,7 @@ bool MainWindow::saveAs(const QString& given) {
     showError(tr("Save probe set"), QString::fromStdString(e.what()));
     return false;
   }
+  addRecentFile(path);
   return true;
 }
 
@@ -286,6 +447,7 @@ void MainWindow::onTableSelectionChanged() {
   QSet<quint64> ids;
   for (uint64_t id : selectedIds()) ids.insert(id);
   viewport_->setSelection(ids);
+  inspector_->setSelection(ids);
 }
 
 void MainWindow::selectIds(const QSet<quint64>& ids) {

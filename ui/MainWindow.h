@@ -3,18 +3,24 @@
 // Every action that can fail catches ps::Error and shows it; the document then stays as it was.
 #include <QMainWindow>
 #include <QSet>
+#include <QStringList>
 #include <optional>
 
+class QActionGroup;
 class QLabel;
+class QMenu;
 class QProgressBar;
 class QSortFilterProxyModel;
 class QTableView;
 
 namespace ps::ui {
 
+class Autosave;
 class Document;
+class InspectorPanel;
 class ProbeTableModel;
 class Viewport;
+struct PickRay;
 
 class MainWindow : public QMainWindow {
   Q_OBJECT
@@ -24,6 +30,8 @@ class MainWindow : public QMainWindow {
   Document* document() const { return doc_; }
   Viewport* viewport() const { return viewport_; }
   QTableView* probeTable() const { return table_; }
+  InspectorPanel* inspector() const { return inspector_; }
+  Autosave* autosave() const { return autosave_; }
 
   /// No prompts on close (screenshot and test runs).
   void setPromptOnClose(bool on) { promptOnClose_ = on; }
@@ -34,6 +42,28 @@ class MainWindow : public QMainWindow {
   bool openProbeSet(const QString& path);
   bool save();
   bool saveAs(const QString& path = {});
+
+  /// Recent files (probe sets and scenes, newest first, at most kMaxRecent), kept in QSettings
+  /// under "recentFiles". Successful opens and saves add to it.
+  static constexpr int kMaxRecent = 8;
+  QStringList recentFiles() const;
+  /// Opens a recent file: a .json as a probe set, anything else as a scene.
+  bool openRecent(const QString& path);
+
+  /// Starts autosaving into `folder` (Autosave.h) every `intervalMs`.
+  void startAutosave(const QString& folder, int intervalMs = 30000);
+  /// Looks for recovery files left by a crashed session in the autosave folder and offers the
+  /// newest (Recover / Discard / Not now). Returns true when one was recovered. With
+  /// `answer` set (tests, scripts) no dialog is shown: QMessageBox::Yes recovers, ::Discard
+  /// deletes the files, anything else keeps them.
+  bool offerRecovery(std::optional<int> answer = std::nullopt);
+
+  /// Adds a probe where the ray meets a surface (offset along the normal): the AddProbe tool.
+  bool addProbeOnSurface(const PickRay& ray);
+  /// Adds a probe at the camera's eye.
+  void addProbeAtCamera();
+  /// Offset of surface-placed probes from the surface, metres.
+  double surfaceOffsetMeters() const;
 
   /// Last error shown (or suppressed), for the command line and tests.
   QString lastError() const { return lastError_; }
@@ -53,6 +83,9 @@ class MainWindow : public QMainWindow {
   void onTableSelectionChanged();
   void onProbeClicked(std::optional<quint64> id, Qt::KeyboardModifiers mods);
   void selectIds(const QSet<quint64>& ids);
+  void onBoxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers mods);
+  void addRecentFile(const QString& path);
+  void rebuildRecentMenu();
 
   Document* doc_;
   Viewport* viewport_;
@@ -64,6 +97,10 @@ class MainWindow : public QMainWindow {
   QLabel* probesLabel_;
   QLabel* jobLabel_;
   QProgressBar* progress_;
+  InspectorPanel* inspector_;
+  Autosave* autosave_ = nullptr;
+  QString autosaveFolder_;
+  QMenu* recentMenu_ = nullptr;
   bool promptOnClose_ = true;
   bool quiet_ = false;
   bool syncingSelection_ = false;

@@ -84,4 +84,16 @@ void OrbitCamera::zoom(float steps) {
   distance *= std::pow(0.85f, steps);
 }
 
+void OrbitCamera::lookAround(float dxPixels, float dyPixels) {
+  const QVector3D e = eye();
+  // The eye sees the target along -backward(); turning the view right moves the target right.
+  yawDeg = std::fmod(yawDeg - dxPixels * 0.25f, 360.0f);
+  pitchDeg = std::clamp(pitchDeg + dyPixels * 0.25f, -89.0f, 89.0f);
+  target = e - backward() * distance;
+}
+
+void OrbitCamera::fly(float rightMeters, float upMeters, float forwardMeters) {
+  target += right() * rightMeters + QVector3D(0, 1, 0) * upMeters - backward() * forwardMeters;
+}
+
 }  // namespace ps::ui

@@ -32,6 +32,12 @@ struct OrbitCamera {
   void pan(float dxPixels, float dyPixels, float viewportHeightPixels);
   /// Wheel steps (positive = closer).
   void zoom(float steps);
+  /// Turns the view by pixel deltas like orbit() but about the eye, which stays in place (fly
+  /// mode mouse look).
+  void lookAround(float dxPixels, float dyPixels);
+  /// Moves eye and target together by `right`, `up` (world +Y) and `forward` metres, forward
+  /// being the view direction.
+  void fly(float rightMeters, float upMeters, float forwardMeters);
 };
 
 }  // namespace ps::ui

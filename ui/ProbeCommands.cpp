@@ -74,23 +74,60 @@ void AddProbesCommand::undo() {
   for (auto it = probes_.rbegin(); it != probes_.rend(); ++it) doc_->removeProbeRaw(it->id);
 }
 
-MoveProbeCommand::MoveProbeCommand(Document* doc, uint64_t id, Vec3 from, Vec3 to)
-    : doc_(doc), probeId_(id), from_(from), to_(to) {
-  setText(QStringLiteral("Move probe %1").arg(id));
+SetLockedCommand::SetLockedCommand(Document* doc, const std::vector<uint64_t>& ids, bool locked)
+    : doc_(doc), locked_(locked) {
+  for (uint64_t id : ids)
+    if (const Probe* p = doc->probe(id)) old_.emplace_back(id, p->locked);
+  setText(QStringLiteral("%1 %2").arg(locked ? "Lock" : "Unlock", plural(old_.size())));
 }
 
-void MoveProbeCommand::redo() {
-  doc_->setProbePositionRaw(probeId_, to_);
-}
-void MoveProbeCommand::undo() {
-  doc_->setProbePositionRaw(probeId_, from_);
+void SetLockedCommand::redo() {
+  for (const auto& [id, old] : old_) doc_->setProbeLockedRaw(id, locked_);
 }
 
-bool MoveProbeCommand::mergeWith(const QUndoCommand* other) {
-  const auto* o = static_cast<const MoveProbeCommand*>(other);
-  if (o->probeId_ != probeId_) return false;
-  to_ = o->to_;
+void SetLockedCommand::undo() {
+  for (const auto& [id, old] : old_) doc_->setProbeLockedRaw(id, old);
+}
+
+MoveProbesCommand::MoveProbesCommand(Document* doc,
+                                     const std::vector<std::pair<uint64_t, Vec3>>& targets,
+                                     int mergeKey)
+    : doc_(doc), mergeKey_(mergeKey) {
+  for (const auto& [id, to] : targets)
+    if (const Probe* p = doc->probe(id)) entries_.push_back({id, p->position, to, p->sh});
+  setText(entries_.size() == 1 ? QStringLiteral("Move probe %1").arg(entries_[0].id)
+                               : QStringLiteral("Move %1").arg(plural(entries_.size())));
+}
+
+void MoveProbesCommand::redo() {
+  for (const Entry& e : entries_) doc_->setProbePositionRaw(e.id, e.to, std::nullopt);
+}
+
+void MoveProbesCommand::undo() {
+  for (const Entry& e : entries_) doc_->setProbePositionRaw(e.id, e.from, e.fromSh);
+}
+
+bool MoveProbesCommand::mergeWith(const QUndoCommand* other) {
+  const auto* o = static_cast<const MoveProbesCommand*>(other);
+  if (mergeKey_ < 0 || o->mergeKey_ != mergeKey_ || o->entries_.size() != entries_.size())
+    return false;
+  for (size_t i = 0; i < entries_.size(); ++i)
+    if (o->entries_[i].id != entries_[i].id) return false;
+  for (size_t i = 0; i < entries_.size(); ++i) entries_[i].to = o->entries_[i].to;
   return true;
+}
+
+SetRigCommand::SetRigCommand(Document* doc, LightingRig rig, const QString& text)
+    : doc_(doc), old_(doc->probeSet().rig), new_(std::move(rig)) {
+  setText(text);
+}
+
+void SetRigCommand::redo() {
+  doc_->setRigRaw(new_);
+}
+
+void SetRigCommand::undo() {
+  doc_->setRigRaw(old_);
 }
 
 }  // namespace ps::ui

@@ -3,6 +3,7 @@
 // probes by stable id and call the document's raw mutators; they never hold row numbers across
 // other commands.
 #include <QUndoCommand>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -49,20 +50,57 @@ class AddProbesCommand : public QUndoCommand {
   std::vector<Probe> probes_;
 };
 
-/// Moves one probe; consecutive moves of the same probe merge (a drag is one undo step).
-class MoveProbeCommand : public QUndoCommand {
+/// Locks or unlocks several probes (placement keeps locked probes; the viewport will not drag
+/// them).
+class SetLockedCommand : public QUndoCommand {
+ public:
+  SetLockedCommand(Document* doc, const std::vector<uint64_t>& ids, bool locked);
+  void undo() override;
+  void redo() override;
+
+ private:
+  Document* doc_;
+  bool locked_;
+  std::vector<std::pair<uint64_t, bool>> old_;  ///< id, locked before
+};
+
+/// Moves several probes to new positions. Consecutive commands with the same non-negative merge
+/// key and the same probes merge into one undo step (a drag is one step; Qt's undoframework).
+/// Undo puts back the positions and the captured SH that the move discarded.
+class MoveProbesCommand : public QUndoCommand {
  public:
   static constexpr int kId = 1001;
-  MoveProbeCommand(Document* doc, uint64_t id, Vec3 from, Vec3 to);
+  struct Entry {
+    uint64_t id = 0;
+    Vec3 from, to;
+    std::optional<ShRgb> fromSh;  ///< the SH captured at `from`, restored by undo
+  };
+  /// `targets`: probe id and new position; unknown ids are skipped. A negative `mergeKey`
+  /// never merges.
+  MoveProbesCommand(Document* doc, const std::vector<std::pair<uint64_t, Vec3>>& targets,
+                    int mergeKey);
   void undo() override;
   void redo() override;
   int id() const override { return kId; }
   bool mergeWith(const QUndoCommand* other) override;
+  const std::vector<Entry>& entries() const { return entries_; }
 
  private:
   Document* doc_;
-  uint64_t probeId_;
-  Vec3 from_, to_;
+  int mergeKey_;
+  std::vector<Entry> entries_;
+};
+
+/// Replaces the lighting rig (sun, sky, extra lights) of the probe set.
+class SetRigCommand : public QUndoCommand {
+ public:
+  SetRigCommand(Document* doc, LightingRig rig, const QString& text);
+  void undo() override;
+  void redo() override;
+
+ private:
+  Document* doc_;
+  LightingRig old_, new_;
 };
 
 }  // namespace ps::ui

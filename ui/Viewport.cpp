@@ -1,14 +1,20 @@
 #include "ui/Viewport.h"
 
+#include <QGuiApplication>
+#include <QKeyEvent>
 #include <QMouseEvent>
 #include <QOpenGLContext>
+#include <QRubberBand>
+#include <QTimer>
 #include <QWheelEvent>
+#include <QtMath>
 #include <algorithm>
 #include <cmath>
 #include <map>
 
 #include "core/scene/Scene.h"
 #include "ui/Document.h"
+#include "ui/SurfacePlacement.h"
 
 namespace ps::ui {
 
@@ -142,6 +148,21 @@ void main() {
   fragColor = vec4(linearToSrgb(c), alpha);
 })";
 
+const char* kLineVs = R"(#version 330 core
+layout(location = 0) in vec3 aPos;
+layout(location = 1) in vec4 aColor;
+uniform mat4 uViewProj;
+out vec4 vColor;
+void main() {
+  vColor = aColor;
+  gl_Position = uViewProj * vec4(aPos, 1.0);
+})";
+
+const char* kLineFs = R"(#version 330 core
+in vec4 vColor;
+out vec4 fragColor;
+void main() { fragColor = vColor; })";
+
 /// True when at least 90% of the edges (vertices welded by position) are shared by exactly two
 /// triangles: the scene is made of closed solids, whose back faces are never seen uncut.
 bool isMostlyClosed(const Scene& scene) {
@@ -194,6 +215,11 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
   setFormat(surfaceFormat());
   setFocusPolicy(Qt::StrongFocus);
   setMinimumSize(160, 120);
+  flyTimer_ = new QTimer(this);
+  flyTimer_->setInterval(16);
+  connect(flyTimer_, &QTimer::timeout, this, [this] {
+    if (flyStep(0.016f)) update();
+  });
   connect(doc, &Document::sceneChanged, this, [this] {
     // Default 3/4 view from above, looking across the scene's longer horizontal side so it
     // spans the (landscape) frame.
@@ -233,6 +259,22 @@ void Viewport::setSelection(const QSet<quint64>& ids) {
 void Viewport::setProbesVisible(bool on) {
   probesVisible_ = on;
   update();
+}
+
+void Viewport::setRejectedVisible(bool on) {
+  rejectedVisible_ = on;
+  probesDirty_ = true;
+  update();
+}
+
+bool Viewport::isDrawn(const Probe& p) const {
+  return probesVisible_ &&
+         (rejectedVisible_ || p.state != ProbeState::Rejected || selection_.contains(p.id));
+}
+
+void Viewport::setTool(Tool t) {
+  tool_ = t;
+  setCursor(t == Tool::AddProbe ? Qt::CrossCursor : Qt::ArrowCursor);
 }
 
 void Viewport::setCutaway(bool on) {
@@ -351,15 +393,60 @@ std::optional<QPointF> Viewport::project(Vec3 world) const {
   return QPointF((x * 0.5 + 0.5) * width(), (0.5 - y * 0.5) * height());
 }
 
-std::optional<quint64> Viewport::pickProbe(QPointF pos) const {
+PickRay Viewport::pickRay(QPointF pos) const {
   const QMatrix4x4 inv = viewProjection().inverted();
   const float x = float(2.0 * pos.x() / std::max(width(), 1) - 1.0);
   const float y = float(1.0 - 2.0 * pos.y() / std::max(height(), 1));
   const QVector3D a = inv.map(QVector3D(x, y, -1.0f)), b = inv.map(QVector3D(x, y, 1.0f));
-  const QVector3D dir = (b - a).normalized();
+  return {a, (b - a).normalized()};
+}
+
+QSet<quint64> Viewport::probesInRect(const QRectF& r) const {
+  QSet<quint64> ids;
+  for (const Probe& p : doc_->probes()) {
+    if (!isDrawn(p)) continue;
+    const auto px = project(p.position);
+    if (px && r.contains(*px)) ids.insert(p.id);
+  }
+  return ids;
+}
+
+std::optional<QVector3D> Viewport::handleOrigin() const {
+  QVector3D sum;
+  int n = 0;
+  for (const Probe& p : doc_->probes())
+    if (selection_.contains(p.id) && !p.locked) {
+      sum += toQ(p.position);
+      ++n;
+    }
+  if (n == 0) return std::nullopt;
+  return sum / float(n);
+}
+
+float Viewport::handleArmMeters() const {
+  const auto o = handleOrigin();
+  if (!o) return 0.0f;
+  const float depth =
+      std::max(QVector3D::dotProduct(*o - camera_.eye(), -camera_.backward()), 1e-3f);
+  const float metresPerPixel = 2.0f * depth * std::tan(qDegreesToRadians(camera_.fovYDeg) * 0.5f) /
+                               float(std::max(height(), 1));
+  return 90.0f * metresPerPixel;
+}
+
+HandlePart Viewport::handlePartAt(QPointF pos) const {
+  const auto o = handleOrigin();
+  if (!o || tool_ != Tool::Select) return HandlePart::None;
+  return pickHandle(pos, *o, handleArmMeters(),
+                    [this](QVector3D w) { return project(Vec3(w.x(), w.y(), w.z())); });
+}
+
+std::optional<quint64> Viewport::pickProbe(QPointF pos) const {
+  const PickRay ray = pickRay(pos);
+  const QVector3D a = ray.origin, dir = ray.direction;
   std::optional<quint64> best;
   float bestT = std::numeric_limits<float>::infinity();
   for (const Probe& p : doc_->probes()) {
+    if (!isDrawn(p)) continue;
     // Ray-sphere with a little slack so small spheres are easy to hit.
     const float r = drawnRadius(p) * 1.3f;
     const QVector3D oc = a - toQ(p.position);
@@ -379,6 +466,7 @@ std::optional<quint64> Viewport::pickProbe(QPointF pos) const {
 // ---------------------------------------------------------------- GL
 
 void Viewport::initializeGL() {
+  if (!context() || !context()->isValid()) return;
   connect(context(), &QOpenGLContext::aboutToBeDestroyed, this, &Viewport::cleanup);
   initializeOpenGLFunctions();
 
@@ -418,6 +506,17 @@ void Viewport::initializeGL() {
   backgroundProgram_ = build(kBackgroundVs, kBackgroundFs, false);
   sceneProgram_ = build(kSceneVs, kSceneFs, true);
   probeProgram_ = build(kProbeVs, kProbeFs, true);
+  lineProgram_ = build(kLineVs, kLineFs, false);
+  glGenVertexArrays(1, &lineVao_);
+  glGenBuffers(1, &lineVbo_);
+  glBindVertexArray(lineVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, lineVbo_);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 7 * sizeof(float), nullptr);
+  glEnableVertexAttribArray(1);
+  glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, 7 * sizeof(float),
+                        reinterpret_cast<const void*>(3 * sizeof(float)));
+  glBindVertexArray(0);
 
   glGenVertexArrays(1, &emptyVao_);
 
@@ -479,6 +578,9 @@ void Viewport::cleanup() {
   glDeleteProgram(backgroundProgram_);
   glDeleteProgram(sceneProgram_);
   glDeleteProgram(probeProgram_);
+  glDeleteProgram(lineProgram_);
+  glDeleteVertexArrays(1, &lineVao_);
+  glDeleteBuffers(1, &lineVbo_);
   glDeleteVertexArrays(1, &emptyVao_);
   glDeleteVertexArrays(1, &sceneVao_);
   glDeleteBuffers(3, sceneVbo_);
@@ -547,7 +649,10 @@ void Viewport::uploadProbes() {
   std::vector<float> inst;
   const auto& probes = doc_->probes();
   inst.reserve(probes.size() * kInstanceFloats);
+  GLsizei count = 0;
   for (const Probe& p : probes) {
+    if (!isDrawn(p) && probesVisible_) continue;
+    ++count;
     const bool selected = selection_.contains(p.id);
     const float alpha = p.state == ProbeState::Rejected && !selected ? 0.45f : 1.0f;
     inst.insert(inst.end(),
@@ -559,7 +664,7 @@ void Viewport::uploadProbes() {
     }
     inst.push_back(0.0f);
   }
-  instanceCount_ = GLsizei(probes.size());
+  instanceCount_ = count;
   glBindBuffer(GL_ARRAY_BUFFER, instanceVbo_);
   glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(inst.size() * sizeof(float)), inst.data(),
                GL_DYNAMIC_DRAW);
@@ -571,6 +676,7 @@ void Viewport::resizeGL(int, int) {
 }
 
 void Viewport::paintGL() {
+  if (!glReady_) return;  // no context (e.g. a platform without OpenGL)
   if (framePending_) frameAll();
   if (sceneDirty_) uploadScene();
   if (probesDirty_) uploadProbes();
@@ -651,8 +757,62 @@ void Viewport::paintGL() {
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
   }
+  drawHandle(vp);
   glBindVertexArray(0);
   glUseProgram(0);
+}
+
+void Viewport::drawHandle(const QMatrix4x4& vp) {
+  const auto o = handleOrigin();
+  if (!o || tool_ != Tool::Select) return;
+  const float arm = handleArmMeters();
+  const QVector3D axes[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  const QVector4D colors[3] = {
+      {0.95f, 0.25f, 0.2f, 1}, {0.35f, 0.9f, 0.25f, 1}, {0.25f, 0.5f, 1.0f, 1}};
+  const HandlePart active = drag_ == Drag::Handle ? dragPart_ : HandlePart::None;
+  std::vector<float> lines, tris;
+  auto put = [](std::vector<float>& v, QVector3D p, QVector4D c) {
+    v.insert(v.end(), {p.x(), p.y(), p.z(), c.x(), c.y(), c.z(), c.w()});
+  };
+  const HandlePart arms[3] = {HandlePart::AxisX, HandlePart::AxisY, HandlePart::AxisZ};
+  const HandlePart planes[3] = {HandlePart::PlaneYZ, HandlePart::PlaneXZ, HandlePart::PlaneXY};
+  for (int i = 0; i < 3; ++i) {
+    const QVector4D c = active == arms[i] ? QVector4D(1, 0.95f, 0.3f, 1) : colors[i];
+    // The arm, drawn as a thin screen-facing quad so it reads at any line width.
+    const QVector3D e = *o + axes[i] * arm;
+    QVector3D side = QVector3D::crossProduct(axes[i], camera_.backward());
+    if (side.lengthSquared() < 1e-8f) side = camera_.right();
+    side = side.normalized() * arm * 0.015f;
+    for (const QVector3D& p : {*o - side, *o + side, e + side, *o - side, e + side, e - side})
+      put(tris, p, c);
+    // Arrow head.
+    const QVector3D h = *o + axes[i] * arm * 0.82f;
+    for (const QVector3D& p : {h - side * 4, e, h + side * 4}) put(tris, p, c);
+    // Plane square between the other two axes, translucent.
+    const QVector3D u = axes[(i + 1) % 3] * arm, v = axes[(i + 2) % 3] * arm;
+    QVector4D pc = colors[i];
+    pc.setW(active == planes[i] ? 0.75f : 0.35f);
+    const QVector3D q0 = *o + u * 0.2f + v * 0.2f, q1 = *o + u * 0.45f + v * 0.2f,
+                    q2 = *o + u * 0.45f + v * 0.45f, q3 = *o + u * 0.2f + v * 0.45f;
+    for (const QVector3D& p : {q0, q1, q2, q0, q2, q3}) put(tris, p, pc);
+    for (const QVector3D& p : {q0, q1, q1, q2, q2, q3, q3, q0}) put(lines, p, colors[i]);
+  }
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glEnable(GL_BLEND);
+  glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+  glUseProgram(lineProgram_);
+  glUniformMatrix4fv(glGetUniformLocation(lineProgram_, "uViewProj"), 1, GL_FALSE, vp.constData());
+  glBindVertexArray(lineVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, lineVbo_);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(tris.size() * sizeof(float)), tris.data(),
+               GL_STREAM_DRAW);
+  glDrawArrays(GL_TRIANGLES, 0, GLsizei(tris.size() / 7));
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(lines.size() * sizeof(float)), lines.data(),
+               GL_STREAM_DRAW);
+  glDrawArrays(GL_LINES, 0, GLsizei(lines.size() / 7));
+  glDisable(GL_BLEND);
+  glEnable(GL_DEPTH_TEST);
 }
 
 // ---------------------------------------------------------------- mouse
@@ -661,33 +821,185 @@ void Viewport::mousePressEvent(QMouseEvent* e) {
   pressPos_ = lastPos_ = e->position();
   pressButton_ = e->button();
   dragged_ = false;
+  drag_ = Drag::None;
+  if (e->button() == Qt::RightButton) {
+    drag_ = Drag::Look;
+    return;
+  }
+  if (e->button() != Qt::LeftButton) {
+    drag_ = Drag::Camera;
+    return;
+  }
+  if (tool_ == Tool::Select) {
+    const HandlePart part = handlePartAt(e->position());
+    if (part != HandlePart::None) {
+      drag_ = Drag::Handle;
+      dragPart_ = part;
+      dragOrigin_ = *handleOrigin();
+      dragStartRay_ = pickRay(e->position());
+      dragStart_.clear();
+      for (const Probe& p : doc_->probes())
+        if (selection_.contains(p.id) && !p.locked) dragStart_.emplace_back(p.id, p.position);
+      dragKey_ = doc_->newMergeKey();
+      update();
+      return;
+    }
+  }
+  drag_ = (e->modifiers() & Qt::ControlModifier) ? Drag::Box : Drag::Camera;
 }
 
 void Viewport::mouseMoveEvent(QMouseEvent* e) {
   const QPointF d = e->position() - lastPos_;
   lastPos_ = e->position();
   if ((e->position() - pressPos_).manhattanLength() > 3) dragged_ = true;
-  if (!dragged_) return;
-  const bool panning = (e->buttons() & Qt::MiddleButton) ||
-                       ((e->buttons() & Qt::LeftButton) && (e->modifiers() & Qt::ShiftModifier));
-  if (panning)
-    camera_.pan(float(d.x()), float(d.y()), float(height()));
-  else if (e->buttons() & Qt::LeftButton)
-    camera_.orbit(float(d.x()), float(d.y()));
-  else
-    return;
-  update();
+  if (!dragged_ || e->buttons() == Qt::NoButton) return;
+  switch (drag_) {
+    case Drag::Handle: {
+      const auto delta = dragDelta(dragPart_, dragOrigin_, dragStartRay_, pickRay(e->position()));
+      if (!delta) return;
+      const Vec3 dv(delta->x(), delta->y(), delta->z());
+      std::vector<std::pair<uint64_t, Vec3>> targets;
+      targets.reserve(dragStart_.size());
+      for (const auto& [id, from] : dragStart_) targets.emplace_back(id, from + dv);
+      doc_->moveProbes(targets, dragKey_);  // merges: the whole drag is one undo step
+      return;
+    }
+    case Drag::Box: {
+      if (!rubberBand_) rubberBand_ = new QRubberBand(QRubberBand::Rectangle, this);
+      rubberBand_->setGeometry(QRectF(pressPos_, e->position()).normalized().toRect());
+      rubberBand_->show();
+      return;
+    }
+    case Drag::Look:
+      camera_.lookAround(float(d.x()), float(d.y()));
+      update();
+      return;
+    case Drag::Camera: {
+      const bool panning =
+          (e->buttons() & Qt::MiddleButton) ||
+          ((e->buttons() & Qt::LeftButton) && (e->modifiers() & Qt::ShiftModifier));
+      if (panning)
+        camera_.pan(float(d.x()), float(d.y()), float(height()));
+      else if (e->buttons() & Qt::LeftButton)
+        camera_.orbit(float(d.x()), float(d.y()));
+      else
+        return;
+      update();
+      return;
+    }
+    case Drag::None:
+      return;
+  }
 }
 
 void Viewport::mouseReleaseEvent(QMouseEvent* e) {
-  if (e->button() == Qt::LeftButton && pressButton_ == Qt::LeftButton && !dragged_)
-    emit probeClicked(pickProbe(e->position()), e->modifiers());
+  const Drag drag = drag_;
+  if (e->button() == pressButton_) drag_ = Drag::None;
+  if (drag == Drag::Look) {
+    flyKeys_ = 0;
+    flyTimer_->stop();
+  }
+  if (drag == Drag::Box) {
+    if (rubberBand_) rubberBand_->hide();
+    if (dragged_) {
+      emit boxSelected(probesInRect(QRectF(pressPos_, e->position()).normalized()), e->modifiers());
+      pressButton_ = Qt::NoButton;
+      return;
+    }
+  }
+  if (drag == Drag::Handle) {
+    dragKey_ = -1;
+    update();
+  }
+  if (e->button() == Qt::LeftButton && pressButton_ == Qt::LeftButton && !dragged_ &&
+      drag != Drag::Handle) {
+    if (tool_ == Tool::AddProbe)
+      emit addProbeRequested(pickRay(e->position()));
+    else
+      emit probeClicked(pickProbe(e->position()), e->modifiers());
+  }
   pressButton_ = Qt::NoButton;
 }
 
 void Viewport::wheelEvent(QWheelEvent* e) {
   camera_.zoom(float(e->angleDelta().y()) / 120.0f);
   update();
+}
+
+// ---------------------------------------------------------------- fly (WASD)
+
+namespace {
+constexpr int kFlyKeys[] = {Qt::Key_W, Qt::Key_A, Qt::Key_S, Qt::Key_D, Qt::Key_Q, Qt::Key_E};
+int flyBit(int key) {
+  for (int i = 0; i < 6; ++i)
+    if (kFlyKeys[i] == key) return 1 << i;
+  return 0;
+}
+}  // namespace
+
+bool Viewport::isFlyKey(int key) const {
+  return drag_ == Drag::Look && flyBit(key) != 0;
+}
+
+float Viewport::flySpeed() const {
+  const Scene* scene = doc_->scene();
+  return scene && !scene->bounds.empty() ? float(scene->bounds.diagonal()) / 3.0f : 2.0f;
+}
+
+void Viewport::setFlyKey(int key, bool down) {
+  const int bit = flyBit(key);
+  if (down)
+    flyKeys_ |= unsigned(bit);
+  else
+    flyKeys_ &= ~unsigned(bit);
+  if (flyKeys_ && !flyTimer_->isActive()) flyTimer_->start();
+  if (!flyKeys_) flyTimer_->stop();
+}
+
+bool Viewport::flyStep(float seconds) {
+  const auto held = [this](int key) { return (flyKeys_ & unsigned(flyBit(key))) ? 1.0f : 0.0f; };
+  const float forward = held(Qt::Key_W) - held(Qt::Key_S);
+  const float right = held(Qt::Key_D) - held(Qt::Key_A);
+  const float up = held(Qt::Key_E) - held(Qt::Key_Q);
+  if (forward == 0 && right == 0 && up == 0) return false;
+  const float boost = (QGuiApplication::queryKeyboardModifiers() & Qt::ShiftModifier) ? 3.0f : 1.0f;
+  const float step = flySpeed() * boost * seconds;
+  camera_.fly(right * step, up * step, forward * step);
+  return true;
+}
+
+bool Viewport::event(QEvent* e) {
+  // While flying, W A S D Q E belong to the viewport, not to the window's shortcuts (A accepts).
+  if (e->type() == QEvent::ShortcutOverride) {
+    auto* k = static_cast<QKeyEvent*>(e);
+    if (isFlyKey(k->key())) {
+      e->accept();
+      return true;
+    }
+  }
+  return QOpenGLWidget::event(e);
+}
+
+void Viewport::keyPressEvent(QKeyEvent* e) {
+  if (isFlyKey(e->key())) {
+    if (!e->isAutoRepeat()) setFlyKey(e->key(), true);
+    return;
+  }
+  QOpenGLWidget::keyPressEvent(e);
+}
+
+void Viewport::keyReleaseEvent(QKeyEvent* e) {
+  if (flyBit(e->key())) {
+    if (!e->isAutoRepeat()) setFlyKey(e->key(), false);
+    return;
+  }
+  QOpenGLWidget::keyReleaseEvent(e);
+}
+
+void Viewport::focusOutEvent(QFocusEvent* e) {
+  flyKeys_ = 0;
+  flyTimer_->stop();
+  QOpenGLWidget::focusOutEvent(e);
 }
 
 }  // namespace ps::ui

@@ -11,7 +11,11 @@
 #include <vector>
 
 #include "core/io/ProbeSet.h"
+#include "ui/DragHandle.h"
 #include "ui/OrbitCamera.h"
+
+class QRubberBand;
+class QTimer;
 
 namespace ps::ui {
 
@@ -46,7 +50,35 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The drawn radius of a probe in metres (depends on its state and on the selection).
   float drawnRadius(const Probe& p) const;
 
+  /// What a left click does: select (and drag the move handle), or add a probe on the surface.
+  enum class Tool { Select, AddProbe };
+  void setTool(Tool t);
+  Tool tool() const { return tool_; }
+
+  /// The world ray through a widget pixel (origin on the near plane, unit direction).
+  PickRay pickRay(QPointF widgetPos) const;
+  /// Probes whose centres project inside the widget rectangle (hidden probes excluded).
+  QSet<quint64> probesInRect(const QRectF& widgetRect) const;
+
+  /// The move handle: at the centre of the selected, unlocked probes; nothing when there are
+  /// none. Its arm length in metres makes it about 90 pixels long on screen.
+  std::optional<QVector3D> handleOrigin() const;
+  float handleArmMeters() const;
+  /// The handle part under a widget pixel (None without a handle).
+  HandlePart handlePartAt(QPointF widgetPos) const;
+
+  /// Fly (WASD, Q/E down/up, Shift faster) while the right mouse button is held. Advances the
+  /// camera by `seconds` for the keys held; returns true when it moved.
+  bool flyStep(float seconds);
+  /// Fly speed in metres per second (a third of the scene diagonal per second by default).
+  float flySpeed() const;
+  void setFlyKey(int key, bool down);
+
   void setProbesVisible(bool on);
+  void setRejectedVisible(bool on);
+  bool rejectedVisible() const { return rejectedVisible_; }
+  /// True when the probe is drawn (and pickable) with the current toggles.
+  bool isDrawn(const Probe& p) const;
   bool probesVisible() const { return probesVisible_; }
   void setCutaway(bool on);
   bool cutaway() const { return cutaway_; }
@@ -67,6 +99,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
  signals:
   /// The user clicked in the viewport: the probe under the cursor (nothing = empty space).
   void probeClicked(std::optional<quint64> id, Qt::KeyboardModifiers modifiers);
+  /// Ctrl + drag drew a box: the probes inside it (Shift as well: add to the selection).
+  void boxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers modifiers);
+  /// In the AddProbe tool, the user clicked: the ray through the cursor.
+  void addProbeRequested(const ps::ui::PickRay& ray);
 
  protected:
   void initializeGL() override;
@@ -76,6 +112,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void mouseMoveEvent(QMouseEvent* e) override;
   void mouseReleaseEvent(QMouseEvent* e) override;
   void wheelEvent(QWheelEvent* e) override;
+  void keyPressEvent(QKeyEvent* e) override;
+  void keyReleaseEvent(QKeyEvent* e) override;
+  bool event(QEvent* e) override;
+  void focusOutEvent(QFocusEvent* e) override;
 
  private:
   void cleanup();
@@ -87,11 +127,15 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void updateBaseRadius();
   void updateAutoExposure();
   void onProbesChanged();
+  void drawHandle(const QMatrix4x4& vp);
+  bool isFlyKey(int key) const;
 
   Document* doc_;
   OrbitCamera camera_;
   QSet<quint64> selection_;
   bool probesVisible_ = true;
+  bool rejectedVisible_ = true;
+  Tool tool_ = Tool::Select;
   bool cutaway_ = true;
   float cutFraction_ = 0.75f;
   bool sceneClosed_ = false;
@@ -111,11 +155,23 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   GLuint sphereVao_ = 0, sphereVbo_ = 0, sphereIbo_ = 0, instanceVbo_ = 0;
   GLsizei sphereIndexCount_ = 0, instanceCount_ = 0;
   GLuint emptyVao_ = 0;
+  GLuint lineProgram_ = 0, lineVao_ = 0, lineVbo_ = 0;  // coloured lines and triangles
 
   // Mouse interaction.
   QPointF pressPos_, lastPos_;
   Qt::MouseButton pressButton_ = Qt::NoButton;
   bool dragged_ = false;
+  enum class Drag { None, Camera, Handle, Box, Look } drag_ = Drag::None;
+  // Handle drag: the part, where it started, the probes moved and their start positions.
+  HandlePart dragPart_ = HandlePart::None;
+  QVector3D dragOrigin_;
+  PickRay dragStartRay_;
+  std::vector<std::pair<uint64_t, Vec3>> dragStart_;
+  int dragKey_ = -1;
+  QRubberBand* rubberBand_ = nullptr;
+  // Fly keys held (bit per key) and the timer that moves the camera while any is held.
+  unsigned flyKeys_ = 0;
+  QTimer* flyTimer_ = nullptr;
 };
 
 }  // namespace ps::ui

@@ -10,6 +10,7 @@
 #include <QJsonDocument>
 #include <QJsonObject>
 #include <QRegularExpression>
+#include <QStandardPaths>
 #include <QTimer>
 #include <cstdio>
 #include <exception>
@@ -147,6 +148,10 @@ int main(int argc, char** argv) {
     w.show();
     if (!screenshot) {
       doc->setAutoPropose(true);
+      // Autosave, and offer what a crashed session left (Autosave.h).
+      w.startAutosave(QStandardPaths::writableLocation(QStandardPaths::AppLocalDataLocation) +
+                      "/recovery");
+      QTimer::singleShot(0, &w, [&w] { w.offerRecovery(); });
       return app.exec();
     }
     if (!doc->hasScene()) {

@@ -1,0 +1,375 @@
+// Editing in the editor, headless (QT_QPA_PLATFORM=offscreen): the move handle's constraints,
+// drags through real mouse events (one undo step each), box select, probes added on a surface
+// through the Embree tracer, the inspector, locks, fly keys, undo of a move restoring the SH.
+#include <QCheckBox>
+#include <QDoubleSpinBox>
+#include <QLabel>
+#include <QMouseEvent>
+#include <QSignalSpy>
+#include <QtTest>
+#include <random>
+
+#include "core/trace/Tracer.h"
+#include "ui/Document.h"
+#include "ui/DragHandle.h"
+#include "ui/InspectorPanel.h"
+#include "ui/IrradianceSphere.h"
+#include "ui/MainWindow.h"
+#include "ui/SurfacePlacement.h"
+#include "ui/Viewport.h"
+
+using namespace ps;
+using namespace ps::ui;
+
+namespace {
+const QString kScene = QStringLiteral(PS_SOURCE_DIR "/resources/scenes/two-rooms.gltf");
+
+/// Radiance arriving from straight above only (a small cap around +Y), as SH.
+ShRgb lightFromAbove() {
+  ShRgb sh;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0, 1);
+  const int n = 4000;
+  for (int i = 0; i < n; ++i) {
+    // Uniform sphere directions, radiance 1 where y > 0.8.
+    const double z = 2 * u(rng) - 1, phi = 2 * kPi * u(rng), r = std::sqrt(1 - z * z);
+    const Vec3 d(r * std::cos(phi), z, r * std::sin(phi));
+    if (d.y > 0.8) sh.addSample(d, Rgb(1, 1, 1), 4 * kPi / n);
+  }
+  return sh;
+}
+
+void send(QWidget* w, QEvent::Type type, QPointF pos, Qt::MouseButton button,
+          Qt::MouseButtons buttons, Qt::KeyboardModifiers mods = Qt::NoModifier) {
+  QMouseEvent e(type, pos, w->mapToGlobal(pos), button, buttons, mods);
+  QCoreApplication::sendEvent(w, &e);
+}
+
+/// A press at `from`, moves in `steps` to `to`, a release: what a user's drag sends.
+void drag(QWidget* w, QPointF from, QPointF to, Qt::MouseButton button = Qt::LeftButton,
+          Qt::KeyboardModifiers mods = Qt::NoModifier, int steps = 8) {
+  send(w, QEvent::MouseButtonPress, from, button, button, mods);
+  for (int i = 1; i <= steps; ++i)
+    send(w, QEvent::MouseMove, from + (to - from) * (double(i) / steps), Qt::NoButton, button,
+         mods);
+  send(w, QEvent::MouseButtonRelease, to, button, Qt::NoButton, mods);
+}
+
+QPointF toPoint(std::optional<QPointF> p) {
+  return p ? *p : QPointF(-1, -1);
+}
+Vec3 toV(QVector3D v) {
+  return Vec3(v.x(), v.y(), v.z());
+}
+}  // namespace
+
+class TestEditing : public QObject {
+  Q_OBJECT
+ private slots:
+  void initTestCase() {
+    if (!QFile::exists(kScene)) QSKIP("two-rooms.gltf not present");
+  }
+
+  void axisAndPlaneConstraintsKeepTheOtherComponents() {
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-1, 1);
+    const HandlePart parts[] = {HandlePart::AxisX,   HandlePart::AxisY,   HandlePart::AxisZ,
+                                HandlePart::PlaneYZ, HandlePart::PlaneXZ, HandlePart::PlaneXY};
+    int checked = 0;
+    for (int trial = 0; trial < 2000; ++trial) {
+      const QVector3D origin(u(rng) * 5, u(rng) * 5, u(rng) * 5);
+      const QVector3D eye = origin + QVector3D(u(rng), u(rng), u(rng)).normalized() * 6;
+      auto rayTo = [&](QVector3D p) { return PickRay{eye, (p - eye).normalized()}; };
+      const PickRay a = rayTo(origin + QVector3D(u(rng), u(rng), u(rng)) * 0.5f);
+      const PickRay b = rayTo(origin + QVector3D(u(rng), u(rng), u(rng)) * 0.5f);
+      for (HandlePart part : parts) {
+        const auto d = dragDelta(part, origin, a, b);
+        if (!d) continue;
+        ++checked;
+        const QVector3D axis = handleAxis(part);
+        if (isPlane(part)) {
+          QCOMPARE(QVector3D::dotProduct(*d, axis), 0.0f);
+        } else {
+          QCOMPARE((*d - axis * QVector3D::dotProduct(*d, axis)).length(), 0.0f);
+        }
+      }
+    }
+    QVERIFY(checked > 10000);
+    // An axis drag follows the cursor: the ray through a point of the axis gives that point.
+    const QVector3D o(1, 2, 3), eye(4, 6, 9);
+    const QVector3D target = o + QVector3D(0.7f, 0, 0);
+    const auto p = constrainedPoint(HandlePart::AxisX, o, {eye, (target - eye).normalized()});
+    QVERIFY(p && (*p - target).length() < 1e-4f);
+    // A ray parallel to the axis designates no point.
+    QVERIFY(!constrainedPoint(HandlePart::AxisX, o, {QVector3D(0, 2, 3), QVector3D(1, 0, 0)}));
+  }
+
+  void moveUndoRestoresPositionAndSh() {
+    Document doc;
+    doc.setAutoPropose(false);
+    doc.openScene(kScene);
+    Probe p;
+    p.position = Vec3(1, 1, 1);
+    p.sh = lightFromAbove();
+    const uint64_t id = doc.addProbes({p}, "Add").at(0);
+    const int before = doc.undoStack()->count();
+    const int key = doc.newMergeKey();
+    doc.moveProbes({{id, Vec3(1.5, 1, 1)}}, key);
+    QVERIFY(!doc.probe(id)->sh);  // the SH belonged to the old position
+    doc.moveProbes({{id, Vec3(2, 1, 1)}}, key);
+    QCOMPARE(doc.undoStack()->count(), before + 1);
+    // A new key is a new step.
+    doc.moveProbes({{id, Vec3(3, 1, 1)}}, doc.newMergeKey());
+    QCOMPARE(doc.undoStack()->count(), before + 2);
+    doc.undoStack()->undo();
+    QCOMPARE(doc.probe(id)->position, Vec3(2, 1, 1));
+    doc.undoStack()->undo();
+    QCOMPARE(doc.probe(id)->position, Vec3(1, 1, 1));
+    QVERIFY(doc.probe(id)->sh && *doc.probe(id)->sh == *p.sh);
+  }
+
+  void handleDragIsOneUndoStepAlongTheAxis() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(900, 700);
+    vp->frameAll();
+    const Vec3 c = doc->scene()->bounds.center();
+    Probe p;
+    p.position = c;
+    const uint64_t id = doc->addProbes({p, p}, "Add").at(0);
+    const uint64_t other = doc->probes().back().id;
+    doc->moveProbe(other, c + Vec3(0.5, 0.3, 0.2));
+    vp->setSelection({id});
+    const auto origin = vp->handleOrigin();
+    QVERIFY(origin);
+    QVERIFY((toV(*origin) - c).x == 0.0);
+    const float arm = vp->handleArmMeters();
+    QVERIFY(arm > 0);
+
+    for (HandlePart part : {HandlePart::AxisX, HandlePart::PlaneXZ}) {
+      const Vec3 start = doc->probe(id)->position;
+      const QVector3D o = *vp->handleOrigin();
+      const QVector3D grab = part == HandlePart::AxisX ? o + QVector3D(arm * 0.6f, 0, 0)
+                                                       : o + QVector3D(arm * 0.32f, 0, arm * 0.32f);
+      const QPointF from = toPoint(vp->project(toV(grab)));
+      QCOMPARE(vp->handlePartAt(from), part);
+      const int steps = doc->undoStack()->count();
+      drag(vp, from, from + QPointF(60, 25));
+      QCOMPARE(doc->undoStack()->count(), steps + 1);  // the whole drag: one undo step
+      const Vec3 moved = doc->probe(id)->position;
+      QVERIFY(length(moved - start) > 0.01);
+      if (part == HandlePart::AxisX) {
+        QCOMPARE(moved.y, start.y);
+        QCOMPARE(moved.z, start.z);
+      } else {
+        QCOMPARE(moved.y, start.y);
+      }
+      QCOMPARE(doc->probe(other)->position, c + Vec3(0.5, 0.3, 0.2));  // not selected
+      doc->undoStack()->undo();
+      QCOMPARE(doc->probe(id)->position, start);
+      doc->undoStack()->redo();
+      QCOMPARE(doc->probe(id)->position, moved);
+    }
+
+    // A locked probe has no handle and does not move.
+    doc->setLocked({id}, true);
+    QVERIFY(!vp->handleOrigin());
+    doc->undoStack()->undo();
+    QVERIFY(vp->handleOrigin());
+  }
+
+  void boxSelectPicksTheProbesInside() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(800, 600);
+    const Bounds3 b = doc->scene()->bounds;
+    std::vector<Probe> ps;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 3; ++j) {
+        Probe p;
+        p.position = Vec3(b.lo.x + (i + 0.5) * b.extent().x / 4, b.lo.y + 1.0,
+                          b.lo.z + (j + 0.5) * b.extent().z / 3);
+        ps.push_back(p);
+      }
+    const auto ids = doc->addProbes(ps, "Add");
+    vp->frameAll();
+    // Box around the left half of the probes (by projected x).
+    std::vector<double> xs;
+    for (uint64_t id : ids) xs.push_back(toPoint(vp->project(doc->probe(id)->position)).x());
+    std::vector<double> sorted = xs;
+    std::sort(sorted.begin(), sorted.end());
+    const double split = 0.5 * (sorted[5] + sorted[6]);
+    QSignalSpy box(vp, &Viewport::boxSelected);
+    drag(vp, QPointF(1, 1), QPointF(split, 599), Qt::LeftButton, Qt::ControlModifier);
+    QCOMPARE(box.count(), 1);
+    QSet<quint64> expected;
+    for (size_t i = 0; i < ids.size(); ++i)
+      if (xs[i] < split) expected.insert(ids[i]);
+    QCOMPARE(vp->selection(), expected);
+    QCOMPARE(w.inspector()->findChild<QLabel*>() != nullptr, true);
+    // Ctrl+Shift adds the rest; a Ctrl drag does not orbit the camera.
+    const QVector3D eye = vp->camera().eye();
+    drag(vp, QPointF(split, 1), QPointF(799, 599), Qt::LeftButton,
+         Qt::ControlModifier | Qt::ShiftModifier);
+    QCOMPARE(vp->selection().size(), qsizetype(ids.size()));
+    QCOMPARE(vp->camera().eye(), eye);
+  }
+
+  void surfaceClickPlacesAProbeOffsetAlongTheNormal() {
+    const Scene scene = loadScene(kScene.toStdString());
+    const Tracer tracer(scene);
+    const Bounds3 b = scene.bounds;
+    const Vec3 e = b.extent();
+    // Straight down inside room A: the floor (or the top of something standing on it).
+    const Vec3 origin(b.lo.x + 0.2 * e.x, b.lo.y + 0.7 * e.y, b.lo.z + 0.5 * e.z);
+    const auto s = placeOnSurface(tracer, origin, Vec3(0, -1, 0), 0.3);
+    QVERIFY(s);
+    QVERIFY(s->normal.y > 0.99);
+    QVERIFY(std::abs(length(s->position - s->hitPoint) - 0.3) < 1e-9);
+    QVERIFY(s->position.y > s->hitPoint.y);
+    // Seen from below (the ray hits the back of a floor or ceiling): the normal faces the viewer.
+    const auto up = placeOnSurface(tracer, origin, Vec3(0, 1, 0), 0.3);
+    QVERIFY(up && up->normal.y < -0.99 && up->position.y < up->hitPoint.y);
+    // An offset larger than the room: halfway to the opposite surface, inside the bounds.
+    const auto big = placeOnSurface(tracer, origin, Vec3(0, -1, 0), 50.0);
+    QVERIFY(big);
+    const auto across = tracer.intersect(Ray{big->hitPoint, big->normal, tracer.rayEpsilon()});
+    QVERIFY(across);
+    QVERIFY(std::abs(length(big->position - big->hitPoint) - 0.5 * across->t) < 1e-9);
+    QVERIFY(b.contains(big->position));
+    // A ray into the sky.
+    QVERIFY(!placeOnSurface(tracer, b.hi + Vec3(1, 1, 1), Vec3(0, 1, 0), 0.3));
+
+    // The AddProbe tool: a click adds one accepted, captured manual probe (one undo step).
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    w.document()->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(800, 600);
+    vp->frameAll();
+    vp->setTool(Viewport::Tool::AddProbe);
+    const QPointF centre(400, 300);
+    const PickRay ray = vp->pickRay(centre);
+    const auto expected = placeOnSurface(*w.document()->tracer(), toV(ray.origin),
+                                         toV(ray.direction), w.surfaceOffsetMeters());
+    QVERIFY(expected);
+    send(vp, QEvent::MouseButtonPress, centre, Qt::LeftButton, Qt::LeftButton);
+    send(vp, QEvent::MouseButtonRelease, centre, Qt::LeftButton, Qt::NoButton);
+    QCOMPARE(w.document()->probes().size(), size_t(1));
+    const Probe& added = w.document()->probes()[0];
+    QVERIFY(length(added.position - expected->position) < 1e-4);
+    QCOMPARE(added.state, ProbeState::Accepted);
+    QCOMPARE(added.method, std::string("manual"));
+    QVERIFY(added.sh.has_value());
+    QCOMPARE(vp->selection(), QSet<quint64>{added.id});
+    QCOMPARE(w.document()->undoStack()->count(), 1);
+
+    // At the camera.
+    w.addProbeAtCamera();
+    QCOMPARE(w.document()->probes().size(), size_t(2));
+    QVERIFY(length(w.document()->probes()[1].position - toV(vp->camera().eye())) < 1e-5);
+  }
+
+  void inspectorEditsThePositionAndShowsTheSh() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    Probe p;
+    p.position = Vec3(0.25, 1.5, -0.5);
+    p.method = "uniform";
+    p.score = 2.5;
+    p.sh = lightFromAbove();
+    const uint64_t id = doc->addProbes({p}, "Add").at(0);
+    InspectorPanel* in = w.inspector();
+    in->setSelection({id});
+    QCOMPARE(in->positionField(1)->value(), 1.5);
+    QCOMPARE(in->provenanceLabel()->text(), QStringLiteral("uniform"));
+    QCOMPARE(in->scoreLabel()->text(), QStringLiteral("2.5"));
+    // The irradiance sphere: lit from above, its top is brighter than its bottom.
+    const QImage img = in->sphereLabel()->pixmap().toImage();
+    QVERIFY(!img.isNull());
+    const int s = img.width();
+    QVERIFY(qGray(img.pixel(s / 2, s / 8)) > qGray(img.pixel(s / 2, s - s / 8)) + 40);
+    QCOMPARE(qAlpha(img.pixel(0, 0)), 0);  // outside the disc
+
+    const int steps = doc->undoStack()->count();
+    in->positionField(0)->setValue(1.0);
+    in->positionField(2)->setValue(2.0);
+    QCOMPARE(doc->probe(id)->position, Vec3(1.0, 1.5, 2.0));
+    QCOMPARE(doc->undoStack()->count(), steps + 2);  // each numeric edit is a step
+    doc->undoStack()->undo();
+    QCOMPARE(in->positionField(2)->value(), -0.5);  // the inspector follows undo
+
+    // Lock from the inspector: fields disabled, undoable.
+    in->lockBox()->click();
+    QVERIFY(doc->probe(id)->locked);
+    QVERIFY(!in->positionField(0)->isEnabled());
+    doc->undoStack()->undo();
+    QVERIFY(!doc->probe(id)->locked);
+    QVERIFY(in->positionField(0)->isEnabled());
+  }
+
+  void irradianceSphereOfAConstantEnvironmentIsUniform() {
+    // Constant radiance L: E(n) = pi L for every normal, so every disc pixel is the same.
+    ShRgb sh;
+    sh.c[0] = Rgb(1, 1, 1) * (1.0 / 0.282095);  // L = 1
+    const QImage img = renderIrradianceSphere(sh, 32, 0.5);
+    QRgb first = 0;
+    bool any = false;
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 32; ++x) {
+        const QRgb c = img.pixel(x, y);
+        if (qAlpha(c) == 0) continue;
+        if (!any) first = c, any = true;
+        QCOMPARE(c, first);
+      }
+    QVERIFY(any);
+  }
+
+  void wasdFliesWhileTheRightButtonIsHeld() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    w.document()->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(800, 600);
+    vp->frameAll();
+    const QVector3D eye0 = vp->camera().eye(), fwd = -vp->camera().backward();
+    // Without the right button W is not a fly key (A, R are the window's shortcuts).
+    QKeyEvent w0(QEvent::KeyPress, Qt::Key_W, Qt::NoModifier, "w");
+    QCoreApplication::sendEvent(vp, &w0);
+    QVERIFY(!vp->flyStep(0.5f));
+    send(vp, QEvent::MouseButtonPress, QPointF(400, 300), Qt::RightButton, Qt::RightButton);
+    QKeyEvent over(QEvent::ShortcutOverride, Qt::Key_A, Qt::NoModifier, "a");
+    QCoreApplication::sendEvent(vp, &over);
+    QVERIFY(over.isAccepted());  // A flies instead of accepting probes
+    QKeyEvent press(QEvent::KeyPress, Qt::Key_W, Qt::NoModifier, "w");
+    QCoreApplication::sendEvent(vp, &press);
+    QVERIFY(vp->flyStep(0.5f));
+    const QVector3D moved = vp->camera().eye() - eye0;
+    QVERIFY(std::abs(moved.length() - vp->flySpeed() * 0.5f) < 1e-3f * vp->flySpeed());
+    QVERIFY(QVector3D::dotProduct(moved.normalized(), fwd) > 0.9999f);
+    // Releasing the button stops flying.
+    send(vp, QEvent::MouseButtonRelease, QPointF(400, 300), Qt::RightButton, Qt::NoButton);
+    QVERIFY(!vp->flyStep(0.5f));
+  }
+};
+
+QTEST_MAIN(TestEditing)
+#include "test_editing.moc"

@@ -1,0 +1,117 @@
+#include "ui/InspectorPanel.h"
+
+#include <QCheckBox>
+#include <QDoubleSpinBox>
+#include <QFormLayout>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QPixmap>
+#include <QVBoxLayout>
+
+#include "ui/Document.h"
+#include "ui/IrradianceSphere.h"
+
+namespace ps::ui {
+
+InspectorPanel::InspectorPanel(Document* doc, QWidget* parent) : QWidget(parent), doc_(doc) {
+  auto* layout = new QVBoxLayout(this);
+  title_ = new QLabel;
+  QFont bold = title_->font();
+  bold.setBold(true);
+  title_->setFont(bold);
+  layout->addWidget(title_);
+  auto* form = new QFormLayout;
+  state_ = new QLabel;
+  method_ = new QLabel;
+  score_ = new QLabel;
+  shInfo_ = new QLabel;
+  locked_ = new QCheckBox(tr("Locked (placement keeps it, no dragging)"));
+  locked_->setTristate(false);
+  form->addRow(tr("State"), state_);
+  form->addRow(tr("Provenance"), method_);
+  form->addRow(tr("Score"), score_);
+  const char* names[3] = {"X", "Y", "Z"};
+  for (int i = 0; i < 3; ++i) {
+    pos_[i] = new QDoubleSpinBox;
+    pos_[i]->setRange(-1e6, 1e6);
+    pos_[i]->setDecimals(3);
+    pos_[i]->setSingleStep(0.05);
+    pos_[i]->setSuffix(QStringLiteral(" m"));
+    pos_[i]->setKeyboardTracking(false);  // one edit per Enter / focus change / arrow step
+    form->addRow(tr(names[i]), pos_[i]);
+    connect(pos_[i], &QDoubleSpinBox::valueChanged, this, &InspectorPanel::onPositionEdited);
+  }
+  form->addRow(QString(), locked_);
+  layout->addLayout(form);
+  sphere_ = new QLabel;
+  sphere_->setAlignment(Qt::AlignCenter);
+  sphere_->setMinimumSize(136, 136);
+  layout->addWidget(sphere_);
+  layout->addWidget(shInfo_);
+  layout->addStretch(1);
+
+  connect(locked_, &QCheckBox::clicked, this, [this](bool on) {
+    doc_->setLocked(std::vector<uint64_t>(ids_.begin(), ids_.end()), on);
+  });
+  connect(doc_, &Document::probeChanged, this, [this](int row) {
+    if (row >= 0 && row < int(doc_->probes().size()) &&
+        ids_.contains(doc_->probes()[size_t(row)].id))
+      refresh();
+  });
+  connect(doc_, &Document::probesReset, this, [this] { setSelection({}); });
+  connect(doc_, &Document::probeRemoved, this, &InspectorPanel::refresh);
+  refresh();
+}
+
+void InspectorPanel::setSelection(const QSet<quint64>& ids) {
+  ids_ = ids;
+  refresh();
+}
+
+void InspectorPanel::onPositionEdited() {
+  if (refreshing_ || ids_.size() != 1) return;
+  const Probe* p = doc_->probe(*ids_.begin());
+  if (!p || p->locked) return;
+  const Vec3 to(pos_[0]->value(), pos_[1]->value(), pos_[2]->value());
+  if (to == p->position) return;
+  doc_->moveProbe(p->id, to, doc_->newMergeKey());  // each numeric edit is its own undo step
+}
+
+void InspectorPanel::refresh() {
+  refreshing_ = true;
+  std::vector<const Probe*> sel;
+  for (quint64 id : ids_)
+    if (const Probe* p = doc_->probe(id)) sel.push_back(p);
+  const Probe* one = sel.size() == 1 ? sel[0] : nullptr;
+  title_->setText(sel.empty() ? tr("No probe selected")
+                  : one       ? tr("Probe %1").arg(one->id)
+                              : tr("%1 probes selected").arg(sel.size()));
+  state_->setText(one ? QString::fromLatin1(toString(one->state)) : QString());
+  method_->setText(one ? QString::fromStdString(one->method.empty() ? "unknown" : one->method)
+                       : QString());
+  score_->setText(one ? QString::number(one->score, 'g', 5) : QString());
+  for (int i = 0; i < 3; ++i) {
+    pos_[i]->setEnabled(one && !one->locked);
+    pos_[i]->setValue(one ? one->position[i] : 0.0);
+  }
+  int lockedCount = 0;
+  for (const Probe* p : sel) lockedCount += p->locked ? 1 : 0;
+  locked_->setEnabled(!sel.empty());
+  locked_->setChecked(!sel.empty() && lockedCount == int(sel.size()));
+  if (one && one->sh) {
+    const double exposure = autoExposureFor(*one->sh);
+    sphere_->setPixmap(QPixmap::fromImage(renderIrradianceSphere(*one->sh, 128, exposure)));
+    const Rgb e = one->sh->irradiance(Vec3(0, 1, 0));
+    shInfo_->setText(tr("Irradiance facing up: %1, %2, %3 W/m²")
+                         .arg(e.r, 0, 'g', 3)
+                         .arg(e.g, 0, 'g', 3)
+                         .arg(e.b, 0, 'g', 3));
+  } else {
+    sphere_->clear();
+    sphere_->setText(one ? tr("not captured at this position") : QString());
+    shInfo_->clear();
+  }
+  refreshing_ = false;
+}
+
+}  // namespace ps::ui
