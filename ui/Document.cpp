@@ -6,9 +6,11 @@
 #include <cmath>
 #include <filesystem>
 
+#include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/io/VolumeFile.h"
 #include "core/placement/Uniform.h"
 #include "core/trace/Tracer.h"
 #include "ui/ProbeCommands.h"
@@ -35,11 +37,16 @@ LoadedScene load(const QString& path) {
 }
 }  // namespace
 
-struct Document::Proposal {
+struct Document::JobResult {
+  QString kind;
   int generation = 0;
   double spacingMeters = 0;
   std::vector<Probe> probes;
-  QString error;  ///< capture or placement failure; probes may still be usable
+  PlacementRequest placement;
+  std::shared_ptr<const ProbeVolume> volume;
+  QString volumePath;
+  size_t bakedProbes = 0;
+  QString error;  ///< failure ("cancelled" when cancelled); probes may still be usable
 };
 
 Document::Document(QObject* parent) : QObject(parent) {
@@ -72,7 +79,12 @@ void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const
   ++changeCount_;
   emit probesReset();
   emit rigChanged();
-  if (sceneChanges) emit sceneChanged();
+  if (sceneChanges) {
+    volume_.reset();
+    volumePath_.clear();
+    emit volumeChanged();
+    emit sceneChanged();
+  }
   emit pathsChanged();
   emit modifiedChanged(false);
   if (busy_) {
@@ -270,99 +282,246 @@ void Document::setRigRaw(const LightingRig& rig) {
   emit rigChanged();
 }
 
-void Document::proposeCandidates() {
-  if (!tracer_ || busy_) return;
+void Document::requestCancel() {
+  if (jobCancel_) jobCancel_->store(true);
+}
+
+void Document::startJob(const QString& kind, const QString& firstMessage, JobFn work) {
   busy_ = true;
+  jobKind_ = kind;
   const int generation = generation_;
-  const ProposalSettings settings = proposal_;
-  const LightingRig rig = set_.rig;
-  std::shared_ptr<const Tracer> tracer = tracer_;
   jobCancel_ = std::make_shared<std::atomic<bool>>(false);
   auto cancel = jobCancel_;
   // Progress arrives from worker threads; it is forwarded (throttled) to the GUI thread. The
-  // job stops at its next progress report once cancelJob() set the flag; the document waits
-  // for it before it changes or dies, so `this` outlives the job.
+  // job stops at its next progress report once the flag is set; the document waits for it
+  // before it changes or dies, so `this` outlives the job.
   auto lastPercent = std::make_shared<std::atomic<int>>(-1);
-  auto report = [this, generation, lastPercent, cancel](const QString& what, double fraction) {
+  std::function<bool(QString, double)> report = [this, generation, lastPercent, cancel](
+                                                    const QString& what, double fraction) {
     if (cancel->load()) return false;
     const int percent = int(fraction * 100);
     if (lastPercent->exchange(percent) != percent)
       QMetaObject::invokeMethod(
           this,
           [this, what, fraction, generation] {
-            if (generation_ == generation) emit jobProgress(what, fraction);
+            if (generation_ == generation && busy_) emit jobProgress(what, fraction);
           },
           Qt::QueuedConnection);
     return true;
   };
-
-  emit jobProgress(tr("Proposing probes…"), 0.0);
+  emit jobProgress(firstMessage, 0.0);
   if (!watcher_) {
-    watcher_ = new QFutureWatcher<std::shared_ptr<Proposal>>(this);
-    connect(watcher_, &QFutureWatcherBase::finished, this, &Document::onProposalDone);
+    watcher_ = new QFutureWatcher<std::shared_ptr<JobResult>>(this);
+    connect(watcher_, &QFutureWatcherBase::finished, this, &Document::onJobDone);
   }
-  watcher_->setFuture(QtConcurrent::run([=]() -> std::shared_ptr<Proposal> {
-    auto result = std::make_shared<Proposal>();
+  watcher_->setFuture(QtConcurrent::run([=]() -> std::shared_ptr<JobResult> {
+    auto result = std::make_shared<JobResult>();
+    result->kind = kind;
     result->generation = generation;
     try {
-      const Bounds3 b = tracer->scene().bounds;
-      const Vec3 e = b.extent();
-      const double floor = std::max(b.diagonal() * 0.05, 1e-6);
-      const double volume = std::max(e.x, floor) * std::max(e.y, floor) * std::max(e.z, floor);
-      double spacing = std::cbrt(volume / settings.targetProbeCount);
-      std::vector<Vec3> points;
-      // Interior walls and validity culling remove points: adjust the spacing so the count
-      // lands in roughly [30, 150].
-      for (int attempt = 0; attempt < 4; ++attempt) {
-        UniformSettings us;
-        us.spacingMeters = spacing;
-        points = placeUniform(*tracer, us, [&](double f) {
-          return report(tr("Placing probes…"), 0.4 * (attempt + f) / 4.0);
-        });
-        const double n = double(points.size());
-        if (n >= 30 && n <= 150) break;
-        const double ratio = std::cbrt(std::max(n, 1.0) / settings.targetProbeCount);
-        spacing *= std::clamp(ratio, 0.5, 2.0);
-      }
-      result->spacingMeters = spacing;
-      for (const Vec3& p : points) {
-        Probe probe;
-        probe.position = p;
-        probe.method = "uniform";
-        result->probes.push_back(probe);
-      }
-      try {
-        CaptureSettings cs;
-        cs.samplesPerProbe = settings.samplesPerProbe;
-        const auto captures = captureProbes(*tracer, rig, points, cs, [&](double f) {
-          return report(tr("Capturing SH…"), 0.4 + 0.6 * f);
-        });
-        for (size_t i = 0; i < captures.size() && i < result->probes.size(); ++i)
-          result->probes[i].sh = captures[i].sh;
-      } catch (const Cancelled&) {
-        throw;
-      } catch (const Error& err) {
-        result->error = tr("Capture failed: %1").arg(QString::fromStdString(err.what()));
-      }
+      work(*result, report);
     } catch (const Cancelled&) {
       result->error = QStringLiteral("cancelled");
       result->probes.clear();
+      result->volume.reset();
     } catch (const std::exception& e) {
-      result->error = tr("Placement failed: %1").arg(QString::fromStdString(e.what()));
+      result->error = QString::fromStdString(e.what());
       result->probes.clear();
+      result->volume.reset();
     }
     return result;
   }));
 }
 
-void Document::onProposalDone() {
-  std::shared_ptr<Proposal> r = watcher_->result();
+namespace {
+/// Quick SH of candidates so that each shows its own light; a capture failure (no light) leaves
+/// them uncaptured and is reported in `error`.
+void captureQuickly(const Tracer& tracer, const LightingRig& rig, std::vector<Probe>& probes,
+                    int samples, const std::function<bool(QString, double)>& report, double from,
+                    QString& error) {
+  std::vector<Vec3> points;
+  for (const Probe& p : probes) points.push_back(p.position);
+  try {
+    CaptureSettings cs;
+    cs.samplesPerProbe = samples;
+    const auto captures = captureProbes(tracer, rig, points, cs, [&](double f) {
+      return report(QObject::tr("Capturing SH…"), from + (1 - from) * f);
+    });
+    for (size_t i = 0; i < captures.size() && i < probes.size(); ++i) probes[i].sh = captures[i].sh;
+  } catch (const Cancelled&) {
+    throw;
+  } catch (const Error& err) {
+    error = QObject::tr("Capture failed: %1").arg(QString::fromStdString(err.what()));
+  }
+}
+}  // namespace
+
+void Document::proposeCandidates() {
+  if (!tracer_ || busy_) return;
+  const ProposalSettings settings = proposal_;
+  const LightingRig rig = set_.rig;
+  std::shared_ptr<const Tracer> tracer = tracer_;
+  startJob("propose", tr("Proposing probes…"), [=](JobResult& result, const auto& report) {
+    const Bounds3 b = tracer->scene().bounds;
+    const Vec3 e = b.extent();
+    const double floor = std::max(b.diagonal() * 0.05, 1e-6);
+    const double volume = std::max(e.x, floor) * std::max(e.y, floor) * std::max(e.z, floor);
+    double spacing = std::cbrt(volume / settings.targetProbeCount);
+    std::vector<Vec3> points;
+    // Interior walls and validity culling remove points: adjust the spacing so the count
+    // lands in roughly [30, 150].
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      UniformSettings us;
+      us.spacingMeters = spacing;
+      points = placeUniform(*tracer, us, [&](double f) {
+        return report(tr("Placing probes…"), 0.4 * (attempt + f) / 4.0);
+      });
+      const double n = double(points.size());
+      if (n >= 30 && n <= 150) break;
+      const double ratio = std::cbrt(std::max(n, 1.0) / settings.targetProbeCount);
+      spacing *= std::clamp(ratio, 0.5, 2.0);
+    }
+    result.spacingMeters = spacing;
+    for (const Vec3& p : points) {
+      Probe probe;
+      probe.position = p;
+      probe.method = "uniform";
+      result.probes.push_back(probe);
+    }
+    captureQuickly(*tracer, rig, result.probes, settings.samplesPerProbe, report, 0.4,
+                   result.error);
+  });
+}
+
+bool Document::runPlacement(const PlacementRequest& request) {
+  if (!tracer_ || busy_) return false;
+  if (request.method != "uniform") return false;
+  if (request.budget <= 0 && !(request.spacingMeters > 0))
+    throw ParameterError("spacing: expected a positive number of metres");
+  if (request.budget > 0 && request.budget < 4)
+    throw ParameterError("budget: expected at least 4 probes (or 0 for no budget)");
+  const LightingRig rig = set_.rig;
+  std::shared_ptr<const Tracer> tracer = tracer_;
+  startJob("place", tr("Placing probes…"), [=](JobResult& result, const auto& report) {
+    result.placement = request;
+    UniformSettings us;
+    us.spacingMeters = request.spacingMeters;
+    auto placeProgress = [&](double f) { return report(tr("Placing probes…"), 0.5 * f); };
+    std::vector<Vec3> points;
+    if (request.budget > 0) {
+      UniformBudgetResult r = placeUniformBudget(*tracer, request.budget, us, placeProgress);
+      points = std::move(r.points);
+      result.spacingMeters = r.spacingMeters;
+    } else {
+      points = placeUniform(*tracer, us, placeProgress);
+      result.spacingMeters = request.spacingMeters;
+    }
+    for (const Vec3& p : points) {
+      Probe probe;
+      probe.position = p;
+      probe.method = request.method;
+      result.probes.push_back(probe);
+    }
+    captureQuickly(*tracer, rig, result.probes, request.samplesPerProbe, report, 0.5, result.error);
+  });
+  return true;
+}
+
+QString Document::volumePathFor(const QString& probeSetPath) {
+  QString base = probeSetPath;
+  for (const char* suffix : {".probes.json", ".json"})
+    if (base.endsWith(QLatin1String(suffix), Qt::CaseInsensitive)) {
+      base.chop(int(qstrlen(suffix)));
+      break;
+    }
+  return base + ".psv";
+}
+
+bool Document::bake(const BakeRequest& request) {
+  if (!tracer_ || busy_) return false;
+  if (setPath_.isEmpty())
+    throw ParameterError("bake: save the probe set first (the volume is saved beside it)");
+  size_t accepted = 0;
+  for (const Probe& p : set_.probes) accepted += p.state == ProbeState::Accepted ? 1 : 0;
+  if (accepted < 4)
+    throw ParameterError("bake: at least 4 probes must be accepted, " + std::to_string(accepted) +
+                         " are");
+  ProbeSet set = set_;
+  if (!scenePath_.isEmpty())
+    set.scenePath = std::filesystem::absolute(toPath(scenePath_)).lexically_normal().string();
+  const QString path = volumePathFor(setPath_);
+  std::shared_ptr<const Tracer> tracer = tracer_;
+  startJob("bake", tr("Baking…"), [=](JobResult& result, const auto& report) {
+    BakeSettings bs;
+    bs.capture.samplesPerProbe = request.samplesPerProbe;
+    BakeResult baked = bakeProbeSet(set, *tracer, bs, [&](double f) {
+      return report(tr("Baking %1 probes…").arg(accepted), 0.97 * f);
+    });
+    saveVolume(baked.file, toPath(path));  // atomic
+    result.bakedProbes = baked.probes;
+    result.volumePath = path;
+    result.volume = std::make_shared<const ProbeVolume>(std::move(baked.file.volume));
+  });
+  return true;
+}
+
+void Document::openVolume(const QString& path) {
+  VolumeFile f = loadVolume(toPath(path));  // throws; nothing changed yet
+  volume_ = std::make_shared<const ProbeVolume>(std::move(f.volume));
+  volumePath_ = path;
+  emit volumeChanged();
+}
+
+void Document::onJobDone() {
+  std::shared_ptr<JobResult> r = watcher_->result();
   if (!r || r->generation != generation_) return;  // stale: the document moved on
   busy_ = false;
-  set_.placement.method = "uniform";
-  set_.placement.spacingMeters = r->spacingMeters;
-  const QString text = tr("Propose %1 candidates").arg(r->probes.size());
-  if (!r->probes.empty()) addProbes(std::move(r->probes), text);
+  if (r->kind == QLatin1String("propose")) {
+    if (!r->probes.empty()) {
+      set_.placement.method = "uniform";
+      set_.placement.spacingMeters = r->spacingMeters;
+    }
+    const QString text = tr("Propose %1 candidates").arg(r->probes.size());
+    if (!r->probes.empty()) addProbes(std::move(r->probes), text);
+  } else if (r->kind == QLatin1String("place") && r->error != QLatin1String("cancelled") &&
+             (!r->probes.empty() || r->error.isEmpty())) {
+    set_.placement.method = r->placement.method;
+    set_.placement.spacingMeters = r->spacingMeters;
+    set_.placement.budget = r->placement.budget;
+    // Keep accepted, rejected and locked probes; replace the unlocked candidates.
+    std::vector<uint64_t> replaced;
+    std::vector<Vec3> kept;
+    for (const Probe& p : set_.probes) {
+      if (p.state == ProbeState::Candidate && !p.locked)
+        replaced.push_back(p.id);
+      else
+        kept.push_back(p.position);
+    }
+    const double minDist = 0.5 * r->spacingMeters;
+    std::vector<Probe> added;
+    for (Probe& p : r->probes) {
+      bool near = false;
+      for (const Vec3& k : kept)
+        if (length(k - p.position) < minDist) {
+          near = true;
+          break;
+        }
+      if (!near) {
+        p.id = allocateId();
+        added.push_back(std::move(p));
+      }
+    }
+    auto* macro = new QUndoCommand(tr("Place %1 candidates (%2)")
+                                       .arg(added.size())
+                                       .arg(QString::fromStdString(r->placement.method)));
+    if (!replaced.empty()) new DeleteProbesCommand(this, replaced, macro);
+    if (!added.empty()) new AddProbesCommand(this, std::move(added), QString(), macro);
+    undo_.push(macro);
+  } else if (r->kind == QLatin1String("bake") && r->volume) {
+    volume_ = r->volume;
+    volumePath_ = r->volumePath;
+    emit volumeChanged();
+  }
   emit jobProgress(QString(), 1.0);
   emit jobFinished(r->error);
 }

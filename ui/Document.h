@@ -7,6 +7,7 @@
 #include <QString>
 #include <QUndoStack>
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -17,7 +18,8 @@
 
 namespace ps {
 class Tracer;
-}
+struct ProbeVolume;
+}  // namespace ps
 
 namespace ps::ui {
 
@@ -25,6 +27,20 @@ namespace ps::ui {
 struct ProposalSettings {
   double targetProbeCount = 80;  ///< spacing = cbrt(volume of bounds / target)
   int samplesPerProbe = 64;      ///< quick SH capture
+};
+
+/// The placement panel's settings (issue 6, "placement panel"). The core has one method so far,
+/// "uniform" (core/placement/Uniform.h).
+struct PlacementRequest {
+  std::string method = "uniform";
+  double spacingMeters = 1.0;  ///< used when budget == 0
+  int budget = 0;              ///< > 0: the spacing giving about this many probes
+  int samplesPerProbe = 64;    ///< quick capture of the candidates, so they show their light
+};
+
+/// The bake's settings: the accepted probes captured at final quality.
+struct BakeRequest {
+  int samplesPerProbe = 1024;
 };
 
 class Document : public QObject {
@@ -100,6 +116,28 @@ class Document : public QObject {
   /// Starts uniform placement + quick capture; the result is pushed as one undo command.
   void proposeCandidates();
   bool isBusy() const { return busy_; }
+  /// What the running job is ("propose", "place", "bake"), empty when idle.
+  QString jobKind() const { return busy_ ? jobKind_ : QString(); }
+  /// Asks the running job to stop at its next progress report; jobFinished("cancelled") follows.
+  void requestCancel();
+
+  /// Runs a placement method in the background. When it finishes, one undo step replaces the
+  /// unlocked candidates by the new ones; accepted, rejected and locked probes are kept as they
+  /// are, and new points closer than half the spacing to a kept probe are dropped. Returns false
+  /// (and does nothing) when busy, without a tracer, or for an unknown method (ParameterError
+  /// thrown for bad numbers).
+  bool runPlacement(const PlacementRequest& request);
+  /// Bakes the accepted probes in the background (capture, tetrahedralization) and saves the
+  /// volume to volumePathFor(probeSetPath()). Needs a saved probe set; throws ParameterError when
+  /// there is none or fewer than 4 probes are accepted. On success volume() holds the result.
+  bool bake(const BakeRequest& request);
+  /// The volume file beside a probe set: "X.probes.json" and "X.json" give "X.psv".
+  static QString volumePathFor(const QString& probeSetPath);
+  /// The last volume baked (or loaded) for this document; null when none.
+  std::shared_ptr<const ProbeVolume> volume() const { return volume_; }
+  QString volumePath() const { return volumePath_; }
+  /// Loads a volume file for the preview and the overlays. Throws ps::Error.
+  void openVolume(const QString& path);
 
   // --- raw mutators used by the undo commands only (no undo, emit the change signals) ---
   void insertProbeRaw(int row, const Probe& p);
@@ -123,16 +161,20 @@ class Document : public QObject {
   void modifiedChanged(bool modified);
   void pathsChanged();
   void rigChanged();
+  /// volume() changed (baked, loaded, or dropped with the scene).
+  void volumeChanged();
   /// Background work: a message and the fraction done in [0, 1].
   void jobProgress(const QString& message, double fraction);
   /// Background work finished; `error` is empty on success.
   void jobFinished(const QString& error);
 
  private:
-  struct Proposal;
+  struct JobResult;
+  using JobFn = std::function<void(JobResult&, const std::function<bool(QString, double)>&)>;
+  void startJob(const QString& kind, const QString& firstMessage, JobFn work);
+  void onJobDone();
   void replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const Tracer> tracer,
                ProbeSet set, const QString& scenePath, const QString& setPath);
-  void onProposalDone();
   /// Stops the background job (if any) and waits for it.
   void cancelJob();
 
@@ -147,7 +189,10 @@ class Document : public QObject {
   int lastMergeKey_ = 0;
   quint64 changeCount_ = 0;
   int generation_ = 0;  ///< bumped by every document replacement; stale jobs are dropped
-  QFutureWatcher<std::shared_ptr<Proposal>>* watcher_ = nullptr;
+  QString jobKind_;
+  std::shared_ptr<const ProbeVolume> volume_;
+  QString volumePath_;
+  QFutureWatcher<std::shared_ptr<JobResult>>* watcher_ = nullptr;
   std::shared_ptr<std::atomic<bool>> jobCancel_;
 };
 

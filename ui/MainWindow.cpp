@@ -24,6 +24,8 @@
 #include "ui/Autosave.h"
 #include "ui/Document.h"
 #include "ui/InspectorPanel.h"
+#include "ui/LightingPanel.h"
+#include "ui/PlacementPanel.h"
 #include "ui/ProbeTableModel.h"
 #include "ui/SurfacePlacement.h"
 #include "ui/Viewport.h"
@@ -63,6 +65,21 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   inspectorDock->setWidget(inspector_);
   addDockWidget(Qt::RightDockWidgetArea, inspectorDock);
 
+  placement_ = new PlacementPanel(doc_);
+  auto* placementDock = new QDockWidget(tr("Placement and bake"), this);
+  placementDock->setObjectName("placementDock");
+  placementDock->setWidget(placement_);
+  addDockWidget(Qt::LeftDockWidgetArea, placementDock);
+  connect(placement_, &PlacementPanel::failed, this, &MainWindow::showError);
+
+  lighting_ = new LightingPanel(doc_);
+  auto* lightingDock = new QDockWidget(tr("Lighting"), this);
+  lightingDock->setObjectName("lightingDock");
+  lightingDock->setWidget(lighting_);
+  addDockWidget(Qt::LeftDockWidgetArea, lightingDock);
+  tabifyDockWidget(placementDock, lightingDock);
+  placementDock->raise();
+
   sceneLabel_ = new QLabel(tr("No scene"));
   trianglesLabel_ = new QLabel;
   probesLabel_ = new QLabel;
@@ -71,11 +88,15 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   progress_->setRange(0, 100);
   progress_->setMaximumWidth(160);
   progress_->hide();
+  cancelJob_ = new QPushButton(tr("Cancel"));
+  cancelJob_->hide();
+  connect(cancelJob_, &QPushButton::clicked, doc_, &Document::requestCancel);
   statusBar()->addWidget(sceneLabel_);
   statusBar()->addWidget(trianglesLabel_);
   statusBar()->addWidget(probesLabel_);
   statusBar()->addPermanentWidget(jobLabel_);
   statusBar()->addPermanentWidget(progress_);
+  statusBar()->addPermanentWidget(cancelJob_);
 
   createActions();
 
@@ -98,9 +119,13 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
     jobLabel_->setText(what);
     progress_->setValue(int(f * 100));
     progress_->setVisible(doc_->isBusy());
+    cancelJob_->setVisible(doc_->isBusy());
   });
   connect(doc_, &Document::jobFinished, this, [this](const QString& error) {
     progress_->hide();
+    cancelJob_ = new QPushButton(tr("Cancel"));
+    cancelJob_->hide();
+    connect(cancelJob_, &QPushButton::clicked, doc_, &Document::requestCancel);
     jobLabel_->clear();
     if (!error.isEmpty() && error != QLatin1String("cancelled"))
       showError(tr("Probe proposal"), error);
@@ -174,6 +199,27 @@ void MainWindow::createActions() {
   a->setShortcut(QKeySequence::SelectAll);
   a = edit->addAction(tr("Propose &candidates"), this, [this] { doc_->proposeCandidates(); });
 
+  QMenu* probes = menuBar()->addMenu(tr("&Probes"));
+  a = probes->addAction(tr("&Run placement"), this, [this] { placement_->run(); });
+  a->setShortcut(QKeySequence(Qt::CTRL | Qt::Key_R));
+  a = probes->addAction(tr("&Bake accepted probes"), this, [this] {
+    if (doc_->probeSetPath().isEmpty() && !saveAs()) return;
+    placement_->bake();
+  });
+  a->setShortcut(QKeySequence(Qt::CTRL | Qt::Key_B));
+  a = probes->addAction(tr("&Cancel background job"), doc_, &Document::requestCancel);
+  a->setShortcut(Qt::Key_Escape);
+  a = probes->addAction(tr("Open &volume…"), this, [this] {
+    const QString path =
+        QFileDialog::getOpenFileName(this, tr("Open volume"), {}, tr("Probe volumes (*.psv)"));
+    if (path.isEmpty()) return;
+    try {
+      doc_->openVolume(path);
+    } catch (const Error& e) {
+      showError(tr("Open volume"), QString::fromStdString(e.what()));
+    }
+  });
+
   QMenu* view = menuBar()->addMenu(tr("&View"));
   a = view->addAction(tr("&Frame all"), viewport_, &Viewport::frameAll);
   a->setShortcut(Qt::Key_F);
@@ -209,6 +255,8 @@ void MainWindow::createActions() {
   view->addSeparator();
   view->addAction(findChild<QDockWidget*>("probesDock")->toggleViewAction());
   view->addAction(findChild<QDockWidget*>("inspectorDock")->toggleViewAction());
+  view->addAction(findChild<QDockWidget*>("placementDock")->toggleViewAction());
+  view->addAction(findChild<QDockWidget*>("lightingDock")->toggleViewAction());
 
   QToolBar* tools = addToolBar(tr("Edit"));
   tools->setObjectName("editToolBar");

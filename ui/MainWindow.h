@@ -9,6 +9,7 @@
 class QActionGroup;
 class QLabel;
 class QMenu;
+class QPushButton;
 class QProgressBar;
 class QSortFilterProxyModel;
 class QTableView;
@@ -18,6 +19,8 @@ namespace ps::ui {
 class Autosave;
 class Document;
 class InspectorPanel;
+class LightingPanel;
+class PlacementPanel;
 class ProbeTableModel;
 class Viewport;
 struct PickRay;
@@ -31,6 +34,8 @@ class MainWindow : public QMainWindow {
   Viewport* viewport() const { return viewport_; }
   QTableView* probeTable() const { return table_; }
   InspectorPanel* inspector() const { return inspector_; }
+  PlacementPanel* placementPanel() const { return placement_; }
+  LightingPanel* lightingPanel() const { return lighting_; }
   Autosave* autosave() const { return autosave_; }
 
   /// No prompts on close (screenshot and test runs).
@@ -98,6 +103,9 @@ class MainWindow : public QMainWindow {
   QLabel* jobLabel_;
   QProgressBar* progress_;
   InspectorPanel* inspector_;
+  PlacementPanel* placement_;
+  LightingPanel* lighting_;
+  QPushButton* cancelJob_;
   Autosave* autosave_ = nullptr;
   QString autosaveFolder_;
   QMenu* recentMenu_ = nullptr;

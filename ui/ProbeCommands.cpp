@@ -38,8 +38,9 @@ void SetStateCommand::undo() {
   for (const auto& [id, old] : old_) doc_->setProbeStateRaw(id, old);
 }
 
-DeleteProbesCommand::DeleteProbesCommand(Document* doc, const std::vector<uint64_t>& ids)
-    : doc_(doc) {
+DeleteProbesCommand::DeleteProbesCommand(Document* doc, const std::vector<uint64_t>& ids,
+                                         QUndoCommand* parent)
+    : QUndoCommand(parent), doc_(doc) {
   for (uint64_t id : ids) {
     const int row = doc->indexOf(id);
     if (row >= 0) removed_.emplace_back(row, doc->probes()[row]);
@@ -61,8 +62,9 @@ void DeleteProbesCommand::undo() {
   for (const auto& [row, probe] : removed_) doc_->insertProbeRaw(row, probe);
 }
 
-AddProbesCommand::AddProbesCommand(Document* doc, std::vector<Probe> probes, const QString& text)
-    : doc_(doc), probes_(std::move(probes)) {
+AddProbesCommand::AddProbesCommand(Document* doc, std::vector<Probe> probes, const QString& text,
+                                   QUndoCommand* parent)
+    : QUndoCommand(parent), doc_(doc), probes_(std::move(probes)) {
   setText(text);
 }
 

@@ -29,7 +29,8 @@ class SetStateCommand : public QUndoCommand {
 /// Deletes several probes; undo puts them back at their rows with their ids.
 class DeleteProbesCommand : public QUndoCommand {
  public:
-  DeleteProbesCommand(Document* doc, const std::vector<uint64_t>& ids);
+  DeleteProbesCommand(Document* doc, const std::vector<uint64_t>& ids,
+                      QUndoCommand* parent = nullptr);
   void undo() override;
   void redo() override;
 
@@ -41,7 +42,8 @@ class DeleteProbesCommand : public QUndoCommand {
 /// Appends probes that already carry fresh ids.
 class AddProbesCommand : public QUndoCommand {
  public:
-  AddProbesCommand(Document* doc, std::vector<Probe> probes, const QString& text);
+  AddProbesCommand(Document* doc, std::vector<Probe> probes, const QString& text,
+                   QUndoCommand* parent = nullptr);
   void undo() override;
   void redo() override;
 

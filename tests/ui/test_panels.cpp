@@ -1,0 +1,238 @@
+// The placement / bake and lighting panels, headless (QT_QPA_PLATFORM=offscreen): placement in
+// the background keeps accepted, rejected and locked probes and is one undo step; cancel; bake
+// writes the volume beside the probe set; the lighting panel edits the rig (undoable).
+#include <QDoubleSpinBox>
+#include <QGroupBox>
+#include <QListWidget>
+#include <QPushButton>
+#include <QSignalSpy>
+#include <QSpinBox>
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include "core/io/VolumeFile.h"
+#include "core/traversal/ProbeVolume.h"
+#include "ui/Document.h"
+#include "ui/LightingPanel.h"
+#include "ui/MainWindow.h"
+#include "ui/PlacementPanel.h"
+
+using namespace ps;
+using namespace ps::ui;
+
+namespace {
+const QString kScene = QStringLiteral(PS_SOURCE_DIR "/resources/scenes/two-rooms.gltf");
+
+struct Window {
+  MainWindow w;
+  Document* doc;
+  Window() : doc(w.document()) {
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    doc->setAutoPropose(false);
+  }
+};
+
+QString waitForJob(Document* doc) {
+  QSignalSpy done(doc, &Document::jobFinished);
+  if (!done.wait(240000)) return QStringLiteral("timeout");
+  return done.at(0).at(0).toString();
+}
+}  // namespace
+
+class TestPanels : public QObject {
+  Q_OBJECT
+ private slots:
+  void initTestCase() {
+    if (!QFile::exists(kScene)) QSKIP("two-rooms.gltf not present");
+  }
+
+  void placementReplacesOnlyUnlockedCandidates() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    const Vec3 c = doc->scene()->bounds.center();
+    std::vector<Probe> mine(5);
+    for (size_t i = 0; i < mine.size(); ++i) {
+      mine[i].position = c + Vec3(0.37 * double(i), 0.11, 0.23);
+      mine[i].method = "manual";
+    }
+    const auto ids = doc->addProbes(mine, "Add");
+    doc->setStates({ids[0]}, ProbeState::Accepted);
+    doc->setStates({ids[1]}, ProbeState::Rejected);
+    doc->setLocked({ids[2]}, true);  // a locked candidate
+    // ids[3], ids[4]: unlocked candidates, replaced by the run.
+    std::vector<Probe> kept;
+    for (uint64_t id : {ids[0], ids[1], ids[2]}) kept.push_back(*doc->probe(id));
+    const size_t before = doc->probes().size();
+    const int steps = doc->undoStack()->count();
+
+    PlacementPanel* panel = win.w.placementPanel();
+    panel->spacingBox()->setValue(1.0);
+    panel->budgetBox()->setValue(0);
+    panel->captureSamplesBox()->setValue(16);
+    QVERIFY(panel->run());
+    QVERIFY(doc->isBusy());
+    QVERIFY(!panel->run());  // one job at a time
+    QCOMPARE(waitForJob(doc), QString());
+    QCOMPARE(doc->undoStack()->count(), steps + 1);
+    for (const Probe& k : kept) {
+      const Probe* p = doc->probe(k.id);
+      QVERIFY(p);
+      QCOMPARE(p->position, k.position);
+      QCOMPARE(p->state, k.state);
+      QCOMPARE(p->locked, k.locked);
+    }
+    QVERIFY(!doc->probe(ids[3]) && !doc->probe(ids[4]));
+    size_t added = 0;
+    for (const Probe& p : doc->probes()) {
+      if (p.method != "uniform") continue;
+      ++added;
+      QCOMPARE(p.state, ProbeState::Candidate);
+      QVERIFY(p.sh.has_value());
+      for (const Probe& k : kept) QVERIFY(length(p.position - k.position) >= 0.5);
+    }
+    QVERIFY(added >= 10);
+    QCOMPARE(doc->probeSet().placement.spacingMeters, 1.0);
+    // One undo step brings back exactly what was there.
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probes().size(), before);
+    QVERIFY(doc->probe(ids[3]) && doc->probe(ids[4]));
+
+    // A budget: the count is near it (placeUniformBudget: within 10 % when reachable).
+    panel->budgetBox()->setValue(40);
+    doc->deleteProbes({ids[0], ids[1], ids[2], ids[3], ids[4]});
+    QVERIFY(panel->run());
+    QCOMPARE(waitForJob(doc), QString());
+    const double n = double(doc->probes().size());
+    QVERIFY2(n >= 30 && n <= 50, qPrintable(QString::number(n)));
+    QCOMPARE(doc->probeSet().placement.budget, 40);
+  }
+
+  void cancelStopsTheJobAndChangesNothing() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    PlacementPanel* panel = win.w.placementPanel();
+    panel->spacingBox()->setValue(0.25);
+    panel->captureSamplesBox()->setValue(4096);  // long enough to cancel
+    QVERIFY(panel->run());
+    QVERIFY(panel->cancelButton()->isEnabled());
+    QSignalSpy done(doc, &Document::jobFinished);
+    panel->cancelButton()->click();
+    QVERIFY(done.wait(60000));
+    QCOMPARE(done.at(0).at(0).toString(), QStringLiteral("cancelled"));
+    QVERIFY(!doc->isBusy());
+    QCOMPARE(doc->probes().size(), size_t(0));
+    QCOMPARE(doc->undoStack()->count(), 0);
+    QVERIFY(!panel->cancelButton()->isEnabled());
+  }
+
+  void bakeSavesTheVolumeBesideTheProbeSet() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    PlacementPanel* panel = win.w.placementPanel();
+    QSignalSpy failed(panel, &PlacementPanel::failed);
+    // Nothing saved yet: refused with the reason.
+    QVERIFY(!panel->bake());
+    QCOMPARE(failed.count(), 1);
+    QVERIFY(failed.at(0).at(1).toString().contains("save the probe set"));
+
+    panel->budgetBox()->setValue(12);
+    panel->captureSamplesBox()->setValue(8);
+    QVERIFY(panel->run());
+    QCOMPARE(waitForJob(doc), QString());
+    QTemporaryDir dir;
+    const QString set = dir.filePath("rooms.probes.json");
+    QVERIFY(win.w.saveAs(set));
+    QVERIFY(!panel->bake());  // nothing accepted
+    QVERIFY(failed.at(1).at(1).toString().contains("accepted"));
+
+    // Accept all but one, plus a manual (accepted) probe above the first so the set is 3D.
+    std::vector<uint64_t> accepted;
+    for (const Probe& p : doc->probes()) accepted.push_back(p.id);
+    accepted.pop_back();
+    doc->setStates(accepted, ProbeState::Accepted);
+    accepted.push_back(
+        doc->addManualProbe(doc->probes()[0].position + Vec3(0.1, 0.6, 0.05), "Add"));
+    panel->bakeSamplesBox()->setValue(16);
+    QSignalSpy volumeChanged(doc, &Document::volumeChanged);
+    QVERIFY(panel->bake());
+    QCOMPARE(waitForJob(doc), QString());
+    const QString psv = dir.filePath("rooms.psv");
+    QCOMPARE(doc->volumePath(), psv);
+    QCOMPARE(volumeChanged.count(), 1);
+    QVERIFY(doc->volume());
+    QCOMPARE(doc->volume()->probeCount(), accepted.size());  // the accepted probes only
+    const VolumeFile f = loadVolume(psv.toStdString());
+    QCOMPARE(f.volume.probeCount(), accepted.size());
+    QCOMPARE(f.volume.tets.size(), doc->volume()->tets.size());
+    QCOMPARE(Document::volumePathFor("/a/b.json"), QStringLiteral("/a/b.psv"));
+  }
+
+  void lightingPanelEditsTheRig() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    LightingPanel* panel = win.w.lightingPanel();
+    QVERIFY(!panel->sunGroup()->isChecked());
+    const int steps = doc->undoStack()->count();
+    panel->sunGroup()->setChecked(true);
+    panel->sunAzimuth()->setValue(90);
+    panel->sunElevation()->setValue(30);
+    panel->sunIrradiance()->setValue(7);
+    const auto& rig = doc->probeSet().rig;
+    QCOMPARE(rig.lights.size(), size_t(1));
+    const Light& sun = rig.lights[0];
+    QCOMPARE(sun.type, LightType::Directional);
+    QCOMPARE(sun.name, std::string("sun"));
+    // It travels away from the sun: towards -X and down.
+    QVERIFY(length(sun.direction - Vec3(-std::cos(kPi / 6), -0.5, 0)) < 1e-9);
+    QCOMPARE(sun.intensity, Rgb(7, 7, 7));
+    QCOMPARE(doc->undoStack()->count(), steps + 4);
+    QVERIFY(doc->isModified());
+
+    panel->skyGroup()->setChecked(true);
+    panel->skyRadiance(2)->setValue(0.9);
+    QCOMPARE(doc->probeSet().rig.skyRadiance, Rgb(0.5, 0.5, 0.9));
+
+    panel->addPointButton()->click();
+    QCOMPARE(doc->probeSet().rig.lights.size(), size_t(2));
+    QCOMPARE(panel->pointList()->count(), 1);
+    panel->pointPosition(1)->setValue(2.25);
+    panel->pointIntensity()->setValue(40);
+    const Light& point = doc->probeSet().rig.lights[1];
+    QCOMPARE(point.type, LightType::Point);
+    QCOMPARE(point.position.y, 2.25);
+    QCOMPARE(point.intensity, Rgb(40, 40, 40));
+
+    // Undo walks back through the edits and the panel follows.
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probeSet().rig.lights[1].intensity, Rgb(10, 10, 10));
+    QCOMPARE(panel->pointIntensity()->value(), 10.0);
+    panel->removePointButton()->click();
+    QCOMPARE(doc->probeSet().rig.lights.size(), size_t(1));
+    doc->undoStack()->setIndex(steps);
+    QVERIFY(doc->probeSet().rig.empty());
+    QVERIFY(!panel->sunGroup()->isChecked());
+
+    // A rig set elsewhere (a loaded set) is shown: the sun's angles round-trip.
+    LightingRig r;
+    Light s;
+    s.type = LightType::Directional;
+    s.name = "sun";
+    s.direction = -LightingPanel::towardsSun(-120, 55);
+    s.intensity = Rgb(3, 2, 1);
+    r.lights.push_back(s);
+    doc->setRig(r, "Set");
+    QVERIFY(panel->sunGroup()->isChecked());
+    QCOMPARE(qRound(panel->sunAzimuth()->value()), -120);
+    QCOMPARE(qRound(panel->sunElevation()->value()), 55);
+    QCOMPARE(panel->sunIrradiance()->value(), 3.0);
+    QVERIFY(length(panel->rigFromWidgets().lights[0].direction - s.direction) < 1e-3);
+  }
+};
+
+QTEST_MAIN(TestPanels)
+#include "test_panels.moc"

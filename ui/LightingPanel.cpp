@@ -1,0 +1,212 @@
+#include "ui/LightingPanel.h"
+
+#include <QDoubleSpinBox>
+#include <QFormLayout>
+#include <QGroupBox>
+#include <QHBoxLayout>
+#include <QListWidget>
+#include <QPushButton>
+#include <QVBoxLayout>
+#include <QtMath>
+#include <cmath>
+
+#include "ui/Document.h"
+
+namespace ps::ui {
+
+namespace {
+QDoubleSpinBox* spin(double lo, double hi, double value, int decimals, const QString& suffix = {}) {
+  auto* s = new QDoubleSpinBox;
+  s->setRange(lo, hi);
+  s->setDecimals(decimals);
+  s->setValue(value);
+  s->setSuffix(suffix);
+  s->setKeyboardTracking(false);  // one change per Enter / focus change / arrow step
+  return s;
+}
+QWidget* row(QDoubleSpinBox* const (&boxes)[3]) {
+  auto* w = new QWidget;
+  auto* h = new QHBoxLayout(w);
+  h->setContentsMargins(0, 0, 0, 0);
+  for (QDoubleSpinBox* b : boxes) h->addWidget(b);
+  return w;
+}
+}  // namespace
+
+Vec3 LightingPanel::towardsSun(double azimuthDeg, double elevationDeg) {
+  const double az = qDegreesToRadians(azimuthDeg), el = qDegreesToRadians(elevationDeg);
+  return {std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az)};
+}
+
+LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), doc_(doc) {
+  auto* layout = new QVBoxLayout(this);
+
+  sunBox_ = new QGroupBox(tr("Sun"));
+  sunBox_->setCheckable(true);
+  auto* sunForm = new QFormLayout(sunBox_);
+  sunAz_ = spin(-360, 360, 30, 1, QStringLiteral("°"));
+  sunEl_ = spin(-90, 90, 45, 1, QStringLiteral("°"));
+  sunE_ = spin(0, 1e6, 5, 3, QStringLiteral(" W/m²"));
+  for (int i = 0; i < 3; ++i) sunColor_[i] = spin(0, 100, 1, 3);
+  sunForm->addRow(tr("Azimuth"), sunAz_);
+  sunForm->addRow(tr("Elevation"), sunEl_);
+  sunForm->addRow(tr("Irradiance"), sunE_);
+  sunForm->addRow(tr("Colour (RGB)"), row(sunColor_));
+  layout->addWidget(sunBox_);
+
+  skyBox_ = new QGroupBox(tr("Sky (constant radiance, W/m²/sr)"));
+  skyBox_->setCheckable(true);
+  auto* skyForm = new QFormLayout(skyBox_);
+  for (int i = 0; i < 3; ++i) sky_[i] = spin(0, 1e6, 0.5, 3);
+  skyForm->addRow(tr("RGB"), row(sky_));
+  layout->addWidget(skyBox_);
+
+  auto* pointBox = new QGroupBox(tr("Point lights"));
+  auto* pointLayout = new QVBoxLayout(pointBox);
+  points_ = new QListWidget;
+  points_->setMaximumHeight(90);
+  pointLayout->addWidget(points_);
+  auto* buttons = new QHBoxLayout;
+  addPoint_ = new QPushButton(tr("Add"));
+  removePoint_ = new QPushButton(tr("Remove"));
+  buttons->addWidget(addPoint_);
+  buttons->addWidget(removePoint_);
+  pointLayout->addLayout(buttons);
+  auto* pointForm = new QFormLayout;
+  for (int i = 0; i < 3; ++i) pointPos_[i] = spin(-1e6, 1e6, 0, 3);
+  pointI_ = spin(0, 1e9, 10, 3, QStringLiteral(" W/sr"));
+  for (int i = 0; i < 3; ++i) pointColor_[i] = spin(0, 100, 1, 3);
+  pointForm->addRow(tr("Position"), row(pointPos_));
+  pointForm->addRow(tr("Intensity"), pointI_);
+  pointForm->addRow(tr("Colour (RGB)"), row(pointColor_));
+  pointLayout->addLayout(pointForm);
+  layout->addWidget(pointBox);
+  layout->addStretch(1);
+
+  connect(sunBox_, &QGroupBox::toggled, this, [this] { apply(tr("Edit sun")); });
+  for (QDoubleSpinBox* s : {sunAz_, sunEl_, sunE_, sunColor_[0], sunColor_[1], sunColor_[2]})
+    connect(s, &QDoubleSpinBox::valueChanged, this, [this] { apply(tr("Edit sun")); });
+  connect(skyBox_, &QGroupBox::toggled, this, [this] { apply(tr("Edit sky")); });
+  for (QDoubleSpinBox* s : sky_)
+    connect(s, &QDoubleSpinBox::valueChanged, this, [this] { apply(tr("Edit sky")); });
+  for (QDoubleSpinBox* s : {pointPos_[0], pointPos_[1], pointPos_[2], pointI_, pointColor_[0],
+                            pointColor_[1], pointColor_[2]})
+    connect(s, &QDoubleSpinBox::valueChanged, this, [this] {
+      const int r = points_->currentRow();
+      if (refreshing_ || r < 0 || r >= int(pointLights_.size())) return;
+      Light& l = pointLights_[size_t(r)];
+      l.position = Vec3(pointPos_[0]->value(), pointPos_[1]->value(), pointPos_[2]->value());
+      l.intensity = Rgb(pointColor_[0]->value(), pointColor_[1]->value(), pointColor_[2]->value()) *
+                    pointI_->value();
+      apply(tr("Edit point light"));
+    });
+  connect(points_, &QListWidget::currentRowChanged, this, &LightingPanel::showPoint);
+  connect(addPoint_, &QPushButton::clicked, this, [this] {
+    Light l;
+    l.type = LightType::Point;
+    l.name = "point";
+    const Scene* scene = doc_->scene();
+    if (scene && !scene->bounds.empty()) l.position = scene->bounds.center();
+    l.intensity = Rgb(10, 10, 10);
+    pointLights_.push_back(l);
+    apply(tr("Add point light"));
+    points_->setCurrentRow(int(pointLights_.size()) - 1);
+  });
+  connect(removePoint_, &QPushButton::clicked, this, [this] {
+    const int r = points_->currentRow();
+    if (r < 0 || r >= int(pointLights_.size())) return;
+    pointLights_.erase(pointLights_.begin() + r);
+    apply(tr("Remove point light"));
+  });
+  connect(doc_, &Document::rigChanged, this, &LightingPanel::refresh);
+  refresh();
+}
+
+LightingRig LightingPanel::rigFromWidgets() const {
+  LightingRig rig;
+  rig.lights = otherLights_;
+  if (sunBox_->isChecked()) {
+    Light sun;
+    sun.type = LightType::Directional;
+    sun.name = "sun";
+    sun.direction = -towardsSun(sunAz_->value(), sunEl_->value());
+    sun.intensity =
+        Rgb(sunColor_[0]->value(), sunColor_[1]->value(), sunColor_[2]->value()) * sunE_->value();
+    rig.lights.push_back(sun);
+  }
+  rig.lights.insert(rig.lights.end(), pointLights_.begin(), pointLights_.end());
+  if (skyBox_->isChecked())
+    rig.skyRadiance = Rgb(sky_[0]->value(), sky_[1]->value(), sky_[2]->value());
+  return rig;
+}
+
+void LightingPanel::apply(const QString& text) {
+  if (refreshing_) return;
+  doc_->setRig(rigFromWidgets(), text);
+}
+
+void LightingPanel::refresh() {
+  refreshing_ = true;
+  const LightingRig& rig = doc_->probeSet().rig;
+  const Light* sun = nullptr;
+  pointLights_.clear();
+  otherLights_.clear();
+  for (const Light& l : rig.lights) {
+    if (l.type == LightType::Directional && !sun)
+      sun = &l;
+    else if (l.type == LightType::Point)
+      pointLights_.push_back(l);
+    else
+      otherLights_.push_back(l);
+  }
+  sunBox_->setChecked(sun != nullptr);
+  if (sun) {
+    const Vec3 t = -sun->direction / std::max(length(sun->direction), 1e-12);
+    sunEl_->setValue(qRadiansToDegrees(std::asin(std::clamp(t.y, -1.0, 1.0))));
+    sunAz_->setValue(qRadiansToDegrees(std::atan2(t.x, t.z)));
+    const double e = std::max({sun->intensity.r, sun->intensity.g, sun->intensity.b});
+    sunE_->setValue(e);
+    const Rgb c = e > 0 ? sun->intensity / e : Rgb(1, 1, 1);
+    sunColor_[0]->setValue(c.r), sunColor_[1]->setValue(c.g), sunColor_[2]->setValue(c.b);
+  }
+  skyBox_->setChecked(!rig.skyRadiance.isBlack());
+  if (!rig.skyRadiance.isBlack()) {
+    sky_[0]->setValue(rig.skyRadiance.r);
+    sky_[1]->setValue(rig.skyRadiance.g);
+    sky_[2]->setValue(rig.skyRadiance.b);
+  }
+  const int current = points_->currentRow();
+  points_->clear();
+  for (size_t i = 0; i < pointLights_.size(); ++i) {
+    const Light& l = pointLights_[i];
+    points_->addItem(tr("%1 %2 at (%3, %4, %5)")
+                         .arg(QString::fromStdString(l.name.empty() ? "point" : l.name))
+                         .arg(i + 1)
+                         .arg(l.position.x, 0, 'f', 2)
+                         .arg(l.position.y, 0, 'f', 2)
+                         .arg(l.position.z, 0, 'f', 2));
+  }
+  refreshing_ = false;
+  points_->setCurrentRow(std::min(current, int(pointLights_.size()) - 1));
+  showPoint(points_->currentRow());
+}
+
+void LightingPanel::showPoint(int r) {
+  const bool valid = r >= 0 && r < int(pointLights_.size());
+  for (QDoubleSpinBox* s : {pointPos_[0], pointPos_[1], pointPos_[2], pointI_, pointColor_[0],
+                            pointColor_[1], pointColor_[2]})
+    s->setEnabled(valid);
+  removePoint_->setEnabled(valid);
+  if (!valid) return;
+  const bool was = refreshing_;
+  refreshing_ = true;
+  const Light& l = pointLights_[size_t(r)];
+  for (int i = 0; i < 3; ++i) pointPos_[i]->setValue(l.position[i]);
+  const double e = std::max({l.intensity.r, l.intensity.g, l.intensity.b});
+  pointI_->setValue(e);
+  const Rgb c = e > 0 ? l.intensity / e : Rgb(1, 1, 1);
+  pointColor_[0]->setValue(c.r), pointColor_[1]->setValue(c.g), pointColor_[2]->setValue(c.b);
+  refreshing_ = was;
+}
+
+}  // namespace ps::ui

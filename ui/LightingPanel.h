@@ -1,0 +1,66 @@
+#pragma once
+// The lighting dock (issue 6, "a lighting panel to add and edit the sun, sky and lights of the
+// rig"): the probe set's LightingRig, edited as one undoable step per change
+// (Document::setRig). Conventions as the command line's --sun / --env / --point (README):
+//   sun: azimuth and elevation of the direction from the scene towards the sun, irradiance E
+//        (W/m^2) on a surface facing it, and a colour; stored as a Directional light named "sun"
+//        whose direction is the one the light travels (the negation);
+//   sky: a constant radiance per channel;
+//   point lights: position, radiant intensity (W/sr) and colour.
+#include <QWidget>
+
+#include "core/scene/LightingRig.h"
+
+class QDoubleSpinBox;
+class QGroupBox;
+class QListWidget;
+class QPushButton;
+
+namespace ps::ui {
+
+class Document;
+
+class LightingPanel : public QWidget {
+  Q_OBJECT
+ public:
+  explicit LightingPanel(Document* doc, QWidget* parent = nullptr);
+
+  /// The rig the widgets describe.
+  LightingRig rigFromWidgets() const;
+
+  /// The direction from the scene towards a sun at azimuth / elevation (degrees): azimuth 0 is
+  /// +Z, 90 is +X; elevation 90 is straight up (+Y).
+  static Vec3 towardsSun(double azimuthDeg, double elevationDeg);
+
+  // Widgets, for tests.
+  QGroupBox* sunGroup() const { return sunBox_; }
+  QDoubleSpinBox* sunAzimuth() const { return sunAz_; }
+  QDoubleSpinBox* sunElevation() const { return sunEl_; }
+  QDoubleSpinBox* sunIrradiance() const { return sunE_; }
+  QGroupBox* skyGroup() const { return skyBox_; }
+  QDoubleSpinBox* skyRadiance(int channel) const { return sky_[channel]; }
+  QListWidget* pointList() const { return points_; }
+  QPushButton* addPointButton() const { return addPoint_; }
+  QPushButton* removePointButton() const { return removePoint_; }
+  QDoubleSpinBox* pointPosition(int axis) const { return pointPos_[axis]; }
+  QDoubleSpinBox* pointIntensity() const { return pointI_; }
+
+ private:
+  void refresh();
+  void apply(const QString& text);
+  void showPoint(int row);
+
+  Document* doc_;
+  QGroupBox* sunBox_;
+  QDoubleSpinBox *sunAz_, *sunEl_, *sunE_, *sunColor_[3];
+  QGroupBox* skyBox_;
+  QDoubleSpinBox* sky_[3];
+  QListWidget* points_;
+  QPushButton *addPoint_, *removePoint_;
+  QDoubleSpinBox *pointPos_[3], *pointI_, *pointColor_[3];
+  std::vector<Light> pointLights_;  ///< the rig's point lights, as shown in the list
+  std::vector<Light> otherLights_;  ///< rig lights the panel does not edit (kept as they are)
+  bool refreshing_ = false;
+};
+
+}  // namespace ps::ui

@@ -1,0 +1,148 @@
+#include "ui/PlacementPanel.h"
+
+#include <QComboBox>
+#include <QDoubleSpinBox>
+#include <QFileInfo>
+#include <QFormLayout>
+#include <QGroupBox>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QProgressBar>
+#include <QPushButton>
+#include <QSpinBox>
+#include <QVBoxLayout>
+
+#include "core/common/Error.h"
+#include "ui/Document.h"
+
+namespace ps::ui {
+
+PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent), doc_(doc) {
+  auto* layout = new QVBoxLayout(this);
+  auto* placeBox = new QGroupBox(tr("Placement"));
+  auto* form = new QFormLayout(placeBox);
+  method_ = new QComboBox;
+  method_->addItem(QStringLiteral("uniform"));  // the core's placement methods
+  method_->setToolTip(tr("uniform: a grid minus the points inside geometry"));
+  spacing_ = new QDoubleSpinBox;
+  spacing_->setRange(0.01, 1000);
+  spacing_->setDecimals(2);
+  spacing_->setValue(1.0);
+  spacing_->setSuffix(QStringLiteral(" m"));
+  budget_ = new QSpinBox;
+  budget_->setRange(0, 1000000);
+  budget_->setSpecialValueText(tr("none (use spacing)"));
+  captureSpp_ = new QSpinBox;
+  captureSpp_->setRange(1, 1 << 16);
+  captureSpp_->setValue(64);
+  form->addRow(tr("Method"), method_);
+  form->addRow(tr("Spacing"), spacing_);
+  form->addRow(tr("Budget"), budget_);
+  form->addRow(tr("Preview samples"), captureSpp_);
+  run_ = new QPushButton(tr("Run placement"));
+  run_->setToolTip(
+      tr("Replaces the unlocked candidates; accepted, rejected and locked probes "
+         "stay"));
+  form->addRow(run_);
+  layout->addWidget(placeBox);
+
+  auto* bakeBox = new QGroupBox(tr("Bake"));
+  auto* bakeForm = new QFormLayout(bakeBox);
+  bakeSpp_ = new QSpinBox;
+  bakeSpp_->setRange(1, 1 << 20);
+  bakeSpp_->setValue(1024);
+  bakeForm->addRow(tr("Samples per probe"), bakeSpp_);
+  bake_ = new QPushButton(tr("Bake accepted probes"));
+  bakeForm->addRow(bake_);
+  volume_ = new QLabel;
+  volume_->setWordWrap(true);
+  bakeForm->addRow(volume_);
+  layout->addWidget(bakeBox);
+
+  auto* jobRow = new QHBoxLayout;
+  progress_ = new QProgressBar;
+  progress_->setRange(0, 100);
+  cancel_ = new QPushButton(tr("Cancel"));
+  jobRow->addWidget(progress_, 1);
+  jobRow->addWidget(cancel_);
+  layout->addLayout(jobRow);
+  status_ = new QLabel;
+  status_->setWordWrap(true);
+  layout->addWidget(status_);
+  layout->addStretch(1);
+
+  connect(run_, &QPushButton::clicked, this, [this] { run(); });
+  connect(bake_, &QPushButton::clicked, this, [this] { bake(); });
+  connect(cancel_, &QPushButton::clicked, doc_, &Document::requestCancel);
+  connect(doc_, &Document::jobProgress, this, [this](const QString& what, double f) {
+    status_->setText(what);
+    progress_->setValue(int(f * 100));
+    updateState();
+  });
+  connect(doc_, &Document::jobFinished, this, [this](const QString& error) {
+    status_->setText(error == QLatin1String("cancelled") ? tr("Cancelled") : error);
+    progress_->setValue(0);
+    updateState();
+  });
+  connect(doc_, &Document::volumeChanged, this, &PlacementPanel::updateState);
+  connect(doc_, &Document::sceneChanged, this, &PlacementPanel::updateState);
+  connect(doc_, &Document::pathsChanged, this, &PlacementPanel::updateState);
+  updateState();
+}
+
+PlacementRequest PlacementPanel::placementRequest() const {
+  PlacementRequest r;
+  r.method = method_->currentText().toStdString();
+  r.spacingMeters = spacing_->value();
+  r.budget = budget_->value();
+  r.samplesPerProbe = captureSpp_->value();
+  return r;
+}
+
+BakeRequest PlacementPanel::bakeRequest() const {
+  BakeRequest r;
+  r.samplesPerProbe = bakeSpp_->value();
+  return r;
+}
+
+bool PlacementPanel::run() {
+  try {
+    if (doc_->runPlacement(placementRequest())) {
+      updateState();
+      return true;
+    }
+  } catch (const Error& e) {
+    emit failed(tr("Placement"), QString::fromStdString(e.what()));
+    return false;
+  }
+  emit failed(tr("Placement"),
+              doc_->isBusy() ? tr("Another job is running.") : tr("Open a scene first."));
+  return false;
+}
+
+bool PlacementPanel::bake() {
+  try {
+    if (doc_->bake(bakeRequest())) {
+      updateState();
+      return true;
+    }
+  } catch (const Error& e) {
+    emit failed(tr("Bake"), QString::fromStdString(e.what()));
+    return false;
+  }
+  emit failed(tr("Bake"),
+              doc_->isBusy() ? tr("Another job is running.") : tr("Open a scene first."));
+  return false;
+}
+
+void PlacementPanel::updateState() {
+  const bool busy = doc_->isBusy();
+  run_->setEnabled(!busy && doc_->hasScene());
+  bake_->setEnabled(!busy && doc_->hasScene());
+  cancel_->setEnabled(busy);
+  progress_->setVisible(busy);
+  volume_->setText(doc_->volume() ? tr("Volume: %1").arg(QFileInfo(doc_->volumePath()).fileName())
+                                  : tr("Not baked yet"));
+}
+
+}  // namespace ps::ui
