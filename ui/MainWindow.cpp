@@ -1,6 +1,7 @@
 #include "ui/MainWindow.h"
 
 #include <QAction>
+#include <QActionGroup>
 #include <QApplication>
 #include <QCloseEvent>
 #include <QDockWidget>
@@ -252,6 +253,58 @@ void MainWindow::createActions() {
                       [this] { viewport_->setExposureStops(viewport_->exposureStops() - 0.5f); });
   a->setShortcut(Qt::Key_BracketLeft);
   a = view->addAction(tr("&Auto exposure"), this, [this] { viewport_->setExposureStops(0); });
+  view->addSeparator();
+  QToolBar* overlayBar = addToolBar(tr("Overlays"));
+  overlayBar->setObjectName("overlayToolBar");
+  a = view->addAction(tr("Probe &lighting preview"), viewport_, &Viewport::setPreviewLighting);
+  a->setCheckable(true);
+  a->setShortcut(Qt::Key_I);
+  a->setToolTip(tr("Shade surfaces with the probes' interpolated irradiance"));
+  overlayBar->addAction(a);
+  const struct {
+    Viewport::Overlay overlay;
+    const char* text;
+    QKeySequence key;
+  } overlays[] = {
+      {Viewport::Overlay::Glyphs, "&Gradient glyphs", QKeySequence(Qt::Key_G)},
+      {Viewport::Overlay::Slice, "&Slice plane", QKeySequence(Qt::Key_V)},
+      {Viewport::Overlay::TetMesh, "&Tetrahedral mesh", QKeySequence(Qt::Key_T)},
+      {Viewport::Overlay::TestObject, "Test &object", QKeySequence(Qt::Key_O)},
+  };
+  for (const auto& o : overlays) {
+    const Viewport::Overlay which = o.overlay;
+    a = view->addAction(tr(o.text), this,
+                        [this, which](bool on) { viewport_->setOverlay(which, on); });
+    a->setCheckable(true);
+    a->setShortcut(o.key);
+    overlayBar->addAction(a);
+  }
+  QMenu* slice = view->addMenu(tr("Slice"));
+  auto* sliceModes = new QActionGroup(this);
+  a = slice->addAction(tr("Luminance distance to the selected probe"), this,
+                       [this] { viewport_->setSliceMode(Viewport::SliceMode::LuminanceDistance); });
+  a->setCheckable(true);
+  a->setChecked(true);
+  sliceModes->addAction(a);
+  a = slice->addAction(tr("Interpolation error (accepted vs all captured)"), this,
+                       [this] { viewport_->setSliceMode(Viewport::SliceMode::Error); });
+  a->setCheckable(true);
+  sliceModes->addAction(a);
+  slice->addSeparator();
+  for (int axis = 0; axis < 3; ++axis) {
+    a = slice->addAction(tr("Across %1").arg(QChar('X' + axis)), this,
+                         [this, axis] { viewport_->setSliceAxis(axis); });
+  }
+  a = slice->addAction(tr("Move slice up"), this,
+                       [this] { viewport_->setSliceFraction(viewport_->sliceFraction() + 0.05f); });
+  a->setShortcut(QKeySequence(Qt::ALT | Qt::Key_Up));
+  a = slice->addAction(tr("Move slice down"), this,
+                       [this] { viewport_->setSliceFraction(viewport_->sliceFraction() - 0.05f); });
+  a->setShortcut(QKeySequence(Qt::ALT | Qt::Key_Down));
+  a = view->addAction(tr("Preview uses accepted probes only"), this, [this](bool on) {
+    viewport_->setPreviewSource(on ? PreviewSource::Accepted : PreviewSource::AllCaptured);
+  });
+  a->setCheckable(true);
   view->addSeparator();
   view->addAction(findChild<QDockWidget*>("probesDock")->toggleViewAction());
   view->addAction(findChild<QDockWidget*>("inspectorDock")->toggleViewAction());

@@ -1,5 +1,6 @@
 #include "ui/Viewport.h"
 
+#include <QByteArray>
 #include <QGuiApplication>
 #include <QKeyEvent>
 #include <QMouseEvent>
@@ -66,7 +67,28 @@ uniform usamplerBuffer uTriMaterial;  // material index per triangle
 uniform vec3 uEye;
 uniform float uClipY;  // cut-away: nothing above this height is drawn
 uniform int uCaps;     // 1: back faces are the insides of closed solids cut open: draw as caps
+uniform int uPreview;  // 1: "probe lighting": lit by the preview volume's SH grid
+uniform sampler3D uSh0, uSh1, uSh2, uSh3, uSh4, uSh5, uSh6;  // 27 floats A_l c_lm per cell
+uniform vec3 uGridLo;
+uniform vec3 uGridSize;
+uniform float uExposure;
 out vec4 fragColor;
+// Irradiance E(n) = sum A_l c_lm Y_lm(n) (Ramamoorthi & Hanrahan 2001) from the grid, trilinear.
+vec3 gridIrradiance(vec3 p, vec3 n) {
+  vec3 t = clamp((p - uGridLo) / uGridSize, 0.0, 1.0);
+  vec4 s0 = texture(uSh0, t), s1 = texture(uSh1, t), s2 = texture(uSh2, t), s3 = texture(uSh3, t);
+  vec4 s4 = texture(uSh4, t), s5 = texture(uSh5, t), s6 = texture(uSh6, t);
+  float f[28] = float[28](s0.x, s0.y, s0.z, s0.w, s1.x, s1.y, s1.z, s1.w, s2.x, s2.y, s2.z, s2.w,
+                          s3.x, s3.y, s3.z, s3.w, s4.x, s4.y, s4.z, s4.w, s5.x, s5.y, s5.z, s5.w,
+                          s6.x, s6.y, s6.z, s6.w);
+  float x = n.x, y = n.y, z = n.z;
+  float Y[9] = float[9](0.282095, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y,
+                        1.092548 * y * z, 0.315392 * (3.0 * z * z - 1.0), 1.092548 * x * z,
+                        0.546274 * (x * x - y * y));
+  vec3 e = vec3(0.0);
+  for (int i = 0; i < 9; ++i) e += vec3(f[3 * i], f[3 * i + 1], f[3 * i + 2]) * Y[i];
+  return e;
+}
 void main() {
   if (vWorld.y > uClipY) discard;
   if (uCaps == 1 && !gl_FrontFacing) {
@@ -79,6 +101,12 @@ void main() {
   vec3 n = normalize(vNormal);
   if (!gl_FrontFacing) n = -n;
   vec3 v = normalize(uEye - vWorld);
+  if (uPreview == 1) {
+    vec3 e = max(gridIrradiance(vWorld, n), 0.0);
+    vec3 lit = aces((albedo * e / 3.14159265 + emission) * uExposure);
+    fragColor = vec4(linearToSrgb(lit), 1.0);
+    return;
+  }
   vec3 key = normalize(vec3(0.35, 1.0, 0.55));
   // Display-referred preview lighting: ambient + headlight + a fixed key light from above.
   float light = 0.18 + 0.52 * max(dot(n, v), 0.0) + 0.30 * max(dot(n, key), 0.0);
@@ -244,6 +272,7 @@ Viewport::~Viewport() {
 
 void Viewport::onProbesChanged() {
   probesDirty_ = true;
+  fieldsDirty_ = true;
   updateBaseRadius();
   updateAutoExposure();
   update();
@@ -465,48 +494,49 @@ std::optional<quint64> Viewport::pickProbe(QPointF pos) const {
 
 // ---------------------------------------------------------------- GL
 
+GLuint Viewport::buildProgram(const char* vs, const char* fsBody, bool common) {
+  auto compile = [this](GLenum type, const QByteArray& src) {
+    const GLuint s = glCreateShader(type);
+    const char* p = src.constData();
+    glShaderSource(s, 1, &p, nullptr);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+      char log[4096];
+      glGetShaderInfoLog(s, sizeof log, nullptr, log);
+      qFatal("viewport shader failed to compile: %s", log);
+    }
+    return s;
+  };
+  QByteArray fs =
+      common ? QByteArray("#version 330 core\n") + kCommonGlsl + fsBody : QByteArray(fsBody);
+  const GLuint v = compile(GL_VERTEX_SHADER, vs), f = compile(GL_FRAGMENT_SHADER, fs);
+  const GLuint prog = glCreateProgram();
+  glAttachShader(prog, v);
+  glAttachShader(prog, f);
+  glLinkProgram(prog);
+  glDeleteShader(v);
+  glDeleteShader(f);
+  GLint ok = 0;
+  glGetProgramiv(prog, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[4096];
+    glGetProgramInfoLog(prog, sizeof log, nullptr, log);
+    qFatal("viewport shader failed to link: %s", log);
+  }
+  return prog;
+}
+
 void Viewport::initializeGL() {
   if (!context() || !context()->isValid()) return;
   connect(context(), &QOpenGLContext::aboutToBeDestroyed, this, &Viewport::cleanup);
   initializeOpenGLFunctions();
 
-  auto build = [this](const char* vs, const char* fsBody, bool common) {
-    auto compile = [this](GLenum type, const QByteArray& src) {
-      const GLuint s = glCreateShader(type);
-      const char* p = src.constData();
-      glShaderSource(s, 1, &p, nullptr);
-      glCompileShader(s);
-      GLint ok = 0;
-      glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-      if (!ok) {
-        char log[4096];
-        glGetShaderInfoLog(s, sizeof log, nullptr, log);
-        qFatal("viewport shader failed to compile: %s", log);
-      }
-      return s;
-    };
-    QByteArray fs =
-        common ? QByteArray("#version 330 core\n") + kCommonGlsl + fsBody : QByteArray(fsBody);
-    const GLuint v = compile(GL_VERTEX_SHADER, vs), f = compile(GL_FRAGMENT_SHADER, fs);
-    const GLuint prog = glCreateProgram();
-    glAttachShader(prog, v);
-    glAttachShader(prog, f);
-    glLinkProgram(prog);
-    glDeleteShader(v);
-    glDeleteShader(f);
-    GLint ok = 0;
-    glGetProgramiv(prog, GL_LINK_STATUS, &ok);
-    if (!ok) {
-      char log[4096];
-      glGetProgramInfoLog(prog, sizeof log, nullptr, log);
-      qFatal("viewport shader failed to link: %s", log);
-    }
-    return prog;
-  };
-  backgroundProgram_ = build(kBackgroundVs, kBackgroundFs, false);
-  sceneProgram_ = build(kSceneVs, kSceneFs, true);
-  probeProgram_ = build(kProbeVs, kProbeFs, true);
-  lineProgram_ = build(kLineVs, kLineFs, false);
+  backgroundProgram_ = buildProgram(kBackgroundVs, kBackgroundFs, false);
+  sceneProgram_ = buildProgram(kSceneVs, kSceneFs, true);
+  probeProgram_ = buildProgram(kProbeVs, kProbeFs, true);
+  lineProgram_ = buildProgram(kLineVs, kLineFs, false);
   glGenVertexArrays(1, &lineVao_);
   glGenBuffers(1, &lineVbo_);
   glBindVertexArray(lineVao_);
@@ -568,8 +598,9 @@ void Viewport::initializeGL() {
   }
   glBindVertexArray(0);
 
+  initOverlayGL();
   glReady_ = true;
-  sceneDirty_ = probesDirty_ = true;
+  sceneDirty_ = probesDirty_ = overlaysDirty_ = true;
 }
 
 void Viewport::cleanup() {
@@ -578,6 +609,7 @@ void Viewport::cleanup() {
   glDeleteProgram(backgroundProgram_);
   glDeleteProgram(sceneProgram_);
   glDeleteProgram(probeProgram_);
+  cleanupOverlayGL();
   glDeleteProgram(lineProgram_);
   glDeleteVertexArrays(1, &lineVao_);
   glDeleteBuffers(1, &lineVbo_);
@@ -680,6 +712,8 @@ void Viewport::paintGL() {
   if (framePending_) frameAll();
   if (sceneDirty_) uploadScene();
   if (probesDirty_) uploadProbes();
+  if (previewLighting_ || overlays_) updateFields();
+  if (overlaysDirty_) uploadOverlays();
 
   glClearColor(0, 0, 0, 1);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
@@ -722,6 +756,22 @@ void Viewport::paintGL() {
     glUniformMatrix4fv(glGetUniformLocation(sceneProgram_, "uViewProj"), 1, GL_FALSE,
                        vp.constData());
     glUniform3f(glGetUniformLocation(sceneProgram_, "uEye"), eye.x(), eye.y(), eye.z());
+    const bool preview = previewLighting_ && previewTexValid_;
+    glUniform1i(glGetUniformLocation(sceneProgram_, "uPreview"), preview ? 1 : 0);
+    glUniform1f(glGetUniformLocation(sceneProgram_, "uExposure"), exposure());
+    const Vec3 gridSize(previewGrid_.dims[0] * previewGrid_.cellMeters.x,
+                        previewGrid_.dims[1] * previewGrid_.cellMeters.y,
+                        previewGrid_.dims[2] * previewGrid_.cellMeters.z);
+    glUniform3f(glGetUniformLocation(sceneProgram_, "uGridLo"), float(previewGrid_.lo.x),
+                float(previewGrid_.lo.y), float(previewGrid_.lo.z));
+    glUniform3f(glGetUniformLocation(sceneProgram_, "uGridSize"), float(std::max(gridSize.x, 1e-6)),
+                float(std::max(gridSize.y, 1e-6)), float(std::max(gridSize.z, 1e-6)));
+    for (int i = 0; i < 7; ++i) {
+      glActiveTexture(GLenum(GL_TEXTURE2 + i));
+      glBindTexture(GL_TEXTURE_3D, previewTex_[i]);
+      const QByteArray name = "uSh" + QByteArray::number(i);
+      glUniform1i(glGetUniformLocation(sceneProgram_, name.constData()), 2 + i);
+    }
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_BUFFER, materialTex_);
     glUniform1i(glGetUniformLocation(sceneProgram_, "uMaterials"), 0);
@@ -757,6 +807,7 @@ void Viewport::paintGL() {
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
   }
+  drawOverlays(vp);
   drawHandle(vp);
   glBindVertexArray(0);
   glUseProgram(0);
@@ -845,6 +896,19 @@ void Viewport::mousePressEvent(QMouseEvent* e) {
       return;
     }
   }
+  if (tool_ == Tool::Select && overlay(Overlay::TestObject) && previewVolume_) {
+    // Press on the test object: drag it in the plane facing the camera.
+    const PickRay ray = pickRay(e->position());
+    const QVector3D oc = ray.origin - toQ(testObject_);
+    const float b = QVector3D::dotProduct(oc, ray.direction);
+    const float c = QVector3D::dotProduct(oc, oc) - testObjectRadius() * testObjectRadius();
+    if (b * b - c >= 0 && -b > 0) {
+      drag_ = Drag::TestObject;
+      testDragStart_ = testObject_;
+      dragStartRay_ = ray;
+      return;
+    }
+  }
   drag_ = (e->modifiers() & Qt::ControlModifier) ? Drag::Box : Drag::Camera;
 }
 
@@ -868,6 +932,21 @@ void Viewport::mouseMoveEvent(QMouseEvent* e) {
       if (!rubberBand_) rubberBand_ = new QRubberBand(QRubberBand::Rectangle, this);
       rubberBand_->setGeometry(QRectF(pressPos_, e->position()).normalized().toRect());
       rubberBand_->show();
+      return;
+    }
+    case Drag::TestObject: {
+      // Both rays meet the plane through the start position facing the camera.
+      const QVector3D n = camera_.backward(), o = toQ(testDragStart_);
+      auto hit = [&](const PickRay& r) -> std::optional<QVector3D> {
+        const float dn = QVector3D::dotProduct(r.direction, n);
+        if (std::abs(dn) < 1e-6f) return std::nullopt;
+        return r.origin + r.direction * (QVector3D::dotProduct(o - r.origin, n) / dn);
+      };
+      const auto a = hit(dragStartRay_), b = hit(pickRay(e->position()));
+      if (a && b) {
+        const QVector3D moved = *b - *a;
+        setTestObjectPosition(testDragStart_ + Vec3(moved.x(), moved.y(), moved.z()));
+      }
       return;
     }
     case Drag::Look:

@@ -12,6 +12,7 @@
 
 #include "core/io/ProbeSet.h"
 #include "ui/DragHandle.h"
+#include "ui/LightingField.h"
 #include "ui/OrbitCamera.h"
 
 class QRubberBand;
@@ -74,6 +75,46 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   float flySpeed() const;
   void setFlyKey(int key, bool down);
 
+  // ---- lighting preview and overlays (ViewportOverlays.cpp) ----
+  /// "Probe lighting": surfaces shaded by the preview volume's interpolated irradiance
+  /// (albedo x E(n) / pi, tone mapped), sampled on a grid of previewResolution() cells along the
+  /// longest side and filtered trilinearly on the GPU.
+  void setPreviewLighting(bool on);
+  bool previewLighting() const { return previewLighting_; }
+  enum class Overlay { Glyphs, Slice, TetMesh, TestObject };
+  void setOverlay(Overlay o, bool on);
+  bool overlay(Overlay o) const { return overlays_ & (1u << int(o)); }
+  /// Which probes the preview volume uses (accepted only, or all captured).
+  void setPreviewSource(PreviewSource s);
+  PreviewSource previewSource() const { return previewSource_; }
+  /// Cells along the longest side of the glyph grid (one glyph per cell).
+  void setGlyphResolution(int cells);
+  int glyphResolution() const { return glyphResolution_; }
+  /// Slice: axis (0 x, 1 y, 2 z) and position as a fraction of the scene's extent on that axis.
+  enum class SliceMode { LuminanceDistance, Error };
+  void setSliceMode(SliceMode m);
+  SliceMode sliceMode() const { return sliceMode_; }
+  void setSliceAxis(int axis);
+  int sliceAxis() const { return sliceAxis_; }
+  void setSliceFraction(float f);
+  float sliceFraction() const { return sliceFraction_; }
+  /// The slice's four corners in world space (scene bounds on the other two axes).
+  std::array<Vec3, 4> sliceCorners() const;
+  /// The test object (a sphere lit by the preview volume): centre and radius in metres.
+  void setTestObjectPosition(Vec3 p);
+  Vec3 testObjectPosition() const { return testObject_; }
+  float testObjectRadius() const;
+  /// The preview volume (nothing when fewer than 4 probes span 3D) and the derived data, brought
+  /// up to date with the document first.
+  const std::optional<ProbeVolume>& previewVolume();
+  /// Glyph centres and f vectors (for the screenshot's sidecar and tests).
+  const ShGrid& glyphGrid();
+  /// The tetrahedron around the test object (-1 without a volume).
+  int32_t testObjectTet();
+  /// Renders one frame into the widget's framebuffer now (makeCurrent, paintGL, glFinish);
+  /// for the frame-time benchmark.
+  void renderNow();
+
   void setProbesVisible(bool on);
   void setRejectedVisible(bool on);
   bool rejectedVisible() const { return rejectedVisible_; }
@@ -128,12 +169,39 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void updateAutoExposure();
   void onProbesChanged();
   void drawHandle(const QMatrix4x4& vp);
+  void updateFields();
+  void uploadOverlays();
+  void drawOverlays(const QMatrix4x4& vp);
+  void drawLines(const std::vector<float>& xyzrgba, GLenum mode, const QMatrix4x4& vp);
+  QImage renderSliceImage(int size);
+  void initOverlayGL();
+  /// Compiles and links a program; `common` prepends the version line and kCommonGlsl to the
+  /// fragment shader. A shader that fails is a bug (qFatal with the log).
+  GLuint buildProgram(const char* vs, const char* fsBody, bool common);
+  void cleanupOverlayGL();
   bool isFlyKey(int key) const;
 
   Document* doc_;
   OrbitCamera camera_;
   QSet<quint64> selection_;
   bool probesVisible_ = true;
+  bool previewLighting_ = false;
+  unsigned overlays_ = 0;
+  PreviewSource previewSource_ = PreviewSource::AllCaptured;
+  int glyphResolution_ = 20;
+  int previewResolution_ = 40;
+  SliceMode sliceMode_ = SliceMode::LuminanceDistance;
+  int sliceAxis_ = 1;
+  float sliceFraction_ = 0.35f;
+  Vec3 testObject_;
+  bool testObjectPlaced_ = false;
+  // Derived lighting data (LightingField.h), rebuilt when fieldsDirty_.
+  bool fieldsDirty_ = true, overlaysDirty_ = true;
+  std::optional<ProbeVolume> previewVolume_, referenceVolume_;
+  ShGrid glyphGrid_, previewGrid_;
+  std::vector<std::array<int32_t, 2>> edges_;
+  std::vector<uint8_t> leaks_;
+  int32_t testTetHint_ = -1;
   bool rejectedVisible_ = true;
   Tool tool_ = Tool::Select;
   bool cutaway_ = true;
@@ -156,12 +224,21 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   GLsizei sphereIndexCount_ = 0, instanceCount_ = 0;
   GLuint emptyVao_ = 0;
   GLuint lineProgram_ = 0, lineVao_ = 0, lineVbo_ = 0;  // coloured lines and triangles
+  GLuint glyphProgram_ = 0, glyphVao_ = 0, glyphMeshVbo_ = 0, glyphInstanceVbo_ = 0;
+  GLsizei glyphCount_ = 0, glyphMeshCount_ = 0;
+  GLuint previewTex_[7] = {0, 0, 0, 0, 0, 0, 0};  // 3D RGBA32F: 27 SH floats + 1 per cell
+  bool previewTexValid_ = false;
+  GLuint sliceProgram_ = 0, sliceTex_ = 0;
+  GLuint meshVbo_ = 0;  // tet mesh lines
+  GLsizei meshVertexCount_ = 0;
+  GLuint testVao_ = 0, testInstanceVbo_ = 0;
 
   // Mouse interaction.
   QPointF pressPos_, lastPos_;
   Qt::MouseButton pressButton_ = Qt::NoButton;
   bool dragged_ = false;
-  enum class Drag { None, Camera, Handle, Box, Look } drag_ = Drag::None;
+  enum class Drag { None, Camera, Handle, Box, Look, TestObject } drag_ = Drag::None;
+  Vec3 testDragStart_;
   // Handle drag: the part, where it started, the probes moved and their start positions.
   HandlePart dragPart_ = HandlePart::None;
   QVector3D dragOrigin_;

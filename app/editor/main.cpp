@@ -1,4 +1,5 @@
 // probestudio-editor [SCENE] [--probes SET.json] [--screenshot OUT.png] [--size WxH]
+//                    [--overlays glyphs,slice,tets,test-object,preview] [--select ID]
 // The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
 // probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
 // projected pixel position of every probe) and exits: 0 on success, 1 with a one-line error.
@@ -17,6 +18,7 @@
 
 #include "core/common/Error.h"
 #include "ui/Document.h"
+#include "ui/LightingField.h"
 #include "ui/MainWindow.h"
 #include "ui/Viewport.h"
 
@@ -72,6 +74,34 @@ bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) 
                                    {"bottom", rgb(ps::ui::Viewport::backgroundBottom())}};
   root["probesVisible"] = vp->probesVisible();
   root["probes"] = probes;
+  // Overlays: where the checker should find them.
+  auto px = [&](ps::Vec3 world) -> QJsonValue {
+    const auto p = vp->project(world);
+    if (!p) return QJsonValue();
+    return QJsonArray{p->x() * scale, p->y() * scale};
+  };
+  using O = ps::ui::Viewport::Overlay;
+  if (vp->overlay(O::Glyphs)) {
+    QJsonArray glyphs;
+    const ps::ui::ShGrid& g = vp->glyphGrid();
+    for (size_t i = 0; i < g.size(); ++i) {
+      const ps::Vec3 f = ps::ui::luminanceDirectionVector(g.sh[i]);
+      if (ps::length(f) <= 0) continue;
+      const ps::Vec3 c = g.centre(i);
+      // Visible part only: below the cut-away height.
+      if (vp->cutaway() && c.y > vp->cutHeight()) continue;
+      glyphs.append(QJsonObject{{"centre", px(c)}});
+    }
+    root["glyphs"] = glyphs;
+  }
+  if (vp->overlay(O::Slice) && vp->previewVolume()) {
+    QJsonArray corners;
+    for (const ps::Vec3& c : vp->sliceCorners()) corners.append(px(c));
+    root["slice"] = QJsonObject{{"corners", corners}, {"axis", vp->sliceAxis()}};
+  }
+  if (vp->overlay(O::TestObject) && vp->previewVolume())
+    root["testObject"] =
+        QJsonObject{{"centre", px(vp->testObjectPosition())}, {"tet", int(vp->testObjectTet())}};
   QFile f(out + ".json");
   if (!f.open(QIODevice::WriteOnly) || f.write(QJsonDocument(root).toJson()) < 0) {
     fail(QStringLiteral("%1: cannot write").arg(out + ".json"));
@@ -98,7 +128,10 @@ int main(int argc, char** argv) {
   const QCommandLineOption sizeOpt("size", "Viewport size for --screenshot.", "WxH", "1024x768");
   const QCommandLineOption noProbesOpt("no-probes", "Hide the probes (screenshot tests).");
   const QCommandLineOption timeOpt("time-frames", "After the screenshot, time N frames.", "N", "0");
-  parser.addOptions({probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt});
+  const QCommandLineOption overlaysOpt(
+      "overlays", "Overlays to show: any of glyphs, slice, tets, test-object, preview.", "LIST");
+  const QCommandLineOption selectOpt("select", "Select the probe with this id.", "ID");
+  parser.addOptions({probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt, selectOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -120,6 +153,25 @@ int main(int argc, char** argv) {
     w.setPromptOnClose(!screenshot);
     w.setQuiet(screenshot);
     w.viewport()->setProbesVisible(!parser.isSet(noProbesOpt));
+    for (const QString& o : parser.value(overlaysOpt).split(',', Qt::SkipEmptyParts)) {
+      using O = ps::ui::Viewport::Overlay;
+      if (o == "glyphs")
+        w.viewport()->setOverlay(O::Glyphs, true);
+      else if (o == "slice")
+        w.viewport()->setOverlay(O::Slice, true);
+      else if (o == "tets")
+        w.viewport()->setOverlay(O::TetMesh, true);
+      else if (o == "test-object")
+        w.viewport()->setOverlay(O::TestObject, true);
+      else if (o == "preview")
+        w.viewport()->setPreviewLighting(true);
+      else {
+        fail(QStringLiteral("--overlays: unknown overlay '%1' (expected glyphs, slice, tets, "
+                            "test-object, preview)")
+                 .arg(o));
+        return 1;
+      }
+    }
     if (screenshot) w.viewport()->setFixedSize(size);
     ps::ui::Document* doc = w.document();
     doc->setAutoPropose(probesPath.isEmpty());
@@ -145,6 +197,8 @@ int main(int argc, char** argv) {
       if (!w.lastError().isEmpty()) fail(w.lastError());
       return 1;
     }
+    if (parser.isSet(selectOpt))
+      w.viewport()->setSelection({parser.value(selectOpt).toULongLong()});
     w.show();
     if (!screenshot) {
       doc->setAutoPropose(true);

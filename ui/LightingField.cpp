@@ -1,0 +1,110 @@
+#include "ui/LightingField.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/bake/Bake.h"
+#include "core/common/Error.h"
+#include "core/trace/Tracer.h"
+
+namespace ps::ui {
+
+namespace {
+constexpr double kY1 = 0.488603;  // Y_1m = kY1 * (y, z, x)
+constexpr double kY00 = 0.282095;
+}  // namespace
+
+Vec3 luminanceDirectionVector(const ShRgb& sh) {
+  // Chajdas eq. 1 with the sum over environment-map pixels taken as the integral over the
+  // sphere; band 1 only (indices 1: Y1-1 ~ y, 2: Y10 ~ z, 3: Y11 ~ x).
+  return Vec3(luminance(sh.c[3]), luminance(sh.c[1]), luminance(sh.c[2])) / kY1;
+}
+
+double meanLuminance(const ShRgb& sh) {
+  return luminance(sh.c[0]) * kY00;
+}
+
+double luminanceDistanceStops(const ShRgb& a, const ShRgb& b) {
+  const double la = std::max(meanLuminance(a), 1e-6), lb = std::max(meanLuminance(b), 1e-6);
+  return std::abs(std::log2(la / lb));
+}
+
+std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
+                                              PreviewSource source) {
+  std::vector<Vec3> positions;
+  std::vector<ShRgb> sh;
+  for (const Probe& p : probes) {
+    if (!p.sh) continue;
+    const bool use = source == PreviewSource::Accepted ? p.state == ProbeState::Accepted
+                                                       : p.state != ProbeState::Rejected;
+    if (!use) continue;
+    positions.push_back(p.position);
+    sh.push_back(*p.sh);
+  }
+  if (positions.size() < 4) return std::nullopt;
+  try {
+    return volumeFromProbes(positions, sh);
+  } catch (const ParameterError&) {
+    return std::nullopt;  // flat or collinear: no volume
+  }
+}
+
+Vec3 ShGrid::centre(size_t index) const {
+  const size_t nx = size_t(dims[0]), ny = size_t(dims[1]);
+  const size_t i = index % nx, j = (index / nx) % ny, k = index / (nx * ny);
+  return lo + Vec3((double(i) + 0.5) * cellMeters.x, (double(j) + 0.5) * cellMeters.y,
+                   (double(k) + 0.5) * cellMeters.z);
+}
+
+ShGrid sampleGrid(const ProbeVolume& volume, const Bounds3& box, int maxCellsPerAxis) {
+  ShGrid g;
+  if (box.empty() || maxCellsPerAxis < 1) return g;
+  const Vec3 e = box.extent();
+  const double longest = std::max({e.x, e.y, e.z, 1e-9});
+  const double cell = longest / maxCellsPerAxis;
+  for (int a = 0; a < 3; ++a) g.dims[a] = std::max(1, int(std::ceil(e[a] / cell - 1e-9)));
+  g.cellMeters = Vec3(e.x / g.dims[0], e.y / g.dims[1], e.z / g.dims[2]);
+  g.lo = box.lo;
+  const size_t n = size_t(g.dims[0]) * size_t(g.dims[1]) * size_t(g.dims[2]);
+  std::vector<Vec3> points(n);
+  for (size_t i = 0; i < n; ++i) points[i] = g.centre(i);
+  std::vector<VolumeLocation> locs(n);
+  locateBatch(volume, points, locs);
+  g.sh.resize(n);
+  for (size_t i = 0; i < n; ++i) g.sh[i] = interpolate(volume, locs[i]);
+  return g;
+}
+
+std::vector<std::array<int32_t, 2>> tetEdges(const ProbeVolume& volume) {
+  std::vector<std::array<int32_t, 2>> edges;
+  edges.reserve(volume.tets.size() * 6);
+  for (const auto& t : volume.tets)
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) edges.push_back({std::min(t[a], t[b]), std::max(t[a], t[b])});
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  return edges;
+}
+
+std::vector<uint8_t> leakingEdges(const Tracer& tracer, const ProbeVolume& volume,
+                                  const std::vector<std::array<int32_t, 2>>& edges) {
+  std::vector<uint8_t> out(edges.size(), 0);
+  const double eps = tracer.rayEpsilon();
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const Vec3 a = volume.position(edges[i][0]), b = volume.position(edges[i][1]);
+    const double len = length(b - a);
+    if (len <= 2 * eps) continue;
+    // Direction of unit length: t in metres, the ends kept clear of surfaces touching a probe.
+    out[i] = tracer.occluded(Ray{a, (b - a) / len, eps, len - eps}) ? 1 : 0;
+  }
+  return out;
+}
+
+double relativeIrradianceError(const ProbeVolume& test, const ProbeVolume& reference, Vec3 p,
+                               Vec3 n, double floor) {
+  const double et = luminance(interpolate(test, locate(test, p)).irradiance(n));
+  const double er = luminance(interpolate(reference, locate(reference, p)).irradiance(n));
+  return std::abs(et - er) / std::max(er, floor);
+}
+
+}  // namespace ps::ui

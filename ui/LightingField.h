@@ -1,0 +1,75 @@
+#pragma once
+// What the viewport's lighting overlays show, computed on the CPU from core data (no GL here):
+// the preview volume of the current probes, its resampling on a grid (the "probe lighting"
+// preview and the gradient glyphs), the luminance-weighted direction vector f (Chajdas et al.
+// 2011, sec. 3.2, eq. 1; their Fig. 2), the luminance distance between two probes (their
+// Fig. 11), the interpolation error against a reference, and the tetrahedral mesh's edges with
+// the ones that cross geometry (light leaks, Sukys 2014 sec. 3.3).
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "core/io/ProbeSet.h"
+#include "core/traversal/ProbeVolume.h"
+
+namespace ps {
+class Tracer;
+}
+
+namespace ps::ui {
+
+/// f = sum over directions w of w * luminance(L(w)) (Chajdas eq. 1), for radiance L given as SH
+/// L2 and the sum taken as the integral over the sphere. Only band 1 survives: with
+/// lum_lm = luminance(c_lm) and Y_1m = k (y, z, x) (k = 0.488603),
+/// integral of w_x * L = lum_11 / k, w_y -> lum_1-1 / k, w_z -> lum_10 / k (orthonormality).
+/// Points towards the light; zero for a constant environment. Units: W/m^2 (radiance x sr).
+Vec3 luminanceDirectionVector(const ShRgb& sh);
+
+/// Mean incident radiance's luminance (Y00 * luminance(c00)), the probe's "brightness".
+double meanLuminance(const ShRgb& sh);
+
+/// Luminance distance of two probes in stops: |log2(meanLuminance(a) / meanLuminance(b))|, with
+/// both clamped below at 1e-6 (so black against black is 0). Our reading of Chajdas Fig. 11's
+/// "luminance distance", in stops because brightness is perceived on a log scale.
+double luminanceDistanceStops(const ShRgb& a, const ShRgb& b);
+
+/// Which probes the preview volume is built from.
+enum class PreviewSource {
+  Accepted,    ///< accepted probes with SH (what a bake would use, at preview quality)
+  AllCaptured  ///< every non-rejected probe with SH (candidates too)
+};
+
+/// The volume over the chosen probes (Bake.h volumeFromProbes), or nothing when fewer than 4
+/// of them span 3D.
+std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
+                                              PreviewSource source);
+
+/// SH sampled from a volume at the centres of a regular grid over a box.
+struct ShGrid {
+  std::array<int, 3> dims{0, 0, 0};
+  Vec3 lo;          ///< corner of the box
+  Vec3 cellMeters;  ///< cell size; sample (i, j, k) is at lo + (i + 0.5, j + 0.5, k + 0.5) * cell
+  std::vector<ShRgb> sh;  ///< x fastest, then y, then z
+  size_t size() const { return sh.size(); }
+  Vec3 centre(size_t index) const;
+};
+
+/// Samples `volume` (locate + interpolate, walks starting from the previous cell) on a grid over
+/// `box` whose longest side has `maxCellsPerAxis` cells (cubic cells; every axis gets >= 1).
+ShGrid sampleGrid(const ProbeVolume& volume, const Bounds3& box, int maxCellsPerAxis);
+
+/// Unique edges of the volume's tetrahedra (vertex pairs, smaller index first), sorted.
+std::vector<std::array<int32_t, 2>> tetEdges(const ProbeVolume& volume);
+
+/// For each edge, true when the segment between its probes hits geometry (the interpolation
+/// along it blends light from both sides of a wall: a leak).
+std::vector<uint8_t> leakingEdges(const Tracer& tracer, const ProbeVolume& volume,
+                                  const std::vector<std::array<int32_t, 2>>& edges);
+
+/// Relative irradiance error |E_test - E_ref| / max(E_ref, floor) of the luminance of the
+/// irradiance for normal n, at p (the error slice). `floor` keeps dark regions from dominating.
+double relativeIrradianceError(const ProbeVolume& test, const ProbeVolume& reference, Vec3 p,
+                               Vec3 n, double floor);
+
+}  // namespace ps::ui

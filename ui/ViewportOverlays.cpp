@@ -1,0 +1,541 @@
+// The viewport's lighting preview and overlays (issue 6, "Viewport"): the "probe lighting"
+// preview, gradient glyphs (Chajdas et al. 2011 Fig. 2), the slice plane coloured by luminance
+// distance to the selected probe (their Fig. 11) or by interpolation error, the tetrahedral mesh
+// with leaking edges, and the test object. The data comes from LightingField.h; this file only
+// turns it into GL buffers and draws it.
+#include <QImage>
+#include <QtMath>
+#include <algorithm>
+#include <cmath>
+
+#include "core/scene/Scene.h"
+#include "ui/Document.h"
+#include "ui/Viewport.h"
+
+namespace ps::ui {
+
+namespace {
+
+// One arrow per instance, drawn as lines: a shaft along +Z of the glyph frame and a head of four
+// strokes. Instance: centre + length, direction + magnitude in [0, 1] (colour).
+const char* kGlyphVs = R"(#version 330 core
+layout(location = 0) in vec3 aPos;      // arrow in its frame: shaft from z=-0.5 to z=0.5
+layout(location = 1) in vec4 iCentreLen;
+layout(location = 2) in vec4 iDirMag;
+uniform mat4 uViewProj;
+uniform float uClipY;
+out float vMag;
+out float vClip;
+void main() {
+  vec3 d = normalize(iDirMag.xyz);
+  vec3 h = abs(d.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
+  vec3 u = normalize(cross(h, d));
+  vec3 v = cross(d, u);
+  vec3 p = iCentreLen.xyz + (u * aPos.x + v * aPos.y + d * aPos.z) * iCentreLen.w;
+  vMag = iDirMag.w;
+  vClip = p.y - uClipY;
+  gl_Position = uViewProj * vec4(p, 1.0);
+})";
+
+// Magnitude colour map: dark blue -> cyan -> yellow -> red (low to high |f|).
+const char* kGlyphFs = R"(#version 330 core
+in float vMag;
+in float vClip;
+out vec4 fragColor;
+vec3 ramp(float t) {
+  t = clamp(t, 0.0, 1.0);
+  vec3 a = vec3(0.15, 0.25, 0.9), b = vec3(0.1, 0.85, 0.95), c = vec3(1.0, 0.9, 0.15),
+       d = vec3(1.0, 0.2, 0.1);
+  return t < 0.33 ? mix(a, b, t / 0.33) : (t < 0.66 ? mix(b, c, (t - 0.33) / 0.33)
+                                                       : mix(c, d, (t - 0.66) / 0.34));
+}
+void main() {
+  if (vClip > 0.0) discard;
+  fragColor = vec4(ramp(vMag), 1.0);
+})";
+
+const char* kSliceVs = R"(#version 330 core
+layout(location = 0) in vec3 aPos;
+layout(location = 1) in vec4 aUv;  // uv in xy
+uniform mat4 uViewProj;
+out vec2 vUv;
+void main() {
+  vUv = aUv.xy;
+  gl_Position = uViewProj * vec4(aPos, 1.0);
+})";
+
+const char* kSliceFs = R"(#version 330 core
+in vec2 vUv;
+uniform sampler2D uTex;
+out vec4 fragColor;
+void main() {
+  vec4 c = texture(uTex, vUv);
+  if (c.a < 0.01) discard;
+  fragColor = c;
+})";
+
+/// Slice colour ramp (sRGB): blue (0) -> green -> yellow -> red (1).
+QRgb sliceColor(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  const double stops[4][3] = {{40, 70, 200}, {40, 190, 90}, {240, 220, 40}, {220, 40, 30}};
+  const double x = t * 3.0;
+  const int i = std::min(int(x), 2);
+  const double f = x - i;
+  auto ch = [&](int c) { return int(std::lround(stops[i][c] * (1 - f) + stops[i + 1][c] * f)); };
+  return qRgba(ch(0), ch(1), ch(2), 215);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- state
+
+void Viewport::setPreviewLighting(bool on) {
+  previewLighting_ = on;
+  overlaysDirty_ = true;
+  update();
+}
+
+void Viewport::setOverlay(Overlay o, bool on) {
+  if (on)
+    overlays_ |= 1u << int(o);
+  else
+    overlays_ &= ~(1u << int(o));
+  overlaysDirty_ = true;
+  update();
+}
+
+void Viewport::setPreviewSource(PreviewSource s) {
+  previewSource_ = s;
+  fieldsDirty_ = true;
+  update();
+}
+
+void Viewport::setGlyphResolution(int cells) {
+  glyphResolution_ = std::clamp(cells, 1, 256);
+  fieldsDirty_ = true;
+  update();
+}
+
+void Viewport::setSliceMode(SliceMode m) {
+  sliceMode_ = m;
+  overlaysDirty_ = true;
+  update();
+}
+
+void Viewport::setSliceAxis(int axis) {
+  sliceAxis_ = std::clamp(axis, 0, 2);
+  overlaysDirty_ = true;
+  update();
+}
+
+void Viewport::setSliceFraction(float f) {
+  sliceFraction_ = std::clamp(f, 0.0f, 1.0f);
+  overlaysDirty_ = true;
+  update();
+}
+
+std::array<Vec3, 4> Viewport::sliceCorners() const {
+  const Scene* scene = doc_->scene();
+  Bounds3 b = scene ? scene->bounds : Bounds3();
+  if (b.empty()) b = Bounds3(Vec3(-1, -1, -1), Vec3(1, 1, 1));
+  const int a = sliceAxis_, u = (a + 1) % 3, v = (a + 2) % 3;
+  Vec3 base = b.lo;
+  base[a] = b.lo[a] + sliceFraction_ * b.extent()[a];
+  std::array<Vec3, 4> c{base, base, base, base};
+  c[1][u] = b.hi[u];
+  c[2][u] = b.hi[u];
+  c[2][v] = b.hi[v];
+  c[3][v] = b.hi[v];
+  return c;
+}
+
+void Viewport::setTestObjectPosition(Vec3 p) {
+  testObject_ = p;
+  testObjectPlaced_ = true;
+  overlaysDirty_ = true;
+  update();
+}
+
+float Viewport::testObjectRadius() const {
+  return baseRadius_ * 2.5f;
+}
+
+const std::optional<ProbeVolume>& Viewport::previewVolume() {
+  updateFields();
+  return previewVolume_;
+}
+
+const ShGrid& Viewport::glyphGrid() {
+  updateFields();
+  return glyphGrid_;
+}
+
+int32_t Viewport::testObjectTet() {
+  updateFields();
+  if (!previewVolume_) return -1;
+  const VolumeLocation loc = locate(*previewVolume_, testObject_, testTetHint_);
+  testTetHint_ = loc.tet;
+  return loc.tet;
+}
+
+void Viewport::renderNow() {
+  makeCurrent();
+  paintGL();
+  glFinish();
+  doneCurrent();
+}
+
+// ---------------------------------------------------------------- derived data
+
+void Viewport::updateFields() {
+  const Scene* scene = doc_->scene();
+  if (!testObjectPlaced_ && scene && !scene->bounds.empty()) {
+    const Bounds3 b = scene->bounds;
+    testObject_ = b.center();
+    testObject_.y = b.lo.y + 0.35 * b.extent().y;
+  }
+  if (!fieldsDirty_) return;
+  fieldsDirty_ = false;
+  overlaysDirty_ = true;
+  testTetHint_ = -1;
+  previewVolume_ = buildPreviewVolume(doc_->probes(), previewSource_);
+  referenceVolume_ = previewSource_ == PreviewSource::AllCaptured
+                         ? previewVolume_
+                         : buildPreviewVolume(doc_->probes(), PreviewSource::AllCaptured);
+  glyphGrid_ = ShGrid();
+  previewGrid_ = ShGrid();
+  edges_.clear();
+  leaks_.clear();
+  if (!previewVolume_ || !scene) return;
+  glyphGrid_ = sampleGrid(*previewVolume_, scene->bounds, glyphResolution_);
+  previewGrid_ = sampleGrid(*previewVolume_, scene->bounds, previewResolution_);
+  edges_ = tetEdges(*previewVolume_);
+  if (const Tracer* tracer = doc_->tracer())
+    leaks_ = leakingEdges(*tracer, *previewVolume_, edges_);
+}
+
+QImage Viewport::renderSliceImage(int size) {
+  QImage img(size, size, QImage::Format_ARGB32);
+  img.fill(Qt::transparent);
+  if (!previewVolume_) return img;
+  const auto c = sliceCorners();
+  const Vec3 du = c[1] - c[0], dv = c[3] - c[0];
+  Vec3 normal;
+  normal[sliceAxis_] = 1.0;
+  // Reference for the luminance distance: the selected probe, else the mean of the volume's.
+  ShRgb ref;
+  bool haveRef = false;
+  for (const Probe& p : doc_->probes())
+    if (selection_.contains(p.id) && p.sh) {
+      ref = *p.sh;
+      haveRef = true;
+      break;
+    }
+  if (!haveRef && previewVolume_->probeCount() > 0) {
+    for (size_t i = 0; i < previewVolume_->probeCount(); ++i)
+      ref += previewVolume_->probeSh(int32_t(i));
+    ref = ref * (1.0 / double(previewVolume_->probeCount()));
+  }
+  double meanRef = 0;
+  if (sliceMode_ == SliceMode::Error && referenceVolume_)
+    meanRef = meanLuminance(ref) * kPi;  // floor for the relative error: a tenth of the mean
+  int32_t hint = -1, hintRef = -1;
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const Vec3 p = c[0] + du * ((x + 0.5) / size) + dv * ((y + 0.5) / size);
+      const VolumeLocation loc = locate(*previewVolume_, p, hint);
+      hint = loc.tet;
+      const ShRgb sh = interpolate(*previewVolume_, loc);
+      double t = 0;
+      if (sliceMode_ == SliceMode::LuminanceDistance) {
+        t = luminanceDistanceStops(sh, ref) / 4.0;  // 4 stops and more: red
+      } else {
+        if (!referenceVolume_) continue;
+        const VolumeLocation lr = locate(*referenceVolume_, p, hintRef);
+        hintRef = lr.tet;
+        const double er = luminance(interpolate(*referenceVolume_, lr).irradiance(normal));
+        const double et = luminance(sh.irradiance(normal));
+        t = std::abs(et - er) / std::max(er, 0.1 * meanRef + 1e-9) / 0.5;  // 50 % and more: red
+      }
+      img.setPixel(x, y, sliceColor(t));
+    }
+  return img;
+}
+
+// ---------------------------------------------------------------- GL
+
+void Viewport::initOverlayGL() {
+  glyphProgram_ = buildProgram(kGlyphVs, kGlyphFs, false);
+  sliceProgram_ = buildProgram(kSliceVs, kSliceFs, false);
+  // Arrow mesh (GL_LINES), unit length along +Z, centred.
+  const float h = 0.22f, back = 0.22f;
+  const std::vector<float> arrow = {0, 0, -0.5f, 0,  0,  0.5f,        0, 0, 0.5f, h, 0, 0.5f - back,
+                                    0, 0, 0.5f,  -h, 0,  0.5f - back, 0, 0, 0.5f, 0, h, 0.5f - back,
+                                    0, 0, 0.5f,  0,  -h, 0.5f - back};
+  glyphMeshCount_ = GLsizei(arrow.size() / 3);
+  glGenVertexArrays(1, &glyphVao_);
+  glGenBuffers(1, &glyphMeshVbo_);
+  glGenBuffers(1, &glyphInstanceVbo_);
+  glBindVertexArray(glyphVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, glyphMeshVbo_);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(arrow.size() * sizeof(float)), arrow.data(),
+               GL_STATIC_DRAW);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+  glBindBuffer(GL_ARRAY_BUFFER, glyphInstanceVbo_);
+  for (int a = 0; a < 2; ++a) {
+    glEnableVertexAttribArray(GLuint(1 + a));
+    glVertexAttribPointer(GLuint(1 + a), 4, GL_FLOAT, GL_FALSE, 8 * sizeof(float),
+                          reinterpret_cast<const void*>(size_t(a) * 4 * sizeof(float)));
+    glVertexAttribDivisor(GLuint(1 + a), 1);
+  }
+  glBindVertexArray(0);
+
+  glGenTextures(7, previewTex_);
+  for (GLuint t : previewTex_) {
+    glBindTexture(GL_TEXTURE_3D, t);
+    glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+      glTexParameteri(GL_TEXTURE_3D, w, GL_CLAMP_TO_EDGE);
+  }
+  glBindTexture(GL_TEXTURE_3D, 0);
+  glGenTextures(1, &sliceTex_);
+  glBindTexture(GL_TEXTURE_2D, sliceTex_);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  glGenBuffers(1, &meshVbo_);
+
+  // The test object: the probe sphere mesh with its own one-instance buffer.
+  glGenVertexArrays(1, &testVao_);
+  glGenBuffers(1, &testInstanceVbo_);
+  glBindVertexArray(testVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, sphereVbo_);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, sphereIbo_);
+  glBindBuffer(GL_ARRAY_BUFFER, testInstanceVbo_);
+  for (int a = 0; a < 9; ++a) {
+    glEnableVertexAttribArray(GLuint(1 + a));
+    glVertexAttribPointer(GLuint(1 + a), 4, GL_FLOAT, GL_FALSE, 36 * sizeof(float),
+                          reinterpret_cast<const void*>(size_t(a) * 4 * sizeof(float)));
+    glVertexAttribDivisor(GLuint(1 + a), 1);
+  }
+  glBindVertexArray(0);
+}
+
+void Viewport::cleanupOverlayGL() {
+  glDeleteProgram(glyphProgram_);
+  glDeleteProgram(sliceProgram_);
+  glDeleteVertexArrays(1, &glyphVao_);
+  glDeleteBuffers(1, &glyphMeshVbo_);
+  glDeleteBuffers(1, &glyphInstanceVbo_);
+  glDeleteTextures(7, previewTex_);
+  glDeleteTextures(1, &sliceTex_);
+  glDeleteBuffers(1, &meshVbo_);
+  glDeleteVertexArrays(1, &testVao_);
+  glDeleteBuffers(1, &testInstanceVbo_);
+}
+
+void Viewport::uploadOverlays() {
+  overlaysDirty_ = false;
+  // Preview lighting: the SH grid (with the cosine lobes A_l folded in) as seven RGBA textures.
+  previewTexValid_ = false;
+  if (previewLighting_ && previewGrid_.size() > 0) {
+    const size_t n = previewGrid_.size();
+    std::vector<float> tex[7];
+    for (auto& t : tex) t.resize(n * 4, 0.0f);
+    for (size_t i = 0; i < n; ++i)
+      for (int k = 0; k < 27; ++k) {
+        const Rgb c = previewGrid_.sh[i].c[size_t(k / 3)] * shCosineLobe(k / 3);
+        tex[k / 4][i * 4 + size_t(k % 4)] = float(k % 3 == 0 ? c.r : (k % 3 == 1 ? c.g : c.b));
+      }
+    for (int t = 0; t < 7; ++t) {
+      glBindTexture(GL_TEXTURE_3D, previewTex_[t]);
+      glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA32F, previewGrid_.dims[0], previewGrid_.dims[1],
+                   previewGrid_.dims[2], 0, GL_RGBA, GL_FLOAT, tex[t].data());
+    }
+    glBindTexture(GL_TEXTURE_3D, 0);
+    previewTexValid_ = true;
+  }
+
+  // Glyphs: one arrow of f per grid cell, length by |f| (relative to the 95th percentile).
+  glyphCount_ = 0;
+  if (overlay(Overlay::Glyphs) && glyphGrid_.size() > 0) {
+    const size_t n = glyphGrid_.size();
+    std::vector<Vec3> f(n);
+    std::vector<double> mags(n);
+    for (size_t i = 0; i < n; ++i) {
+      f[i] = luminanceDirectionVector(glyphGrid_.sh[i]);
+      mags[i] = length(f[i]);
+    }
+    std::vector<double> sorted = mags;
+    std::nth_element(sorted.begin(), sorted.begin() + long(n * 95 / 100), sorted.end());
+    const double scale = std::max(sorted[n * 95 / 100], 1e-12);
+    const double cell =
+        std::min({glyphGrid_.cellMeters.x, glyphGrid_.cellMeters.y, glyphGrid_.cellMeters.z});
+    std::vector<float> inst;
+    inst.reserve(n * 8);
+    for (size_t i = 0; i < n; ++i) {
+      if (mags[i] <= 1e-12) continue;
+      const double t = std::min(mags[i] / scale, 1.0);
+      const Vec3 c = glyphGrid_.centre(i), d = f[i] / mags[i];
+      inst.insert(inst.end(), {float(c.x), float(c.y), float(c.z), float(cell * (0.35 + 0.5 * t)),
+                               float(d.x), float(d.y), float(d.z), float(t)});
+    }
+    glyphCount_ = GLsizei(inst.size() / 8);
+    glBindBuffer(GL_ARRAY_BUFFER, glyphInstanceVbo_);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(inst.size() * sizeof(float)), inst.data(),
+                 GL_STATIC_DRAW);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+  }
+
+  // Slice texture.
+  if (overlay(Overlay::Slice)) {
+    const QImage img = renderSliceImage(160).convertToFormat(QImage::Format_RGBA8888);
+    glBindTexture(GL_TEXTURE_2D, sliceTex_);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, img.width(), img.height(), 0, GL_RGBA,
+                 GL_UNSIGNED_BYTE, img.constBits());
+    glBindTexture(GL_TEXTURE_2D, 0);
+  }
+
+  // Tetrahedral mesh: grey edges, leaking ones red.
+  meshVertexCount_ = 0;
+  if (overlay(Overlay::TetMesh) && previewVolume_) {
+    std::vector<float> v;
+    v.reserve(edges_.size() * 14);
+    for (size_t i = 0; i < edges_.size(); ++i) {
+      const bool leak = i < leaks_.size() && leaks_[i];
+      const float r = leak ? 1.0f : 0.8f, g = leak ? 0.15f : 0.8f, b = leak ? 0.1f : 0.85f;
+      const float a = leak ? 0.95f : 0.45f;
+      for (int e = 0; e < 2; ++e) {
+        const Vec3 p = previewVolume_->position(edges_[i][size_t(e)]);
+        v.insert(v.end(), {float(p.x), float(p.y), float(p.z), r, g, b, a});
+      }
+    }
+    meshVertexCount_ = GLsizei(v.size() / 7);
+    glBindBuffer(GL_ARRAY_BUFFER, meshVbo_);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(v.size() * sizeof(float)), v.data(), GL_STATIC_DRAW);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+  }
+}
+
+void Viewport::drawLines(const std::vector<float>& v, GLenum mode, const QMatrix4x4& vp) {
+  if (v.empty()) return;
+  glUseProgram(lineProgram_);
+  glUniformMatrix4fv(glGetUniformLocation(lineProgram_, "uViewProj"), 1, GL_FALSE, vp.constData());
+  glBindVertexArray(lineVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, lineVbo_);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(v.size() * sizeof(float)), v.data(), GL_STREAM_DRAW);
+  glDrawArrays(mode, 0, GLsizei(v.size() / 7));
+}
+
+void Viewport::drawOverlays(const QMatrix4x4& vp) {
+  const float clipY = cutaway_ ? cutHeight() : std::numeric_limits<float>::max();
+  glEnable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+
+  if (overlay(Overlay::Slice) && previewVolume_) {
+    const auto c = sliceCorners();
+    const float uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    std::vector<float> v;
+    for (int i : {0, 1, 2, 0, 2, 3})
+      v.insert(v.end(), {float(c[size_t(i)].x), float(c[size_t(i)].y), float(c[size_t(i)].z),
+                         uv[i][0], uv[i][1], 0, 0});
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glUseProgram(sliceProgram_);
+    glUniformMatrix4fv(glGetUniformLocation(sliceProgram_, "uViewProj"), 1, GL_FALSE,
+                       vp.constData());
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, sliceTex_);
+    glUniform1i(glGetUniformLocation(sliceProgram_, "uTex"), 0);
+    glBindVertexArray(lineVao_);
+    glBindBuffer(GL_ARRAY_BUFFER, lineVbo_);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(v.size() * sizeof(float)), v.data(), GL_STREAM_DRAW);
+    glDrawArrays(GL_TRIANGLES, 0, 6);
+    glDisable(GL_BLEND);
+  }
+
+  if (overlay(Overlay::Glyphs) && glyphCount_ > 0) {
+    glUseProgram(glyphProgram_);
+    glUniformMatrix4fv(glGetUniformLocation(glyphProgram_, "uViewProj"), 1, GL_FALSE,
+                       vp.constData());
+    glUniform1f(glGetUniformLocation(glyphProgram_, "uClipY"), clipY);
+    glBindVertexArray(glyphVao_);
+    glDrawArraysInstanced(GL_LINES, 0, glyphMeshCount_, glyphCount_);
+  }
+
+  if (overlay(Overlay::TetMesh) && meshVertexCount_ > 0) {
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glUseProgram(lineProgram_);
+    glUniformMatrix4fv(glGetUniformLocation(lineProgram_, "uViewProj"), 1, GL_FALSE,
+                       vp.constData());
+    glBindVertexArray(lineVao_);
+    glBindBuffer(GL_ARRAY_BUFFER, meshVbo_);
+    // The line VAO's attributes point into lineVbo_; rebind them to the mesh buffer.
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 7 * sizeof(float), nullptr);
+    glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, 7 * sizeof(float),
+                          reinterpret_cast<const void*>(3 * sizeof(float)));
+    glDrawArrays(GL_LINES, 0, meshVertexCount_);
+    glBindBuffer(GL_ARRAY_BUFFER, lineVbo_);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 7 * sizeof(float), nullptr);
+    glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, 7 * sizeof(float),
+                          reinterpret_cast<const void*>(3 * sizeof(float)));
+    glDisable(GL_BLEND);
+  }
+
+  if (overlay(Overlay::TestObject) && previewVolume_) {
+    const VolumeLocation loc = locate(*previewVolume_, testObject_, testTetHint_);
+    testTetHint_ = loc.tet;
+    const ShRgb sh = interpolate(*previewVolume_, loc);
+    std::vector<float> inst = {float(testObject_.x),
+                               float(testObject_.y),
+                               float(testObject_.z),
+                               testObjectRadius(),
+                               1.0f,
+                               0.0f,
+                               1.0f,
+                               1.0f};
+    for (int i = 0; i < kShCoeffCount; ++i) {
+      const Rgb c = sh.c[size_t(i)] * shCosineLobe(i);
+      inst.insert(inst.end(), {float(c.r), float(c.g), float(c.b)});
+    }
+    inst.push_back(0.0f);
+    glBindBuffer(GL_ARRAY_BUFFER, testInstanceVbo_);
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(inst.size() * sizeof(float)), inst.data(),
+                 GL_STREAM_DRAW);
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+    glUseProgram(probeProgram_);
+    glUniformMatrix4fv(glGetUniformLocation(probeProgram_, "uViewProj"), 1, GL_FALSE,
+                       vp.constData());
+    const QVector3D eye = camera_.eye();
+    glUniform3f(glGetUniformLocation(probeProgram_, "uEye"), eye.x(), eye.y(), eye.z());
+    glUniform1f(glGetUniformLocation(probeProgram_, "uExposure"), exposure());
+    glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 0);
+    glBindVertexArray(testVao_);
+    glDrawElementsInstanced(GL_TRIANGLES, sphereIndexCount_, GL_UNSIGNED_INT, nullptr, 1);
+    glDisable(GL_CULL_FACE);
+    // Its tetrahedron, drawn over everything.
+    if (loc.tet >= 0) {
+      const auto& t = previewVolume_->tets[size_t(loc.tet)];
+      std::vector<float> v;
+      for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b)
+          for (int e : {a, b}) {
+            const Vec3 p = previewVolume_->position(t[size_t(e)]);
+            v.insert(v.end(), {float(p.x), float(p.y), float(p.z), 1.0f, 0.85f, 0.1f, 1.0f});
+          }
+      glDisable(GL_DEPTH_TEST);
+      drawLines(v, GL_LINES, vp);
+      glEnable(GL_DEPTH_TEST);
+    }
+  }
+}
+
+}  // namespace ps::ui
