@@ -131,7 +131,10 @@ int main(int argc, char** argv) {
   const QCommandLineOption overlaysOpt(
       "overlays", "Overlays to show: any of glyphs, slice, tets, test-object, preview.", "LIST");
   const QCommandLineOption selectOpt("select", "Select the probe with this id.", "ID");
-  parser.addOptions({probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt, selectOpt});
+  const QCommandLineOption saveOpt(
+      "save-probes", "With --screenshot: also write the probe set (with its SH) here.", "SET.json");
+  parser.addOptions(
+      {probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt, selectOpt, saveOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -218,6 +221,15 @@ int main(int argc, char** argv) {
     auto take = [&] {
       // Let the window map and lay out before rendering.
       QTimer::singleShot(50, &app, [&] {
+        if (parser.isSet(saveOpt)) {
+          try {
+            doc->writeCopy(parser.value(saveOpt));
+          } catch (const ps::Error& e) {
+            fail(QString::fromStdString(e.what()));
+            app.exit(1);
+            return;
+          }
+        }
         result = writeScreenshot(w, shot, timeFrames) ? 0 : 1;
         app.exit(result);
       });

@@ -7,6 +7,15 @@
 //   - >= 80% of on-screen probes are drawn where the JSON says: the mean absolute difference
 //     between the two renders over a small square at the projected centre exceeds 12;
 //   - at least 10 probes are on screen.
+//
+// check_screenshot --overlays SHOT.png BASE.png: SHOT shows overlays (written with --overlays
+// glyphs,slice,...), BASE the same view without them. Thresholds:
+//   - glyphs: at least 60 % of the on-screen glyph centres in the sidecar have a pixel within
+//     3 px that differs from BASE by more than 40 in some channel (an arrow is drawn there);
+//   - slice: at least 60 % of a 5 x 5 grid of points inside the projected slice quad differ
+//     from BASE by more than 12 (the slice is drawn where its corners project);
+//   - nothing outside the scene: over the pixels where BASE shows the background gradient, the
+//     mean absolute difference is below 1.5 (overlays stay inside the scene).
 #include <QFile>
 #include <QImage>
 #include <QJsonArray>
@@ -27,8 +36,89 @@ int channelDiff(QRgb a, QRgb b) {
 }
 }  // namespace
 
+int checkOverlays(const char* shotPath, const char* basePath) {
+  const QImage shot = QImage(shotPath).convertToFormat(QImage::Format_RGB32);
+  const QImage base = QImage(basePath).convertToFormat(QImage::Format_RGB32);
+  if (shot.isNull() || base.isNull()) return fail("cannot read the images");
+  if (shot.size() != base.size()) return fail("the two renders differ in size");
+  QFile jf(QString::fromLocal8Bit(shotPath) + ".json");
+  if (!jf.open(QIODevice::ReadOnly)) return fail("cannot read SHOT.png.json");
+  const QJsonObject root = QJsonDocument::fromJson(jf.readAll()).object();
+  const int w = shot.width(), h = shot.height();
+  auto diffAt = [&](int x, int y) {
+    if (x < 0 || y < 0 || x >= w || y >= h) return -1;
+    return channelDiff(shot.pixel(x, y), base.pixel(x, y));
+  };
+
+  const QJsonArray glyphs = root["glyphs"].toArray();
+  int glyphsOn = 0, glyphsDrawn = 0;
+  for (const QJsonValue& g : glyphs) {
+    const QJsonArray c = g.toObject()["centre"].toArray();
+    if (c.size() != 2) continue;
+    const int cx = int(c[0].toDouble()), cy = int(c[1].toDouble());
+    if (cx < 3 || cy < 3 || cx >= w - 3 || cy >= h - 3) continue;
+    ++glyphsOn;
+    int best = 0;
+    for (int y = cy - 3; y <= cy + 3; ++y)
+      for (int x = cx - 3; x <= cx + 3; ++x) best = std::max(best, diffAt(x, y));
+    if (best > 40) ++glyphsDrawn;
+  }
+  std::printf("glyphs on screen %d, drawn at their centre %d\n", glyphsOn, glyphsDrawn);
+  if (glyphsOn < 50) return fail("fewer than 50 glyphs on screen");
+  if (glyphsDrawn < 0.6 * glyphsOn) return fail("fewer than 60% of the glyphs are drawn");
+
+  const QJsonArray corners = root["slice"].toObject()["corners"].toArray();
+  if (corners.size() != 4) return fail("no slice in the sidecar");
+  QPointF q[4];
+  for (int i = 0; i < 4; ++i) {
+    const QJsonArray c = corners[i].toArray();
+    if (c.size() != 2) return fail("a slice corner is behind the camera");
+    q[i] = QPointF(c[0].toDouble(), c[1].toDouble());
+  }
+  int sliceDrawn = 0, sliceOn = 0;
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; j < 5; ++j) {
+      const double u = 0.15 + 0.7 * i / 4.0, v = 0.15 + 0.7 * j / 4.0;
+      const QPointF p = q[0] * (1 - u) * (1 - v) + q[1] * u * (1 - v) + q[2] * u * v +
+                        q[3] * (1 - u) * v;  // bilinear inside the projected quad
+      const int d = diffAt(int(p.x()), int(p.y()));
+      if (d < 0) continue;
+      ++sliceOn;
+      if (d > 12) ++sliceDrawn;
+    }
+  std::printf("slice points on screen %d, drawn %d\n", sliceOn, sliceDrawn);
+  if (sliceOn < 10) return fail("the slice is mostly off screen");
+  if (sliceDrawn < 0.6 * sliceOn) return fail("the slice is not drawn where it projects");
+
+  const QJsonObject bg = root["background"].toObject();
+  const QJsonArray top = bg["top"].toArray(), bottom = bg["bottom"].toArray();
+  double outside = 0;
+  long outsideCount = 0;
+  for (int y = 0; y < h; ++y) {
+    const double t = h > 1 ? double(y) / (h - 1) : 0;
+    auto mix = [&](int c) {
+      return int(std::lround(top[c].toInt() * (1 - t) + bottom[c].toInt() * t));
+    };
+    const QRgb expected = qRgb(mix(0), mix(1), mix(2));
+    for (int x = 0; x < w; ++x)
+      if (channelDiff(base.pixel(x, y), expected) <= 3) {
+        outside += diffAt(x, y);
+        ++outsideCount;
+      }
+  }
+  const double outsideMean = outsideCount ? outside / double(outsideCount) : 0.0;
+  std::printf("background pixels %ld, mean change %.2f\n", outsideCount, outsideMean);
+  if (outsideCount < 1000) return fail("too little background to check");
+  if (outsideMean >= 1.5) return fail("overlays drawn outside the scene");
+  std::printf("check_screenshot --overlays: OK\n");
+  return 0;
+}
+
 int main(int argc, char** argv) {
-  if (argc != 3) return fail("usage: check_screenshot SHOT.png NOPROBES.png");
+  if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--overlays"))
+    return checkOverlays(argv[2], argv[3]);
+  if (argc != 3)
+    return fail("usage: check_screenshot SHOT.png NOPROBES.png | --overlays SHOT.png BASE.png");
   const QImage shot = QImage(argv[1]).convertToFormat(QImage::Format_RGB32);
   const QImage bare = QImage(argv[2]).convertToFormat(QImage::Format_RGB32);
   if (shot.isNull() || bare.isNull()) return fail("cannot read the images");

@@ -9,13 +9,25 @@ trap 'rm -rf "$tmp"' EXIT
 export LIBGL_ALWAYS_SOFTWARE=1
 run() { xvfb-run -a -s "-screen 0 1280x1024x24" "$editor" "$@"; }
 
-run "$scene" --screenshot "$tmp/shot.png"
+run "$scene" --screenshot "$tmp/shot.png" --save-probes "$tmp/set.json"
 # The same view without probes, for the checker's before/after comparison.
 run "$scene" --screenshot "$tmp/bare.png" --no-probes
 mkdir -p "$artifacts"
 cp "$tmp/shot.png" "$artifacts/editor-two-rooms.png"
 cp "$tmp/shot.png.json" "$artifacts/editor-two-rooms.png.json"
 "$checker" "$tmp/shot.png" "$tmp/bare.png"
+
+# The saved probe set (with its quick SH) and the lighting overlays: gradient glyphs, the
+# luminance-distance slice around probe 1, the test object; the same view without overlays.
+run "$scene" --probes "$tmp/set.json" --select 1 --overlays glyphs,slice,test-object \
+  --screenshot "$tmp/overlays.png"
+run "$scene" --probes "$tmp/set.json" --select 1 --screenshot "$tmp/base.png"
+run "$scene" --probes "$tmp/set.json" --overlays preview,tets --screenshot "$tmp/preview.png"
+for f in overlays base preview; do
+  cp "$tmp/$f.png" "$artifacts/editor-two-rooms-$f.png"
+  cp "$tmp/$f.png.json" "$artifacts/editor-two-rooms-$f.png.json"
+done
+"$checker" --overlays "$tmp/overlays.png" "$tmp/base.png"
 
 # A file that fails to load: one line on stderr, exit 1, no screenshot.
 if run "$tmp/missing.gltf" --screenshot "$tmp/none.png" 2> "$tmp/err.txt"; then
