@@ -9,6 +9,7 @@
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
+#include "core/eval/Evaluate.h"
 #include "core/io/ProbeSetFile.h"
 #include "core/io/VolumeFile.h"
 #include "core/placement/Uniform.h"
@@ -47,6 +48,7 @@ struct Document::JobResult {
   QString volumePath;
   size_t bakedProbes = 0;
   QString error;  ///< failure ("cancelled" when cancelled); probes may still be usable
+  std::optional<EvaluationPoint> evaluation;
 };
 
 Document::Document(QObject* parent) : QObject(parent) {
@@ -82,6 +84,8 @@ void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const
   if (sceneChanges) {
     volume_.reset();
     volumePath_.clear();
+    evaluations_.clear();
+    emit evaluationsChanged();
     emit volumeChanged();
     emit sceneChanged();
   }
@@ -465,10 +469,45 @@ bool Document::bake(const BakeRequest& request) {
   return true;
 }
 
+bool Document::evaluate(const EvalRequest& request) {
+  if (!tracer_ || busy_) return false;
+  std::shared_ptr<const ProbeVolume> volume;
+  QString source;
+  if (volume_ && volumeChange_ == changeCount_) {
+    volume = volume_;
+    source = tr("baked volume");
+  } else {
+    std::vector<Vec3> positions;
+    std::vector<ShRgb> sh;
+    for (const Probe& p : set_.probes)
+      if (p.state == ProbeState::Accepted && p.sh) {
+        positions.push_back(p.position);
+        sh.push_back(*p.sh);
+      }
+    if (positions.size() < 4)
+      throw ParameterError("evaluate: bake, or accept at least 4 captured probes, first");
+    volume = std::make_shared<const ProbeVolume>(volumeFromProbes(positions, sh));  // throws
+    source = tr("preview (accepted probes)");
+  }
+  const LightingRig rig = set_.rig;
+  std::shared_ptr<const Tracer> tracer = tracer_;
+  startJob("eval", tr("Evaluating…"), [=](JobResult& result, const auto& report) {
+    EvalSettings es;
+    es.queries = request.queries;
+    es.referenceSpp = request.referenceSpp;
+    const EvalResult r = evaluateVolume(*tracer, rig, *volume, es, [&](double f) {
+      return report(tr("Evaluating against the reference…"), f);
+    });
+    result.evaluation = EvaluationPoint{r.probes, r.relRmse, r.p95RelError, r.maxRelError, source};
+  });
+  return true;
+}
+
 void Document::openVolume(const QString& path) {
   VolumeFile f = loadVolume(toPath(path));  // throws; nothing changed yet
   volume_ = std::make_shared<const ProbeVolume>(std::move(f.volume));
   volumePath_ = path;
+  volumeChange_ = changeCount_;
   emit volumeChanged();
 }
 
@@ -520,7 +559,11 @@ void Document::onJobDone() {
   } else if (r->kind == QLatin1String("bake") && r->volume) {
     volume_ = r->volume;
     volumePath_ = r->volumePath;
+    volumeChange_ = changeCount_;
     emit volumeChanged();
+  } else if (r->kind == QLatin1String("eval") && r->evaluation) {
+    evaluations_.push_back(*r->evaluation);
+    emit evaluationsChanged();
   }
   emit jobProgress(QString(), 1.0);
   emit jobFinished(r->error);

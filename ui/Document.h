@@ -43,6 +43,20 @@ struct BakeRequest {
   int samplesPerProbe = 1024;
 };
 
+/// The evaluation's settings (core/eval/Evaluate.h).
+struct EvalRequest {
+  int queries = 128;
+  int referenceSpp = 256;
+};
+
+/// One evaluation the artist ran: the volume's probe count and its errors against the
+/// path-traced reference (relative RMS, 95th percentile, max), what was evaluated.
+struct EvaluationPoint {
+  size_t probes = 0;
+  double relRmse = 0, p95RelError = 0, maxRelError = 0;
+  QString source;  ///< "baked volume" or "preview (accepted probes)"
+};
+
 class Document : public QObject {
   Q_OBJECT
  public:
@@ -139,6 +153,12 @@ class Document : public QObject {
   /// Loads a volume file for the preview and the overlays. Throws ps::Error.
   void openVolume(const QString& path);
 
+  /// Evaluates in the background the baked volume when there is one (and no probe changed since
+  /// the bake), else the volume of the accepted probes with their preview SH; the result is
+  /// appended to evaluations(). Throws ParameterError when there is nothing to evaluate.
+  bool evaluate(const EvalRequest& request);
+  const std::vector<EvaluationPoint>& evaluations() const { return evaluations_; }
+
   // --- raw mutators used by the undo commands only (no undo, emit the change signals) ---
   void insertProbeRaw(int row, const Probe& p);
   void removeProbeRaw(uint64_t id);
@@ -163,6 +183,7 @@ class Document : public QObject {
   void rigChanged();
   /// volume() changed (baked, loaded, or dropped with the scene).
   void volumeChanged();
+  void evaluationsChanged();
   /// Background work: a message and the fraction done in [0, 1].
   void jobProgress(const QString& message, double fraction);
   /// Background work finished; `error` is empty on success.
@@ -192,6 +213,8 @@ class Document : public QObject {
   QString jobKind_;
   std::shared_ptr<const ProbeVolume> volume_;
   QString volumePath_;
+  quint64 volumeChange_ = 0;  ///< changeCount() when the volume was baked
+  std::vector<EvaluationPoint> evaluations_;
   QFutureWatcher<std::shared_ptr<JobResult>>* watcher_ = nullptr;
   std::shared_ptr<std::atomic<bool>> jobCancel_;
 };

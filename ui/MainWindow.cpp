@@ -24,6 +24,7 @@
 #include "core/common/Error.h"
 #include "ui/Autosave.h"
 #include "ui/Document.h"
+#include "ui/EvaluationPanel.h"
 #include "ui/InspectorPanel.h"
 #include "ui/LightingPanel.h"
 #include "ui/PlacementPanel.h"
@@ -79,6 +80,14 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   lightingDock->setWidget(lighting_);
   addDockWidget(Qt::LeftDockWidgetArea, lightingDock);
   tabifyDockWidget(placementDock, lightingDock);
+
+  evaluation_ = new EvaluationPanel(doc_);
+  auto* evaluationDock = new QDockWidget(tr("Evaluation"), this);
+  evaluationDock->setObjectName("evaluationDock");
+  evaluationDock->setWidget(evaluation_);
+  addDockWidget(Qt::LeftDockWidgetArea, evaluationDock);
+  tabifyDockWidget(lightingDock, evaluationDock);
+  connect(evaluation_, &EvaluationPanel::failed, this, &MainWindow::showError);
   placementDock->raise();
 
   sceneLabel_ = new QLabel(tr("No scene"));
@@ -208,6 +217,8 @@ void MainWindow::createActions() {
     placement_->bake();
   });
   a->setShortcut(QKeySequence(Qt::CTRL | Qt::Key_B));
+  a = probes->addAction(tr("&Evaluate"), this, [this] { evaluation_->evaluate(); });
+  a->setShortcut(QKeySequence(Qt::CTRL | Qt::Key_E));
   a = probes->addAction(tr("&Cancel background job"), doc_, &Document::requestCancel);
   a->setShortcut(Qt::Key_Escape);
   a = probes->addAction(tr("Open &volume…"), this, [this] {
@@ -310,6 +321,7 @@ void MainWindow::createActions() {
   view->addAction(findChild<QDockWidget*>("inspectorDock")->toggleViewAction());
   view->addAction(findChild<QDockWidget*>("placementDock")->toggleViewAction());
   view->addAction(findChild<QDockWidget*>("lightingDock")->toggleViewAction());
+  view->addAction(findChild<QDockWidget*>("evaluationDock")->toggleViewAction());
 
   QToolBar* tools = addToolBar(tr("Edit"));
   tools->setObjectName("editToolBar");

@@ -18,6 +18,7 @@ namespace ps::ui {
 
 class Autosave;
 class Document;
+class EvaluationPanel;
 class InspectorPanel;
 class LightingPanel;
 class PlacementPanel;
@@ -36,6 +37,7 @@ class MainWindow : public QMainWindow {
   InspectorPanel* inspector() const { return inspector_; }
   PlacementPanel* placementPanel() const { return placement_; }
   LightingPanel* lightingPanel() const { return lighting_; }
+  EvaluationPanel* evaluationPanel() const { return evaluation_; }
   Autosave* autosave() const { return autosave_; }
 
   /// No prompts on close (screenshot and test runs).
@@ -105,6 +107,7 @@ class MainWindow : public QMainWindow {
   InspectorPanel* inspector_;
   PlacementPanel* placement_;
   LightingPanel* lighting_;
+  EvaluationPanel* evaluation_;
   QPushButton* cancelJob_;
   Autosave* autosave_ = nullptr;
   QString autosaveFolder_;

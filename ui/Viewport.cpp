@@ -120,13 +120,21 @@ layout(location = 1) in vec4 iPosRadius;  // centre, drawn radius
 layout(location = 2) in vec4 iStyle;      // state (0 candidate, 1 accepted, 2 rejected), selected, hasSh, alpha
 layout(location = 3) in vec4 iSh[7];      // 27 floats: A_l * c_lm, RGB interleaved
 uniform mat4 uViewProj;
+uniform int uImpostor;  // 1: aPos.xy is a quad corner; the sphere is ray cast per fragment
+uniform vec3 uRight;
+uniform vec3 uUp;
 out vec3 vWorld;
 out vec3 vNormal;
 flat out vec4 vStyle;
 flat out vec4 vSh[7];
+flat out vec4 vSphere;
 void main() {
   vNormal = aPos;
-  vWorld = iPosRadius.xyz + aPos * iPosRadius.w;
+  vSphere = iPosRadius;
+  if (uImpostor == 1)  // a camera-facing quad large enough for the perspective silhouette
+    vWorld = iPosRadius.xyz + (uRight * aPos.x + uUp * aPos.y) * (iPosRadius.w * 1.6);
+  else
+    vWorld = iPosRadius.xyz + aPos * iPosRadius.w;
   vStyle = iStyle;
   for (int i = 0; i < 7; ++i) vSh[i] = iSh[i];
   gl_Position = uViewProj * vec4(vWorld, 1.0);
@@ -137,9 +145,12 @@ in vec3 vWorld;
 in vec3 vNormal;
 flat in vec4 vStyle;
 flat in vec4 vSh[7];
+flat in vec4 vSphere;
 uniform vec3 uEye;
 uniform float uExposure;
 uniform int uXray;  // 1 = pass drawing the parts hidden behind geometry
+uniform int uImpostor;
+uniform mat4 uViewProj;
 out vec4 fragColor;
 float shf(int k) { return vSh[k / 4][k % 4]; }
 vec3 shc(int i) { return vec3(shf(3 * i), shf(3 * i + 1), shf(3 * i + 2)); }
@@ -153,7 +164,20 @@ vec3 irradiance(vec3 n) {
 }
 void main() {
   vec3 n = normalize(vNormal);
-  vec3 v = normalize(uEye - vWorld);
+  vec3 world = vWorld;
+  if (uImpostor == 1) {
+    // Ray from the eye through this fragment against the probe's sphere.
+    vec3 d = normalize(vWorld - uEye), oc = uEye - vSphere.xyz;
+    float b = dot(oc, d), c = dot(oc, oc) - vSphere.w * vSphere.w, disc = b * b - c;
+    if (disc < 0.0) discard;
+    world = uEye + d * (-b - sqrt(disc));
+    n = normalize(world - vSphere.xyz);
+    vec4 clip = uViewProj * vec4(world, 1.0);
+    gl_FragDepth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
+  } else {
+    gl_FragDepth = gl_FragCoord.z;
+  }
+  vec3 v = normalize(uEye - world);
   float facing = max(dot(n, v), 0.0);
   int state = int(vStyle.x + 0.5);
   bool selected = vStyle.y > 0.5;
@@ -598,6 +622,24 @@ void Viewport::initializeGL() {
   }
   glBindVertexArray(0);
 
+  // Impostor quad (triangle strip) with the same per-instance attributes.
+  const float quad[] = {-1, -1, 0, 1, -1, 0, -1, 1, 0, 1, 1, 0};
+  glGenVertexArrays(1, &impostorVao_);
+  glGenBuffers(1, &quadVbo_);
+  glBindVertexArray(impostorVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, quadVbo_);
+  glBufferData(GL_ARRAY_BUFFER, sizeof quad, quad, GL_STATIC_DRAW);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+  glBindBuffer(GL_ARRAY_BUFFER, instanceVbo_);
+  for (int a = 0; a < 9; ++a) {
+    glEnableVertexAttribArray(GLuint(1 + a));
+    glVertexAttribPointer(GLuint(1 + a), 4, GL_FLOAT, GL_FALSE, kInstanceFloats * sizeof(float),
+                          reinterpret_cast<const void*>(size_t(a) * 4 * sizeof(float)));
+    glVertexAttribDivisor(GLuint(1 + a), 1);
+  }
+  glBindVertexArray(0);
+
   initOverlayGL();
   glReady_ = true;
   sceneDirty_ = probesDirty_ = overlaysDirty_ = true;
@@ -624,6 +666,8 @@ void Viewport::cleanup() {
   glDeleteBuffers(1, &sphereVbo_);
   glDeleteBuffers(1, &sphereIbo_);
   glDeleteBuffers(1, &instanceVbo_);
+  glDeleteVertexArrays(1, &impostorVao_);
+  glDeleteBuffers(1, &quadVbo_);
   glReady_ = false;
   doneCurrent();
 }
@@ -712,7 +756,8 @@ void Viewport::paintGL() {
   if (framePending_) frameAll();
   if (sceneDirty_) uploadScene();
   if (probesDirty_) uploadProbes();
-  if (previewLighting_ || overlays_) updateFields();
+  // Fields are rebuilt from the probes when an edit ends, not on every step of a drag.
+  if ((previewLighting_ || overlays_) && drag_ != Drag::Handle) updateFields();
   if (overlaysDirty_) uploadOverlays();
 
   glClearColor(0, 0, 0, 1);
@@ -794,15 +839,23 @@ void Viewport::paintGL() {
                        vp.constData());
     glUniform3f(glGetUniformLocation(probeProgram_, "uEye"), eye.x(), eye.y(), eye.z());
     glUniform1f(glGetUniformLocation(probeProgram_, "uExposure"), exposure());
-    glBindVertexArray(sphereVao_);
+    // Impostors: one camera-facing quad per probe, the sphere ray cast in the fragment shader
+    // (exact silhouette and depth; 4 vertices instead of hundreds, so 10k probes stay cheap).
+    glDisable(GL_CULL_FACE);
+    glUniformMatrix4fv(glGetUniformLocation(probeProgram_, "uViewProj"), 1, GL_FALSE,
+                       vp.constData());
+    glUniform1i(glGetUniformLocation(probeProgram_, "uImpostor"), 1);
+    const QVector3D right = camera_.right(), up = camera_.up();
+    glUniform3f(glGetUniformLocation(probeProgram_, "uRight"), right.x(), right.y(), right.z());
+    glUniform3f(glGetUniformLocation(probeProgram_, "uUp"), up.x(), up.y(), up.z());
+    glBindVertexArray(impostorVao_);
     glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 0);
-    glDrawElementsInstanced(GL_TRIANGLES, sphereIndexCount_, GL_UNSIGNED_INT, nullptr,
-                            instanceCount_);
+    glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, instanceCount_);
     glDepthFunc(GL_GREATER);
     glDepthMask(GL_FALSE);
     glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 1);
-    glDrawElementsInstanced(GL_TRIANGLES, sphereIndexCount_, GL_UNSIGNED_INT, nullptr,
-                            instanceCount_);
+    glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, instanceCount_);
+    glUniform1i(glGetUniformLocation(probeProgram_, "uImpostor"), 0);
     glDepthFunc(GL_LESS);
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);

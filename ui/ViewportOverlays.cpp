@@ -16,20 +16,23 @@ namespace ps::ui {
 
 namespace {
 
-// One arrow per instance, drawn as lines: a shaft along +Z of the glyph frame and a head of four
-// strokes. Instance: centre + length, direction + magnitude in [0, 1] (colour).
+// One arrow per instance, drawn as lines: a shaft along +Z of the glyph frame and a head of two
+// strokes in the plane facing the eye. Instance: centre + length, direction + magnitude in
+// [0, 1] (colour).
 const char* kGlyphVs = R"(#version 330 core
 layout(location = 0) in vec3 aPos;      // arrow in its frame: shaft from z=-0.5 to z=0.5
 layout(location = 1) in vec4 iCentreLen;
 layout(location = 2) in vec4 iDirMag;
 uniform mat4 uViewProj;
 uniform float uClipY;
+uniform vec3 uEye;
 out float vMag;
 out float vClip;
 void main() {
   vec3 d = normalize(iDirMag.xyz);
-  vec3 h = abs(d.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
-  vec3 u = normalize(cross(h, d));
+  vec3 toEye = uEye - iCentreLen.xyz;
+  vec3 u = cross(d, toEye);
+  u = dot(u, u) > 1e-12 ? normalize(u) : normalize(cross(d, abs(d.y) < 0.9 ? vec3(0, 1, 0) : vec3(1, 0, 0)));
   vec3 v = cross(d, u);
   vec3 p = iCentreLen.xyz + (u * aPos.x + v * aPos.y + d * aPos.z) * iCentreLen.w;
   vMag = iDirMag.w;
@@ -465,6 +468,8 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
     glUniformMatrix4fv(glGetUniformLocation(glyphProgram_, "uViewProj"), 1, GL_FALSE,
                        vp.constData());
     glUniform1f(glGetUniformLocation(glyphProgram_, "uClipY"), clipY);
+    const QVector3D eye = camera_.eye();
+    glUniform3f(glGetUniformLocation(glyphProgram_, "uEye"), eye.x(), eye.y(), eye.z());
     glBindVertexArray(glyphVao_);
     glDrawArraysInstanced(GL_LINES, 0, glyphMeshCount_, glyphCount_);
   }

@@ -1,0 +1,141 @@
+// Frame time of the editor's viewport (issue 6: "stays interactive with 10k probes and 100k
+// glyphs"). Needs a display with OpenGL 3.3: run under Xvfb with Mesa's software renderer, e.g.
+//   LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a -s "-screen 0 1280x1024x24" build/tests/ui/bench_viewport
+// Each frame is paintGL into the widget's framebuffer followed by glFinish (no readback).
+// The probes are 10,000 captured-looking probes spread through two-rooms.gltf (random positions,
+// SH of a constant plus a lobe, seeded); the glyph grid has the smallest resolution giving at
+// least 100,000 cells over the scene's bounds.
+#include <benchmark/benchmark.h>
+
+#include <QApplication>
+#include <QFile>
+#include <memory>
+#include <random>
+
+#include "core/scene/Scene.h"
+#include "ui/Document.h"
+#include "ui/Viewport.h"
+
+using namespace ps;
+using namespace ps::ui;
+
+namespace {
+
+const QString kScene = QStringLiteral(PS_SOURCE_DIR "/resources/scenes/two-rooms.gltf");
+
+struct Fixture {
+  Document doc;
+  std::unique_ptr<Viewport> vp;
+  int glyphs = 0;
+
+  Fixture(int probeCount, int minGlyphs) {
+    doc.setAutoPropose(false);
+    doc.openScene(kScene);
+    const Bounds3 b = doc.scene()->bounds;
+    std::mt19937 rng(42);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<Probe> probes;
+    for (int i = 0; i < probeCount; ++i) {
+      Probe p;
+      p.position = b.lo + Vec3(u(rng) * b.extent().x, u(rng) * b.extent().y, u(rng) * b.extent().z);
+      p.state = i % 4 == 0 ? ProbeState::Accepted : ProbeState::Candidate;
+      ShRgb sh;
+      sh.c[0] = Rgb(1, 0.9, 0.8) * (0.5 + 2 * u(rng));
+      const Vec3 d = normalize(Vec3(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5));
+      const auto y = shBasis(d);
+      for (int k = 0; k < kShCoeffCount; ++k) sh.c[size_t(k)] += Rgb(1, 1, 1) * y[size_t(k)];
+      p.sh = sh;
+      probes.push_back(p);
+    }
+    doc.addProbes(std::move(probes), "Add");
+    vp = std::make_unique<Viewport>(&doc);
+    vp->resize(1024, 768);
+    vp->show();
+    QApplication::processEvents();
+    if (minGlyphs > 0) {
+      int r = 8;
+      for (;; ++r) {
+        const double cell = std::max({b.extent().x, b.extent().y, b.extent().z}) / r;
+        double n = 1;
+        for (int a = 0; a < 3; ++a) n *= std::max(1.0, std::ceil(b.extent()[a] / cell - 1e-9));
+        if (n >= minGlyphs) break;
+      }
+      vp->setGlyphResolution(r);
+      vp->setOverlay(Viewport::Overlay::Glyphs, true);
+      vp->setOverlay(Viewport::Overlay::Slice, true);
+      glyphs = int(vp->glyphGrid().size());
+    }
+    vp->frameAll();
+    vp->renderNow();  // uploads
+  }
+};
+
+void frame(benchmark::State& state, int probes, int minGlyphs) {
+  Fixture f(probes, minGlyphs);
+  for (auto _ : state) {
+    f.vp->camera().orbit(1.0f, 0.0f);  // a new view each frame, as while orbiting
+    f.vp->renderNow();
+  }
+  state.counters["probes"] = double(f.doc.probes().size());
+  state.counters["glyphs"] = f.glyphs;
+  state.counters["fps"] =
+      benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_ViewportFrame10kProbes(benchmark::State& state) {
+  frame(state, 10000, 0);
+}
+void BM_ViewportFrame10kProbes100kGlyphs(benchmark::State& state) {
+  frame(state, 10000, 100000);
+}
+
+/// One step of a drag of one probe with 10k probes and the overlays on: the move command, the
+/// instance upload and the frame (the fields are rebuilt when the drag ends, not per step).
+void BM_ViewportDragStep10kProbes100kGlyphs(benchmark::State& state) {
+  Fixture f(10000, 100000);
+  const uint64_t id = f.doc.probes()[0].id;
+  const Vec3 start = f.doc.probes()[0].position;
+  const int key = f.doc.newMergeKey();
+  int i = 0;
+  for (auto _ : state) {
+    f.doc.moveProbes({{id, start + Vec3(0.001 * (++i % 100), 0, 0)}}, key);
+    f.vp->renderNow();
+  }
+  state.counters["probes"] = double(f.doc.probes().size());
+  state.counters["glyphs"] = f.glyphs;
+}
+
+/// Rebuilding the overlay data after an edit (preview volume of 10k probes, 100k-cell glyph grid,
+/// 40-cell preview grid, edges and leak tests) and uploading it.
+void BM_OverlayRebuild10kProbes100kGlyphs(benchmark::State& state) {
+  Fixture f(10000, 100000);
+  const uint64_t id = f.doc.probes()[1].id;
+  const Vec3 start = f.doc.probes()[1].position;
+  int i = 0;
+  for (auto _ : state) {
+    f.doc.moveProbe(id, start + Vec3(0.001 * (++i % 100), 0, 0), f.doc.newMergeKey());
+    f.vp->renderNow();
+  }
+  state.counters["probes"] = double(f.doc.probes().size());
+  state.counters["glyphs"] = f.glyphs;
+}
+
+}  // namespace
+
+BENCHMARK(BM_ViewportFrame10kProbes)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_ViewportFrame10kProbes100kGlyphs)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_ViewportDragStep10kProbes100kGlyphs)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_OverlayRebuild10kProbes100kGlyphs)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+int main(int argc, char** argv) {
+  QSurfaceFormat::setDefaultFormat(Viewport::surfaceFormat());
+  QApplication app(argc, argv);
+  if (!QFile::exists(kScene)) {
+    std::fprintf(stderr, "bench_viewport: %s not found\n", qPrintable(kScene));
+    return 1;
+  }
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

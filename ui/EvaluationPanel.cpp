@@ -1,0 +1,141 @@
+#include "ui/EvaluationPanel.h"
+
+#include <QChart>
+#include <QChartView>
+#include <QFormLayout>
+#include <QHeaderView>
+#include <QLegendMarker>
+#include <QLineSeries>
+#include <QPushButton>
+#include <QScatterSeries>
+#include <QSpinBox>
+#include <QTableWidget>
+#include <QVBoxLayout>
+#include <QValueAxis>
+#include <algorithm>
+#include <map>
+
+#include "core/common/Error.h"
+#include "ui/Document.h"
+
+namespace ps::ui {
+
+EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(parent), doc_(doc) {
+  auto* layout = new QVBoxLayout(this);
+  auto* form = new QFormLayout;
+  queries_ = new QSpinBox;
+  queries_->setRange(8, 1 << 20);
+  queries_->setValue(128);
+  refSpp_ = new QSpinBox;
+  refSpp_->setRange(16, 1 << 20);
+  refSpp_->setValue(256);
+  form->addRow(tr("Query points"), queries_);
+  form->addRow(tr("Reference samples"), refSpp_);
+  layout->addLayout(form);
+  run_ = new QPushButton(tr("Evaluate"));
+  run_->setToolTip(
+      tr("Error of the baked volume (or the accepted probes' preview) against a "
+         "path-traced reference at random points"));
+  layout->addWidget(run_);
+
+  chart_ = new QChart;
+  chart_->setTitle(tr("Irradiance error against probe count"));
+  rmse_ = new QScatterSeries;
+  rmse_->setName(tr("relative RMS (%)"));
+  rmse_->setMarkerSize(9);
+  p95_ = new QScatterSeries;
+  p95_->setName(tr("95th percentile (%)"));
+  p95_->setMarkerSize(9);
+  p95_->setMarkerShape(QScatterSeries::MarkerShapeRectangle);
+  rmseLine_ = new QLineSeries;
+  p95Line_ = new QLineSeries;
+  for (QXYSeries* s : {static_cast<QXYSeries*>(rmseLine_), static_cast<QXYSeries*>(p95Line_),
+                       static_cast<QXYSeries*>(rmse_), static_cast<QXYSeries*>(p95_)})
+    chart_->addSeries(s);
+  xAxis_ = new QValueAxis;
+  xAxis_->setTitleText(tr("probes"));
+  xAxis_->setLabelFormat("%d");
+  yAxis_ = new QValueAxis;
+  yAxis_->setTitleText(tr("error (%)"));
+  chart_->addAxis(xAxis_, Qt::AlignBottom);
+  chart_->addAxis(yAxis_, Qt::AlignLeft);
+  for (QAbstractSeries* s : chart_->series()) {
+    s->attachAxis(xAxis_);
+    s->attachAxis(yAxis_);
+  }
+  // The connecting lines share the markers' colours and stay out of the legend.
+  rmseLine_->setColor(rmse_->color());
+  p95Line_->setColor(p95_->color());
+  for (auto* m : chart_->legend()->markers(rmseLine_)) m->setVisible(false);
+  for (auto* m : chart_->legend()->markers(p95Line_)) m->setVisible(false);
+  view_ = new QChartView(chart_);
+  view_->setRenderHint(QPainter::Antialiasing);
+  view_->setMinimumHeight(220);
+  layout->addWidget(view_, 1);
+
+  table_ = new QTableWidget(0, 4);
+  table_->setHorizontalHeaderLabels({tr("probes"), tr("rel. RMS"), tr("p95"), tr("source")});
+  table_->verticalHeader()->hide();
+  table_->horizontalHeader()->setStretchLastSection(true);
+  table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
+  table_->setMaximumHeight(140);
+  layout->addWidget(table_);
+
+  connect(run_, &QPushButton::clicked, this, [this] { evaluate(); });
+  connect(doc_, &Document::evaluationsChanged, this, &EvaluationPanel::refresh);
+  connect(doc_, &Document::jobFinished, this, [this] { run_->setEnabled(!doc_->isBusy()); });
+  connect(doc_, &Document::jobProgress, this, [this] { run_->setEnabled(!doc_->isBusy()); });
+  refresh();
+}
+
+bool EvaluationPanel::evaluate() {
+  EvalRequest r;
+  r.queries = queries_->value();
+  r.referenceSpp = refSpp_->value();
+  try {
+    if (doc_->evaluate(r)) return true;
+  } catch (const Error& e) {
+    emit failed(tr("Evaluate"), QString::fromStdString(e.what()));
+    return false;
+  }
+  emit failed(tr("Evaluate"),
+              doc_->isBusy() ? tr("Another job is running.") : tr("Open a scene first."));
+  return false;
+}
+
+void EvaluationPanel::refresh() {
+  const auto& evals = doc_->evaluations();
+  rmse_->clear();
+  p95_->clear();
+  rmseLine_->clear();
+  p95Line_->clear();
+  table_->setRowCount(int(evals.size()));
+  double maxX = 1, maxY = 1;
+  // Lines through the best result at each count, in order of count.
+  std::map<size_t, std::pair<double, double>> best;
+  for (size_t i = 0; i < evals.size(); ++i) {
+    const EvaluationPoint& e = evals[i];
+    const double x = double(e.probes), a = 100 * e.relRmse, b = 100 * e.p95RelError;
+    rmse_->append(x, a);
+    p95_->append(x, b);
+    auto it = best.find(e.probes);
+    if (it == best.end())
+      best[e.probes] = {a, b};
+    else
+      it->second = {std::min(it->second.first, a), std::min(it->second.second, b)};
+    maxX = std::max(maxX, x);
+    maxY = std::max({maxY, a, b});
+    table_->setItem(int(i), 0, new QTableWidgetItem(QString::number(e.probes)));
+    table_->setItem(int(i), 1, new QTableWidgetItem(QString::number(a, 'f', 2) + " %"));
+    table_->setItem(int(i), 2, new QTableWidgetItem(QString::number(b, 'f', 2) + " %"));
+    table_->setItem(int(i), 3, new QTableWidgetItem(e.source));
+  }
+  for (const auto& [n, errs] : best) {
+    rmseLine_->append(double(n), errs.first);
+    p95Line_->append(double(n), errs.second);
+  }
+  xAxis_->setRange(0, maxX * 1.1);
+  yAxis_->setRange(0, maxY * 1.15);
+}
+
+}  // namespace ps::ui

@@ -1,0 +1,55 @@
+#pragma once
+// The evaluation dock (issue 6, "a plot (Qt Charts) of error against probe count"): Evaluate runs
+// core/eval in the background on the baked volume (or the accepted probes' preview volume); each
+// run adds a point to the plot of relative RMS and 95th-percentile irradiance error (in %)
+// against the volume's probe count, and a row to the table below it.
+#include <QWidget>
+
+class QChart;
+class QChartView;
+class QLineSeries;
+class QScatterSeries;
+class QValueAxis;
+class QLogValueAxis;
+class QSpinBox;
+class QPushButton;
+class QTableWidget;
+
+namespace ps::ui {
+
+class Document;
+
+class EvaluationPanel : public QWidget {
+  Q_OBJECT
+ public:
+  explicit EvaluationPanel(Document* doc, QWidget* parent = nullptr);
+
+  /// Starts an evaluation; false (after emitting failed) when it could not start.
+  bool evaluate();
+
+  QChart* chart() const { return chart_; }
+  /// The plotted series: relative RMS error (%) and 95th percentile (%) against probe count.
+  QScatterSeries* rmseSeries() const { return rmse_; }
+  QScatterSeries* p95Series() const { return p95_; }
+  QSpinBox* queriesBox() const { return queries_; }
+  QSpinBox* referenceSamplesBox() const { return refSpp_; }
+  QTableWidget* table() const { return table_; }
+
+ signals:
+  void failed(const QString& title, const QString& message);
+
+ private:
+  void refresh();
+
+  Document* doc_;
+  QChart* chart_;
+  QChartView* view_;
+  QScatterSeries *rmse_, *p95_;
+  QLineSeries *rmseLine_, *p95Line_;
+  QValueAxis *xAxis_, *yAxis_;
+  QSpinBox *queries_, *refSpp_;
+  QPushButton* run_;
+  QTableWidget* table_;
+};
+
+}  // namespace ps::ui
