@@ -118,7 +118,6 @@ const char* kProbeVs = R"(#version 330 core
 layout(location = 0) in vec3 aPos;        // unit sphere; also the normal
 layout(location = 1) in vec4 iPosRadius;  // centre, drawn radius
 layout(location = 2) in vec4 iStyle;      // state (0 candidate, 1 accepted, 2 rejected), selected, hasSh, alpha
-layout(location = 3) in vec4 iSh[7];      // 27 floats: A_l * c_lm, RGB interleaved
 uniform mat4 uViewProj;
 uniform int uImpostor;  // 1: aPos.xy is a quad corner; the sphere is ray cast per fragment
 uniform vec3 uRight;
@@ -126,7 +125,7 @@ uniform vec3 uUp;
 out vec3 vWorld;
 out vec3 vNormal;
 flat out vec4 vStyle;
-flat out vec4 vSh[7];
+flat out int vInstance;  // the SH is fetched from the instance buffer (few varyings: fast)
 flat out vec4 vSphere;
 void main() {
   vNormal = aPos;
@@ -136,7 +135,7 @@ void main() {
   else
     vWorld = iPosRadius.xyz + aPos * iPosRadius.w;
   vStyle = iStyle;
-  for (int i = 0; i < 7; ++i) vSh[i] = iSh[i];
+  vInstance = gl_InstanceID;
   gl_Position = uViewProj * vec4(vWorld, 1.0);
 })";
 
@@ -144,14 +143,16 @@ const char* kProbeFs = R"(
 in vec3 vWorld;
 in vec3 vNormal;
 flat in vec4 vStyle;
-flat in vec4 vSh[7];
+flat in int vInstance;
 flat in vec4 vSphere;
+uniform samplerBuffer uInstances;  // the instance buffer: 9 RGBA texels per probe, SH from 2
 uniform vec3 uEye;
 uniform float uExposure;
 uniform int uXray;  // 1 = pass drawing the parts hidden behind geometry
 uniform int uImpostor;
 uniform mat4 uViewProj;
 out vec4 fragColor;
+vec4 vSh[7];
 float shf(int k) { return vSh[k / 4][k % 4]; }
 vec3 shc(int i) { return vec3(shf(3 * i), shf(3 * i + 1), shf(3 * i + 2)); }
 // Irradiance E(n) = sum A_l c_lm Y_lm(n) (Ramamoorthi & Hanrahan 2001); basis as core/math/Sh.cpp.
@@ -163,6 +164,7 @@ vec3 irradiance(vec3 n) {
          shc(8) * (0.546274 * (x * x - y * y));
 }
 void main() {
+  for (int i = 0; i < 7; ++i) vSh[i] = texelFetch(uInstances, vInstance * 9 + 2 + i);
   vec3 n = normalize(vNormal);
   vec3 world = vWorld;
   if (uImpostor == 1) {
@@ -287,7 +289,13 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
   connect(doc, &Document::probesReset, this, &Viewport::onProbesChanged);
   connect(doc, &Document::probeInserted, this, &Viewport::onProbesChanged);
   connect(doc, &Document::probeRemoved, this, &Viewport::onProbesChanged);
-  connect(doc, &Document::probeChanged, this, &Viewport::onProbesChanged);
+  // A changed probe (moved, accepted, ...) keeps the drawn size: no O(n^2) radius update.
+  connect(doc, &Document::probeChanged, this, [this] {
+    probesDirty_ = true;
+    fieldsDirty_ = true;
+    updateAutoExposure();
+    update();
+  });
 }
 
 Viewport::~Viewport() {
@@ -614,7 +622,7 @@ void Viewport::initializeGL() {
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(idx.size() * sizeof(uint32_t)), idx.data(),
                GL_STATIC_DRAW);
   glBindBuffer(GL_ARRAY_BUFFER, instanceVbo_);
-  for (int a = 0; a < 9; ++a) {
+  for (int a = 0; a < 2; ++a) {
     glEnableVertexAttribArray(GLuint(1 + a));
     glVertexAttribPointer(GLuint(1 + a), 4, GL_FLOAT, GL_FALSE, kInstanceFloats * sizeof(float),
                           reinterpret_cast<const void*>(size_t(a) * 4 * sizeof(float)));
@@ -624,6 +632,7 @@ void Viewport::initializeGL() {
 
   // Impostor quad (triangle strip) with the same per-instance attributes.
   const float quad[] = {-1, -1, 0, 1, -1, 0, -1, 1, 0, 1, 1, 0};
+  glGenTextures(1, &instanceTex_);
   glGenVertexArrays(1, &impostorVao_);
   glGenBuffers(1, &quadVbo_);
   glBindVertexArray(impostorVao_);
@@ -632,7 +641,7 @@ void Viewport::initializeGL() {
   glEnableVertexAttribArray(0);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
   glBindBuffer(GL_ARRAY_BUFFER, instanceVbo_);
-  for (int a = 0; a < 9; ++a) {
+  for (int a = 0; a < 2; ++a) {  // centre + radius, style; the SH is read as a texture buffer
     glEnableVertexAttribArray(GLuint(1 + a));
     glVertexAttribPointer(GLuint(1 + a), 4, GL_FLOAT, GL_FALSE, kInstanceFloats * sizeof(float),
                           reinterpret_cast<const void*>(size_t(a) * 4 * sizeof(float)));
@@ -667,6 +676,7 @@ void Viewport::cleanup() {
   glDeleteBuffers(1, &sphereIbo_);
   glDeleteBuffers(1, &instanceVbo_);
   glDeleteVertexArrays(1, &impostorVao_);
+  glDeleteTextures(1, &instanceTex_);
   glDeleteBuffers(1, &quadVbo_);
   glReady_ = false;
   doneCurrent();
@@ -741,10 +751,14 @@ void Viewport::uploadProbes() {
     inst.push_back(0.0f);
   }
   instanceCount_ = count;
+  if (inst.empty()) inst.assign(kInstanceFloats, 0.0f);  // a texture buffer needs storage
   glBindBuffer(GL_ARRAY_BUFFER, instanceVbo_);
   glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(inst.size() * sizeof(float)), inst.data(),
                GL_DYNAMIC_DRAW);
   glBindBuffer(GL_ARRAY_BUFFER, 0);
+  glBindTexture(GL_TEXTURE_BUFFER, instanceTex_);
+  glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA32F, instanceVbo_);
+  glBindTexture(GL_TEXTURE_BUFFER, 0);
 }
 
 void Viewport::resizeGL(int, int) {
@@ -848,6 +862,9 @@ void Viewport::paintGL() {
     const QVector3D right = camera_.right(), up = camera_.up();
     glUniform3f(glGetUniformLocation(probeProgram_, "uRight"), right.x(), right.y(), right.z());
     glUniform3f(glGetUniformLocation(probeProgram_, "uUp"), up.x(), up.y(), up.z());
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_BUFFER, instanceTex_);
+    glUniform1i(glGetUniformLocation(probeProgram_, "uInstances"), 0);
     glBindVertexArray(impostorVao_);
     glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 0);
     glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, instanceCount_);

@@ -223,7 +223,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   GLuint sphereVao_ = 0, sphereVbo_ = 0, sphereIbo_ = 0, instanceVbo_ = 0;
   GLsizei sphereIndexCount_ = 0, instanceCount_ = 0;
   GLuint emptyVao_ = 0;
-  GLuint impostorVao_ = 0, quadVbo_ = 0;
+  GLuint impostorVao_ = 0, quadVbo_ = 0, instanceTex_ = 0;
   GLuint lineProgram_ = 0, lineVao_ = 0, lineVbo_ = 0;  // coloured lines and triangles
   GLuint glyphProgram_ = 0, glyphVao_ = 0, glyphMeshVbo_ = 0, glyphInstanceVbo_ = 0;
   GLsizei glyphCount_ = 0, glyphMeshCount_ = 0;
@@ -232,7 +232,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   GLuint sliceProgram_ = 0, sliceTex_ = 0;
   GLuint meshVbo_ = 0;  // tet mesh lines
   GLsizei meshVertexCount_ = 0;
-  GLuint testVao_ = 0, testInstanceVbo_ = 0;
+  GLuint testVao_ = 0, testInstanceVbo_ = 0, testInstanceTex_ = 0;
 
   // Mouse interaction.
   QPointF pressPos_, lastPos_;

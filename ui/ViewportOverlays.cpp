@@ -313,6 +313,7 @@ void Viewport::initOverlayGL() {
   glGenBuffers(1, &meshVbo_);
 
   // The test object: the probe sphere mesh with its own one-instance buffer.
+  glGenTextures(1, &testInstanceTex_);
   glGenVertexArrays(1, &testVao_);
   glGenBuffers(1, &testInstanceVbo_);
   glBindVertexArray(testVao_);
@@ -321,7 +322,7 @@ void Viewport::initOverlayGL() {
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, sphereIbo_);
   glBindBuffer(GL_ARRAY_BUFFER, testInstanceVbo_);
-  for (int a = 0; a < 9; ++a) {
+  for (int a = 0; a < 2; ++a) {
     glEnableVertexAttribArray(GLuint(1 + a));
     glVertexAttribPointer(GLuint(1 + a), 4, GL_FLOAT, GL_FALSE, 36 * sizeof(float),
                           reinterpret_cast<const void*>(size_t(a) * 4 * sizeof(float)));
@@ -340,6 +341,7 @@ void Viewport::cleanupOverlayGL() {
   glDeleteTextures(1, &sliceTex_);
   glDeleteBuffers(1, &meshVbo_);
   glDeleteVertexArrays(1, &testVao_);
+  glDeleteTextures(1, &testInstanceTex_);
   glDeleteBuffers(1, &testInstanceVbo_);
 }
 
@@ -514,6 +516,9 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
     glBindBuffer(GL_ARRAY_BUFFER, testInstanceVbo_);
     glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(inst.size() * sizeof(float)), inst.data(),
                  GL_STREAM_DRAW);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_BUFFER, testInstanceTex_);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA32F, testInstanceVbo_);
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
     glUseProgram(probeProgram_);
@@ -523,6 +528,7 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
     glUniform3f(glGetUniformLocation(probeProgram_, "uEye"), eye.x(), eye.y(), eye.z());
     glUniform1f(glGetUniformLocation(probeProgram_, "uExposure"), exposure());
     glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 0);
+    glUniform1i(glGetUniformLocation(probeProgram_, "uInstances"), 0);
     glBindVertexArray(testVao_);
     glDrawElementsInstanced(GL_TRIANGLES, sphereIndexCount_, GL_UNSIGNED_INT, nullptr, 1);
     glDisable(GL_CULL_FACE);

@@ -1,6 +1,7 @@
 // Editing in the editor, headless (QT_QPA_PLATFORM=offscreen): the move handle's constraints,
 // drags through real mouse events (one undo step each), box select, probes added on a surface
 // through the Embree tracer, the inspector, locks, fly keys, undo of a move restoring the SH.
+#include <QAction>
 #include <QCheckBox>
 #include <QDoubleSpinBox>
 #include <QLabel>
@@ -339,6 +340,73 @@ class TestEditing : public QObject {
         QCOMPARE(c, first);
       }
     QVERIFY(any);
+  }
+
+  void overlaysToggleFromTheMenuAndTheTestObjectDrags() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(800, 600);
+    // Captured probes on a jittered grid through both rooms.
+    const Bounds3 b = doc->scene()->bounds;
+    std::vector<Probe> ps;
+    std::mt19937 rng(4);
+    std::uniform_real_distribution<double> jitter(-0.05, 0.05);
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 4; ++k) {
+          Probe p;
+          p.position = b.lo + Vec3((i + 0.5 + jitter(rng)) * b.extent().x / 6,
+                                   (j + 0.5 + jitter(rng)) * b.extent().y / 3,
+                                   (k + 0.5 + jitter(rng)) * b.extent().z / 4);
+          ShRgb sh;
+          sh.c[0] = Rgb(1, 1, 1) * (1 + i);  // brighter towards +X
+          sh.c[3] = Rgb(1, 1, 1) * 0.5;      // light from +X
+          p.sh = sh;
+          ps.push_back(p);
+        }
+    doc->addProbes(ps, "Add");
+    vp->frameAll();
+    // Each overlay has a checkable action in the View menu (and the toolbar).
+    const struct {
+      const char* text;
+      Viewport::Overlay overlay;
+    } toggles[] = {{"&Gradient glyphs", Viewport::Overlay::Glyphs},
+                   {"&Slice plane", Viewport::Overlay::Slice},
+                   {"&Tetrahedral mesh", Viewport::Overlay::TetMesh},
+                   {"Test &object", Viewport::Overlay::TestObject}};
+    for (const auto& t : toggles) {
+      QAction* action = nullptr;
+      for (QAction* a : w.findChildren<QAction*>())
+        if (a->text() == QLatin1String(t.text)) action = a;
+      QVERIFY2(action, t.text);
+      QVERIFY(!vp->overlay(t.overlay));
+      action->trigger();
+      QVERIFY(vp->overlay(t.overlay));
+    }
+    // The glyphs point along f: towards +X here.
+    const ShGrid& g = vp->glyphGrid();
+    QVERIFY(g.size() > 100);
+    for (size_t i = 0; i < g.size(); i += 13) QVERIFY(luminanceDirectionVector(g.sh[i]).x > 0);
+    QVERIFY(vp->previewVolume().has_value());
+
+    // Drag the test object; its tetrahedron contains it.
+    const Vec3 start = vp->testObjectPosition();
+    const QPointF at = toPoint(vp->project(start));
+    drag(vp, at, at + QPointF(80, 0));
+    const Vec3 moved = vp->testObjectPosition();
+    QVERIFY(length(moved - start) > 0.05);
+    QVERIFY(std::abs(dot(moved - start, toV(vp->camera().backward()))) < 1e-4);  // in view plane
+    const int32_t tet = vp->testObjectTet();
+    QVERIFY(tet >= 0);
+    const VolumeLocation loc = locate(*vp->previewVolume(), moved, tet);
+    QCOMPARE(loc.tet, tet);
+    QVERIFY(!loc.outside);
+    QCOMPARE(doc->undoStack()->count(), 1);  // a view gadget, not an edit
   }
 
   void wasdFliesWhileTheRightButtonIsHeld() {

@@ -5,14 +5,17 @@
 #include <QGroupBox>
 #include <QListWidget>
 #include <QPushButton>
+#include <QScatterSeries>
 #include <QSignalSpy>
 #include <QSpinBox>
+#include <QTableWidget>
 #include <QTemporaryDir>
 #include <QtTest>
 
 #include "core/io/VolumeFile.h"
 #include "core/traversal/ProbeVolume.h"
 #include "ui/Document.h"
+#include "ui/EvaluationPanel.h"
 #include "ui/LightingPanel.h"
 #include "ui/MainWindow.h"
 #include "ui/PlacementPanel.h"
@@ -169,6 +172,52 @@ class TestPanels : public QObject {
     QCOMPARE(f.volume.probeCount(), accepted.size());
     QCOMPARE(f.volume.tets.size(), doc->volume()->tets.size());
     QCOMPARE(Document::volumePathFor("/a/b.json"), QStringLiteral("/a/b.psv"));
+  }
+
+  void evaluationsArePlottedAgainstProbeCount() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    EvaluationPanel* panel = win.w.evaluationPanel();
+    QSignalSpy failed(panel, &EvaluationPanel::failed);
+    QVERIFY(!panel->evaluate());  // nothing accepted, nothing baked
+    QVERIFY(failed.at(0).at(1).toString().contains("accept"));
+
+    win.w.placementPanel()->budgetBox()->setValue(40);
+    win.w.placementPanel()->captureSamplesBox()->setValue(16);
+    QVERIFY(win.w.placementPanel()->run());
+    QCOMPARE(waitForJob(doc), QString());
+    std::vector<uint64_t> ids;
+    for (const Probe& p : doc->probes()) ids.push_back(p.id);
+    panel->queriesBox()->setValue(32);
+    panel->referenceSamplesBox()->setValue(32);
+    // Two evaluations at different counts: every other probe, then all of them.
+    std::vector<uint64_t> half;
+    for (size_t i = 0; i < ids.size(); i += 2) half.push_back(ids[i]);
+    doc->setStates(half, ProbeState::Accepted);
+    QVERIFY(panel->evaluate());
+    QCOMPARE(waitForJob(doc), QString());
+    doc->setStates(ids, ProbeState::Accepted);
+    QVERIFY(panel->evaluate());
+    QCOMPARE(waitForJob(doc), QString());
+
+    const auto& evals = doc->evaluations();
+    QCOMPARE(evals.size(), size_t(2));
+    QCOMPARE(evals[0].probes, half.size());
+    QCOMPARE(evals[1].probes, ids.size());
+    QCOMPARE(panel->rmseSeries()->count(), 2);
+    QCOMPARE(panel->p95Series()->count(), 2);
+    for (int i = 0; i < 2; ++i) {
+      const QPointF a = panel->rmseSeries()->at(i), b = panel->p95Series()->at(i);
+      QCOMPARE(a.x(), double(evals[size_t(i)].probes));
+      QCOMPARE(a.y(), 100 * evals[size_t(i)].relRmse);
+      QCOMPARE(b.y(), 100 * evals[size_t(i)].p95RelError);
+      QVERIFY(evals[size_t(i)].relRmse > 0 && std::isfinite(evals[size_t(i)].relRmse));
+    }
+    QCOMPARE(panel->table()->rowCount(), 2);
+    // A new scene starts a new plot.
+    QVERIFY(win.w.openScene(QStringLiteral(PS_SOURCE_DIR "/resources/scenes/cornell.gltf")));
+    QCOMPARE(panel->rmseSeries()->count(), 0);
   }
 
   void lightingPanelEditsTheRig() {
