@@ -245,6 +245,7 @@ QVector3D toQ(Vec3 v) {
 }
 
 constexpr int kInstanceFloats = 36;
+constexpr GLsizei kMaxXrayProbes = 2000;
 
 }  // namespace
 
@@ -254,7 +255,10 @@ QSurfaceFormat Viewport::surfaceFormat() {
   f.setVersion(3, 3);
   f.setProfile(QSurfaceFormat::CoreProfile);
   f.setDepthBufferSize(24);
-  f.setSamples(4);
+  // 4x MSAA; PS_VIEWPORT_MSAA overrides (0 turns it off, e.g. for software OpenGL).
+  bool ok = false;
+  const int samples = qEnvironmentVariableIntValue("PS_VIEWPORT_MSAA", &ok);
+  f.setSamples(ok ? std::clamp(samples, 0, 16) : 4);
   return f;
 }
 
@@ -868,10 +872,14 @@ void Viewport::paintGL() {
     glBindVertexArray(impostorVao_);
     glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 0);
     glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, instanceCount_);
-    glDepthFunc(GL_GREATER);
-    glDepthMask(GL_FALSE);
-    glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 1);
-    glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, instanceCount_);
+    // The x-ray ghosts help with a few hundred probes; with thousands they are clutter and cost a
+    // second pass, so they are left out.
+    if (instanceCount_ <= kMaxXrayProbes) {
+      glDepthFunc(GL_GREATER);
+      glDepthMask(GL_FALSE);
+      glUniform1i(glGetUniformLocation(probeProgram_, "uXray"), 1);
+      glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, instanceCount_);
+    }
     glUniform1i(glGetUniformLocation(probeProgram_, "uImpostor"), 0);
     glDepthFunc(GL_LESS);
     glDepthMask(GL_TRUE);

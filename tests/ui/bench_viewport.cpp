@@ -80,10 +80,14 @@ void frame(benchmark::State& state, int probes, int minGlyphs) {
   }
   state.counters["probes"] = double(f.doc.probes().size());
   state.counters["glyphs"] = f.glyphs;
-  state.counters["fps"] =
-      benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
 }
 
+void BM_ViewportFrameSceneOnly(benchmark::State& state) {
+  frame(state, 0, 0);
+}
+void BM_ViewportFrame1kProbes(benchmark::State& state) {
+  frame(state, 1000, 0);
+}
 void BM_ViewportFrame10kProbes(benchmark::State& state) {
   frame(state, 10000, 0);
 }
@@ -143,6 +147,8 @@ void BM_OverlayRebuild10kProbes100kGlyphs(benchmark::State& state) {
 }  // namespace
 
 // Real time: the GPU work (Mesa's llvmpipe runs it on its own threads) is in the frame.
+BENCHMARK(BM_ViewportFrameSceneOnly)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
+BENCHMARK(BM_ViewportFrame1kProbes)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
 BENCHMARK(BM_ViewportFrame10kProbes)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
 BENCHMARK(BM_ViewportFrame10kProbes100kGlyphs)
     ->Unit(benchmark::kMillisecond)
