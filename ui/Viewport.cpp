@@ -13,6 +13,8 @@
 #include <cmath>
 #include <map>
 
+#include "core/capture/Capture.h"
+#include "core/common/Tolerances.h"
 #include "core/scene/Scene.h"
 #include "ui/Document.h"
 #include "ui/SurfacePlacement.h"
@@ -181,7 +183,9 @@ void main() {
   }
   vec3 v = normalize(uEye - world);
   float facing = max(dot(n, v), 0.0);
-  int state = int(vStyle.x + 0.5);
+  int code = int(vStyle.x + 0.5);
+  int state = code & 7;
+  bool invalid = code >= 8;  // inside geometry (Kontkanen & Laine sec. 5)
   bool selected = vStyle.y > 0.5;
   vec3 c;
   if (vStyle.z > 0.5) {
@@ -195,6 +199,16 @@ void main() {
   vec3 ring = state == 1 ? vec3(0.95) : (state == 0 ? vec3(1.0, 0.72, 0.18) : vec3(0.75, 0.25, 0.2));
   float ringWidth = 0.42;
   if (selected) { ring = vec3(0.15, 0.95, 1.0); ringWidth = 0.6; }
+  if (invalid) {
+    // Magenta ring and a cross over the sphere.
+    ring = vec3(1.0, 0.1, 0.85);
+    ringWidth = 0.55;
+    vec3 q = (world - vSphere.xyz) / vSphere.w;
+    vec3 r = normalize(cross(uEye - vSphere.xyz, vec3(0.0, 1.0, 0.0)) + vec3(1e-6));
+    vec3 u = normalize(cross(r, uEye - vSphere.xyz));
+    float a = dot(q, r), b = dot(q, u);
+    if (min(abs(a - b), abs(a + b)) < 0.16) c = ring;
+  }
   float edge = smoothstep(ringWidth, ringWidth - 0.1, facing);
   c = mix(c, ring, edge);
   float alpha = vStyle.w;
@@ -734,6 +748,18 @@ void Viewport::uploadScene() {
   glBindTexture(GL_TEXTURE_BUFFER, 0);
 }
 
+bool Viewport::isInvalid(const Probe& p) const {
+  const Tracer* tracer = doc_->tracer();
+  if (!tracer) return false;
+  auto it = validity_.find(p.id);
+  if (it != validity_.end() && it->second.first == p.position) return it->second.second;
+  // Kontkanen & Laine sec. 5: inside geometry when too many rays hit back faces.
+  const bool invalid =
+      backfaceFraction(*tracer, p.position, 32, 1) > tol::kDefaultInvalidBackfaceFraction;
+  validity_[p.id] = {p.position, invalid};
+  return invalid;
+}
+
 void Viewport::uploadProbes() {
   probesDirty_ = false;
   std::vector<float> inst;
@@ -745,9 +771,10 @@ void Viewport::uploadProbes() {
     ++count;
     const bool selected = selection_.contains(p.id);
     const float alpha = p.state == ProbeState::Rejected && !selected ? 0.45f : 1.0f;
+    const float code = float(int(p.state) + (isInvalid(p) ? 8 : 0));  // state, +8: invalid
     inst.insert(inst.end(),
                 {float(p.position.x), float(p.position.y), float(p.position.z), drawnRadius(p),
-                 float(int(p.state)), selected ? 1.0f : 0.0f, p.sh ? 1.0f : 0.0f, alpha});
+                 code, selected ? 1.0f : 0.0f, p.sh ? 1.0f : 0.0f, alpha});
     for (int i = 0; i < kShCoeffCount; ++i) {
       const Rgb c = p.sh ? p.sh->c[size_t(i)] * shCosineLobe(i) : Rgb();
       inst.insert(inst.end(), {float(c.r), float(c.g), float(c.b)});

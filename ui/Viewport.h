@@ -8,6 +8,7 @@
 #include <QSet>
 #include <QSurfaceFormat>
 #include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "core/io/ProbeSet.h"
@@ -118,6 +119,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void setProbesVisible(bool on);
   void setRejectedVisible(bool on);
   bool rejectedVisible() const { return rejectedVisible_; }
+  /// True when the probe is inside geometry: more than tol::kDefaultInvalidBackfaceFraction of
+  /// 32 rays from it hit back faces (Kontkanen & Laine sec. 5). Cached per probe and position;
+  /// false without a tracer. Invalid probes are drawn with a magenta ring and cross.
+  bool isInvalid(const Probe& p) const;
   /// True when the probe is drawn (and pickable) with the current toggles.
   bool isDrawn(const Probe& p) const;
   bool probesVisible() const { return probesVisible_; }
@@ -202,6 +207,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   std::vector<std::array<int32_t, 2>> edges_;
   std::vector<uint8_t> leaks_;
   int32_t testTetHint_ = -1;
+  mutable std::unordered_map<uint64_t, std::pair<Vec3, bool>> validity_;
   bool rejectedVisible_ = true;
   Tool tool_ = Tool::Select;
   bool cutaway_ = true;

@@ -238,7 +238,7 @@ class TestEditing : public QObject {
     QVERIFY(s->normal.y > 0.99);
     QVERIFY(std::abs(length(s->position - s->hitPoint) - 0.3) < 1e-9);
     QVERIFY(s->position.y > s->hitPoint.y);
-    // Seen from below (the ray hits the back of a floor or ceiling): the normal faces the viewer.
+    // Looking up at the ceiling: the normal faces the viewer (downwards).
     const auto up = placeOnSurface(tracer, origin, Vec3(0, 1, 0), 0.3);
     QVERIFY(up && up->normal.y < -0.99 && up->position.y < up->hitPoint.y);
     // An offset larger than the room: halfway to the opposite surface, inside the bounds.
@@ -407,6 +407,28 @@ class TestEditing : public QObject {
     QCOMPARE(loc.tet, tet);
     QVERIFY(!loc.outside);
     QCOMPARE(doc->undoStack()->count(), 1);  // a view gadget, not an edit
+  }
+
+  void probesInsideGeometryAreMarkedInvalid() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    w.document()->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    const Bounds3 b = w.document()->scene()->bounds;
+    Probe inside, below;
+    // In room A, mid-height: sees only front faces.
+    inside.position = Vec3(b.lo.x + 0.2 * b.extent().x, b.lo.y + 0.5 * b.extent().y, b.center().z);
+    // Inside the floor slab (a closed box 0.2 m thick from the bounds' bottom): every ray
+    // meets its inner, back faces.
+    below.position = Vec3(inside.position.x, b.lo.y + 0.1, inside.position.z + 1.0);
+    w.document()->addProbes({inside, below}, "Add");
+    const auto& ps = w.document()->probes();
+    QVERIFY(!w.viewport()->isInvalid(ps[0]));
+    QVERIFY(w.viewport()->isInvalid(ps[1]));
+    // Moving it into the room makes it valid (the cache follows the position).
+    w.document()->moveProbe(ps[1].id, inside.position + Vec3(0.3, 0, 0));
+    QVERIFY(!w.viewport()->isInvalid(w.document()->probes()[1]));
   }
 
   void wasdFliesWhileTheRightButtonIsHeld() {
