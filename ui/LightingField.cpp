@@ -100,6 +100,15 @@ std::vector<uint8_t> leakingEdges(const Tracer& tracer, const ProbeVolume& volum
   return out;
 }
 
+std::vector<float> edgeLuminanceDistances(const ProbeVolume& volume,
+                                          const std::vector<std::array<int32_t, 2>>& edges) {
+  std::vector<float> out(edges.size());
+  for (size_t i = 0; i < edges.size(); ++i)
+    out[i] =
+        float(luminanceDistanceStops(volume.probeSh(edges[i][0]), volume.probeSh(edges[i][1])));
+  return out;
+}
+
 double relativeIrradianceError(const ProbeVolume& test, const ProbeVolume& reference, Vec3 p,
                                Vec3 n, double floor) {
   const double et = luminance(interpolate(test, locate(test, p)).irradiance(n));

@@ -67,6 +67,12 @@ std::vector<std::array<int32_t, 2>> tetEdges(const ProbeVolume& volume);
 std::vector<uint8_t> leakingEdges(const Tracer& tracer, const ProbeVolume& volume,
                                   const std::vector<std::array<int32_t, 2>>& edges);
 
+/// For each edge, the luminance distance in stops between its two probes (luminanceDistanceStops):
+/// where neighbouring probes differ too much (Chajdas sec. 4, "we can show the locations where
+/// the distance becomes too large").
+std::vector<float> edgeLuminanceDistances(const ProbeVolume& volume,
+                                          const std::vector<std::array<int32_t, 2>>& edges);
+
 /// Relative irradiance error |E_test - E_ref| / max(E_ref, floor) of the luminance of the
 /// irradiance for normal n, at p (the error slice). `floor` keeps dark regions from dominating.
 double relativeIrradianceError(const ProbeVolume& test, const ProbeVolume& reference, Vec3 p,

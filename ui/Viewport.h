@@ -206,6 +206,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   ShGrid glyphGrid_, previewGrid_;
   std::vector<std::array<int32_t, 2>> edges_;
   std::vector<uint8_t> leaks_;
+  std::vector<float> edgeStops_;
   int32_t testTetHint_ = -1;
   mutable std::unordered_map<uint64_t, std::pair<Vec3, bool>> validity_;
   bool rejectedVisible_ = true;

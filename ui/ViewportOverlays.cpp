@@ -77,6 +77,9 @@ void main() {
   fragColor = c;
 })";
 
+/// Neighbouring probes whose brightness differs by more than this (stops) are flagged.
+constexpr float kEdgeStopsTooFar = 1.5f;
+
 /// Slice colour ramp (sRGB): blue (0) -> green -> yellow -> red (1).
 QRgb sliceColor(double t) {
   t = std::clamp(t, 0.0, 1.0);
@@ -209,10 +212,12 @@ void Viewport::updateFields() {
   previewGrid_ = ShGrid();
   edges_.clear();
   leaks_.clear();
+  edgeStops_.clear();
   if (!previewVolume_ || !scene) return;
   glyphGrid_ = sampleGrid(*previewVolume_, scene->bounds, glyphResolution_);
   previewGrid_ = sampleGrid(*previewVolume_, scene->bounds, previewResolution_);
   edges_ = tetEdges(*previewVolume_);
+  edgeStops_ = edgeLuminanceDistances(*previewVolume_, edges_);
   if (const Tracer* tracer = doc_->tracer())
     leaks_ = leakingEdges(*tracer, *previewVolume_, edges_);
 }
@@ -407,15 +412,19 @@ void Viewport::uploadOverlays() {
     glBindTexture(GL_TEXTURE_2D, 0);
   }
 
-  // Tetrahedral mesh: grey edges, leaking ones red.
+  // Tetrahedral mesh: grey edges; red where they cross geometry (leaks); orange where their
+  // probes differ by more than kEdgeStopsTooFar stops (Chajdas sec. 4).
   meshVertexCount_ = 0;
   if (overlay(Overlay::TetMesh) && previewVolume_) {
     std::vector<float> v;
     v.reserve(edges_.size() * 14);
     for (size_t i = 0; i < edges_.size(); ++i) {
       const bool leak = i < leaks_.size() && leaks_[i];
-      const float r = leak ? 1.0f : 0.8f, g = leak ? 0.15f : 0.8f, b = leak ? 0.1f : 0.85f;
-      const float a = leak ? 0.95f : 0.45f;
+      const bool far = !leak && i < edgeStops_.size() && edgeStops_[i] > kEdgeStopsTooFar;
+      const float r = leak ? 1.0f : (far ? 1.0f : 0.8f);
+      const float g = leak ? 0.15f : (far ? 0.6f : 0.8f);
+      const float b = leak ? 0.1f : (far ? 0.1f : 0.85f);
+      const float a = leak || far ? 0.95f : 0.45f;
       for (int e = 0; e < 2; ++e) {
         const Vec3 p = previewVolume_->position(edges_[i][size_t(e)]);
         v.insert(v.end(), {float(p.x), float(p.y), float(p.z), r, g, b, a});

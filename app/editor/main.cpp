@@ -10,6 +10,7 @@
 #include <QJsonArray>
 #include <QJsonDocument>
 #include <QJsonObject>
+#include <QMessageBox>
 #include <QRegularExpression>
 #include <QStandardPaths>
 #include <QTimer>
@@ -73,6 +74,8 @@ bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) 
   root["background"] = QJsonObject{{"top", rgb(ps::ui::Viewport::backgroundTop())},
                                    {"bottom", rgb(ps::ui::Viewport::backgroundBottom())}};
   root["probesVisible"] = vp->probesVisible();
+  root["modified"] = w.document()->isModified();
+  root["probeSetPath"] = w.document()->probeSetPath();
   root["probes"] = probes;
   // Overlays: where the checker should find them.
   auto px = [&](ps::Vec3 world) -> QJsonValue {
@@ -133,8 +136,15 @@ int main(int argc, char** argv) {
   const QCommandLineOption selectOpt("select", "Select the probe with this id.", "ID");
   const QCommandLineOption saveOpt(
       "save-probes", "With --screenshot: also write the probe set (with its SH) here.", "SET.json");
-  parser.addOptions(
-      {probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt, selectOpt, saveOpt});
+  const QCommandLineOption recoveryDirOpt(
+      "recovery-dir", "Folder of the autosave recovery files (default: the app's data folder).",
+      "DIR");
+  const QCommandLineOption autosaveOpt("autosave-ms", "Autosave interval in milliseconds.", "MS",
+                                       "30000");
+  const QCommandLineOption recoverOpt(
+      "recover", "With --screenshot: recover the newest crashed session's work first.");
+  parser.addOptions({probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt, selectOpt,
+                     saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -203,13 +213,25 @@ int main(int argc, char** argv) {
     if (parser.isSet(selectOpt))
       w.viewport()->setSelection({parser.value(selectOpt).toULongLong()});
     w.show();
+    const QString recoveryDir =
+        parser.isSet(recoveryDirOpt)
+            ? parser.value(recoveryDirOpt)
+            : QStandardPaths::writableLocation(QStandardPaths::AppLocalDataLocation) + "/recovery";
+    const int autosaveMs = std::max(parser.value(autosaveOpt).toInt(), 50);
     if (!screenshot) {
       doc->setAutoPropose(true);
       // Autosave, and offer what a crashed session left (Autosave.h).
-      w.startAutosave(QStandardPaths::writableLocation(QStandardPaths::AppLocalDataLocation) +
-                      "/recovery");
+      w.startAutosave(recoveryDir, autosaveMs);
       QTimer::singleShot(0, &w, [&w] { w.offerRecovery(); });
       return app.exec();
+    }
+    if (parser.isSet(recoverOpt)) {
+      w.startAutosave(recoveryDir, autosaveMs);
+      if (!w.offerRecovery(QMessageBox::Yes)) {
+        fail(QStringLiteral("--recover: nothing recovered from %1 %2")
+                 .arg(recoveryDir, w.lastError()));
+        return 1;
+      }
     }
     if (!doc->hasScene()) {
       fail("--screenshot needs a scene or a probe set");

@@ -106,6 +106,11 @@ class TestLightingField : public QObject {
     }
     // The edges: each once, and each one a tet's.
     const auto edges = tetEdges(*all);
+    const auto stops = edgeLuminanceDistances(*all, edges);
+    QCOMPARE(stops.size(), edges.size());
+    for (size_t i = 0; i < edges.size(); i += 5)
+      QVERIFY(std::abs(stops[i] - luminanceDistanceStops(all->probeSh(edges[i][0]),
+                                                         all->probeSh(edges[i][1]))) < 1e-5);
     QVERIFY(std::is_sorted(edges.begin(), edges.end()));
     QVERIFY(std::adjacent_find(edges.begin(), edges.end()) == edges.end());
     // Euler: V - E + F - T = 1 for a triangulated ball.
