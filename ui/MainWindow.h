@@ -65,6 +65,9 @@ class MainWindow : public QMainWindow {
   /// deletes the files, anything else keeps them.
   bool offerRecovery(std::optional<int> answer = std::nullopt);
 
+  /// Selects these probes in the table, the viewport and the inspector.
+  void selectProbes(const QSet<quint64>& ids) { selectIds(ids); }
+
   /// Adds a probe where the ray meets a surface (offset along the normal): the AddProbe tool.
   bool addProbeOnSurface(const PickRay& ray);
   /// Adds a probe at the camera's eye.

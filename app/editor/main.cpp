@@ -141,10 +141,13 @@ int main(int argc, char** argv) {
       "DIR");
   const QCommandLineOption autosaveOpt("autosave-ms", "Autosave interval in milliseconds.", "MS",
                                        "30000");
+  const QCommandLineOption windowShotOpt(
+      "window-screenshot", "With --screenshot: also write the whole window to this PNG.",
+      "WIN.png");
   const QCommandLineOption recoverOpt(
       "recover", "With --screenshot: recover the newest crashed session's work first.");
   parser.addOptions({probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt, selectOpt,
-                     saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt});
+                     saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt, windowShotOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -210,8 +213,6 @@ int main(int argc, char** argv) {
       if (!w.lastError().isEmpty()) fail(w.lastError());
       return 1;
     }
-    if (parser.isSet(selectOpt))
-      w.viewport()->setSelection({parser.value(selectOpt).toULongLong()});
     w.show();
     const QString recoveryDir =
         parser.isSet(recoveryDirOpt)
@@ -252,7 +253,12 @@ int main(int argc, char** argv) {
             return;
           }
         }
+        if (parser.isSet(selectOpt)) w.selectProbes({parser.value(selectOpt).toULongLong()});
         result = writeScreenshot(w, shot, timeFrames) ? 0 : 1;
+        if (parser.isSet(windowShotOpt) && !w.grab().save(parser.value(windowShotOpt))) {
+          fail(QStringLiteral("%1: cannot write").arg(parser.value(windowShotOpt)));
+          result = 1;
+        }
         app.exit(result);
       });
     };
