@@ -2,6 +2,7 @@
 #include <QFile>
 #include <QSignalSpy>
 #include <QSortFilterProxyModel>
+#include <QStandardPaths>
 #include <QTemporaryDir>
 #include <QtTest>
 
@@ -62,6 +63,7 @@ class TestDocument : public QObject {
   Q_OBJECT
  private slots:
   void initTestCase() {
+    QStandardPaths::setTestModeEnabled(true);  // recent files go to a test config, not the user's
     if (!QFile::exists(kScene)) QSKIP("two-rooms.gltf not present");
   }
 

@@ -7,6 +7,7 @@
 #include <QLabel>
 #include <QMouseEvent>
 #include <QSignalSpy>
+#include <QStandardPaths>
 #include <QtTest>
 #include <random>
 
@@ -68,6 +69,7 @@ class TestEditing : public QObject {
   Q_OBJECT
  private slots:
   void initTestCase() {
+    QStandardPaths::setTestModeEnabled(true);  // recent files go to a test config, not the user's
     if (!QFile::exists(kScene)) QSKIP("two-rooms.gltf not present");
   }
 

@@ -8,6 +8,7 @@
 #include <QScatterSeries>
 #include <QSignalSpy>
 #include <QSpinBox>
+#include <QStandardPaths>
 #include <QTableWidget>
 #include <QTemporaryDir>
 #include <QtTest>
@@ -47,6 +48,7 @@ class TestPanels : public QObject {
   Q_OBJECT
  private slots:
   void initTestCase() {
+    QStandardPaths::setTestModeEnabled(true);  // recent files go to a test config, not the user's
     if (!QFile::exists(kScene)) QSKIP("two-rooms.gltf not present");
   }
 
