@@ -122,6 +122,8 @@ class Document : public QObject {
   quint64 changeCount() const { return changeCount_; }
 
   const Tracer* tracer() const { return tracer_.get(); }
+  /// The tracer, shared (it keeps its scene alive), for background work.
+  std::shared_ptr<const Tracer> tracerShared() const { return tracer_; }
 
   // --- candidate proposal in the background ---
   bool autoPropose() const { return autoPropose_; }

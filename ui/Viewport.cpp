@@ -317,6 +317,7 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
 }
 
 Viewport::~Viewport() {
+  if (fieldsWatcher_) fieldsWatcher_->waitForFinished();
   cleanup();
 }
 
@@ -801,8 +802,9 @@ void Viewport::paintGL() {
   if (framePending_) frameAll();
   if (sceneDirty_) uploadScene();
   if (probesDirty_) uploadProbes();
-  // Fields are rebuilt from the probes when an edit ends, not on every step of a drag.
-  if ((previewLighting_ || overlays_) && drag_ != Drag::Handle) updateFields();
+  // Fields are rebuilt from the probes in the background when an edit ends (not on every step
+  // of a drag); the frame shows the previous ones until then.
+  if ((previewLighting_ || overlays_) && drag_ != Drag::Handle) startFieldsRebuild();
   if (overlaysDirty_) uploadOverlays();
 
   glClearColor(0, 0, 0, 1);

@@ -3,6 +3,7 @@
 // the probes as instanced spheres shaded by their own SH irradiance, tone mapped (exposure,
 // ACES, sRGB). Turns document data into GL buffers and nothing more (STYLE.md rule 10).
 // OpenGL 3.3 core; GL resources are made in initializeGL and freed on aboutToBeDestroyed.
+#include <QFutureWatcher>
 #include <QOpenGLFunctions_3_3_Core>
 #include <QOpenGLWidget>
 #include <QSet>
@@ -112,6 +113,14 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   const ShGrid& glyphGrid();
   /// The tetrahedron around the test object (-1 without a volume).
   int32_t testObjectTet();
+  /// The data behind the preview and the overlays (ViewportOverlays.cpp).
+  struct Fields;
+  /// Starts rebuilding the fields on a worker thread when they are out of date (paintGL calls
+  /// it: the frame keeps the previous fields until fieldsUpdated()).
+  void startFieldsRebuild();
+  /// The preview volume as it is now, without bringing it up to date.
+  bool hasPreviewVolume() const { return previewVolume_.has_value(); }
+
   /// Renders one frame into the widget's framebuffer now (makeCurrent, paintGL, glFinish);
   /// for the frame-time benchmark.
   void renderNow();
@@ -149,6 +158,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void boxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers modifiers);
   /// In the AddProbe tool, the user clicked: the ray through the cursor.
   void addProbeRequested(const ps::ui::PickRay& ray);
+  /// A background rebuild of the lighting fields arrived.
+  void fieldsUpdated();
 
  protected:
   void initializeGL() override;
@@ -174,7 +185,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void updateAutoExposure();
   void onProbesChanged();
   void drawHandle(const QMatrix4x4& vp);
+  /// Brings the lighting fields up to date now (waits for a background rebuild).
   void updateFields();
+
+  void applyFields(Fields&& f);
   void uploadOverlays();
   void drawOverlays(const QMatrix4x4& vp);
   void drawLines(const std::vector<float>& xyzrgba, GLenum mode, const QMatrix4x4& vp);
@@ -209,6 +223,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   std::vector<float> edgeStops_;
   int32_t testTetHint_ = -1;
   mutable std::unordered_map<uint64_t, std::pair<Vec3, bool>> validity_;
+  QFutureWatcher<std::shared_ptr<Fields>>* fieldsWatcher_ = nullptr;
   bool rejectedVisible_ = true;
   Tool tool_ = Tool::Select;
   bool cutaway_ = true;

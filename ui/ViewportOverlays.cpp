@@ -4,6 +4,7 @@
 // with leaking edges, and the test object. The data comes from LightingField.h; this file only
 // turns it into GL buffers and draws it.
 #include <QImage>
+#include <QtConcurrent/QtConcurrentRun>
 #include <QtMath>
 #include <algorithm>
 #include <cmath>
@@ -193,34 +194,97 @@ void Viewport::renderNow() {
 
 // ---------------------------------------------------------------- derived data
 
+/// Everything derived from the probes for the preview and the overlays.
+struct Viewport::Fields {
+  std::optional<ProbeVolume> preview, reference;
+  ShGrid glyphGrid, previewGrid;
+  std::vector<std::array<int32_t, 2>> edges;
+  std::vector<uint8_t> leaks;
+  std::vector<float> edgeStops;
+};
+
+namespace {
+/// A pure function of its inputs, so it runs on a worker thread (the probes are a copy; the
+/// tracer is shared and thread-safe for queries).
+std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes,
+                                                PreviewSource source, Bounds3 bounds,
+                                                int glyphResolution, int previewResolution,
+                                                std::shared_ptr<const Tracer> tracer);
+}  // namespace
+
+namespace {
+/// The test object's default place: the scene's centre, at 35 % of its height.
+Vec3 defaultTestObjectPosition(const Scene* scene) {
+  if (!scene || scene->bounds.empty()) return {};
+  Vec3 p = scene->bounds.center();
+  p.y = scene->bounds.lo.y + 0.35 * scene->bounds.extent().y;
+  return p;
+}
+}  // namespace
+
 void Viewport::updateFields() {
   const Scene* scene = doc_->scene();
-  if (!testObjectPlaced_ && scene && !scene->bounds.empty()) {
-    const Bounds3 b = scene->bounds;
-    testObject_ = b.center();
-    testObject_.y = b.lo.y + 0.35 * b.extent().y;
+  if (!testObjectPlaced_) testObject_ = defaultTestObjectPosition(scene);
+  if (fieldsWatcher_ && fieldsWatcher_->isRunning()) {
+    fieldsWatcher_->waitForFinished();
+    if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));
   }
   if (!fieldsDirty_) return;
   fieldsDirty_ = false;
+  auto f = computeFields(doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
+                         glyphResolution_, previewResolution_, doc_->tracerShared());
+  applyFields(std::move(*f));
+}
+
+void Viewport::startFieldsRebuild() {
+  const Scene* scene = doc_->scene();
+  if (!testObjectPlaced_) testObject_ = defaultTestObjectPosition(scene);
+  if (!fieldsDirty_ || (fieldsWatcher_ && fieldsWatcher_->isRunning())) return;
+  fieldsDirty_ = false;
+  if (!fieldsWatcher_) {
+    fieldsWatcher_ = new QFutureWatcher<std::shared_ptr<Fields>>(this);
+    connect(fieldsWatcher_, &QFutureWatcherBase::finished, this, [this] {
+      if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));
+      emit fieldsUpdated();
+      update();  // shows the new fields; starts another rebuild if the probes moved meanwhile
+    });
+  }
+  fieldsWatcher_->setFuture(QtConcurrent::run(computeFields, doc_->probes(), previewSource_,
+                                              scene ? scene->bounds : Bounds3(), glyphResolution_,
+                                              previewResolution_, doc_->tracerShared()));
+}
+
+void Viewport::applyFields(Fields&& f) {
   overlaysDirty_ = true;
   testTetHint_ = -1;
-  previewVolume_ = buildPreviewVolume(doc_->probes(), previewSource_);
-  referenceVolume_ = previewSource_ == PreviewSource::AllCaptured
-                         ? previewVolume_
-                         : buildPreviewVolume(doc_->probes(), PreviewSource::AllCaptured);
-  glyphGrid_ = ShGrid();
-  previewGrid_ = ShGrid();
-  edges_.clear();
-  leaks_.clear();
-  edgeStops_.clear();
-  if (!previewVolume_ || !scene) return;
-  glyphGrid_ = sampleGrid(*previewVolume_, scene->bounds, glyphResolution_);
-  previewGrid_ = sampleGrid(*previewVolume_, scene->bounds, previewResolution_);
-  edges_ = tetEdges(*previewVolume_);
-  edgeStops_ = edgeLuminanceDistances(*previewVolume_, edges_);
-  if (const Tracer* tracer = doc_->tracer())
-    leaks_ = leakingEdges(*tracer, *previewVolume_, edges_);
+  previewVolume_ = std::move(f.preview);
+  referenceVolume_ = std::move(f.reference);
+  glyphGrid_ = std::move(f.glyphGrid);
+  previewGrid_ = std::move(f.previewGrid);
+  edges_ = std::move(f.edges);
+  leaks_ = std::move(f.leaks);
+  edgeStops_ = std::move(f.edgeStops);
 }
+
+namespace {
+std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes,
+                                                PreviewSource source, Bounds3 bounds,
+                                                int glyphResolution, int previewResolution,
+                                                std::shared_ptr<const Tracer> tracer) {
+  auto f = std::make_shared<Viewport::Fields>();
+  f->preview = buildPreviewVolume(probes, source);
+  f->reference = source == PreviewSource::AllCaptured
+                     ? f->preview
+                     : buildPreviewVolume(probes, PreviewSource::AllCaptured);
+  if (!f->preview || bounds.empty()) return f;
+  f->glyphGrid = sampleGrid(*f->preview, bounds, glyphResolution);
+  f->previewGrid = sampleGrid(*f->preview, bounds, previewResolution);
+  f->edges = tetEdges(*f->preview);
+  f->edgeStops = edgeLuminanceDistances(*f->preview, f->edges);
+  if (tracer) f->leaks = leakingEdges(*tracer, *f->preview, f->edges);
+  return f;
+}
+}  // namespace
 
 QImage Viewport::renderSliceImage(int size) {
   QImage img(size, size, QImage::Format_ARGB32);

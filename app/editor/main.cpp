@@ -38,6 +38,8 @@ QJsonArray rgb(const QColor& c) {
 bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) {
   ps::ui::Viewport* vp = w.viewport();
   vp->frameAll();
+  (void)
+      vp->previewVolume();  // the overlays' data, now (the window would build it in the background)
   const QImage image = vp->grabFramebuffer();
   if (image.isNull() || !image.save(out)) {
     fail(QStringLiteral("%1: cannot render or write the screenshot").arg(out));

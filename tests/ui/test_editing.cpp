@@ -396,6 +396,19 @@ class TestEditing : public QObject {
     for (size_t i = 0; i < g.size(); i += 13) QVERIFY(luminanceDirectionVector(g.sh[i]).x > 0);
     QVERIFY(vp->previewVolume().has_value());
 
+    // A background rebuild after an edit: the old fields stay until the new ones arrive.
+    QSignalSpy updated(vp, &Viewport::fieldsUpdated);
+    const size_t before = vp->previewVolume()->probeCount();
+    Probe extra;
+    extra.position = b.center() + Vec3(0.1, 0.05, 0.02);
+    extra.sh = ShRgb();
+    doc->addProbes({extra}, "Add");
+    vp->startFieldsRebuild();
+    QVERIFY(vp->hasPreviewVolume());  // still the previous one
+    QVERIFY(updated.wait(20000));
+    QCOMPARE(vp->previewVolume()->probeCount(), before + 1);
+    doc->undoStack()->undo();
+
     // Drag the test object; its tetrahedron contains it.
     const Vec3 start = vp->testObjectPosition();
     const QPointF at = toPoint(vp->project(start));
@@ -408,7 +421,7 @@ class TestEditing : public QObject {
     const VolumeLocation loc = locate(*vp->previewVolume(), moved, tet);
     QCOMPARE(loc.tet, tet);
     QVERIFY(!loc.outside);
-    QCOMPARE(doc->undoStack()->count(), 1);  // a view gadget, not an edit
+    QCOMPARE(doc->undoStack()->index(), 1);  // a view gadget, not an edit
   }
 
   void probesInsideGeometryAreMarkedInvalid() {
