@@ -31,6 +31,7 @@ double luminanceDistanceStops(const ShRgb& a, const ShRgb& b) {
 
 std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
                                               PreviewSource source) {
+  if (source == PreviewSource::Baked) return std::nullopt;
   std::vector<Vec3> positions;
   std::vector<ShRgb> sh;
   for (const Probe& p : probes) {

@@ -36,8 +36,9 @@ double luminanceDistanceStops(const ShRgb& a, const ShRgb& b);
 
 /// Which probes the preview volume is built from.
 enum class PreviewSource {
-  Accepted,    ///< accepted probes with SH (what a bake would use, at preview quality)
-  AllCaptured  ///< every non-rejected probe with SH (candidates too)
+  Accepted,     ///< accepted probes with SH (what a bake would use, at preview quality)
+  AllCaptured,  ///< every non-rejected probe with SH (candidates too)
+  Baked         ///< the document's baked (or loaded) volume; buildPreviewVolume gives nothing
 };
 
 /// The volume over the chosen probes (Bake.h volumeFromProbes), or nothing when fewer than 4

@@ -312,10 +312,22 @@ void MainWindow::createActions() {
   a = slice->addAction(tr("Move slice down"), this,
                        [this] { viewport_->setSliceFraction(viewport_->sliceFraction() - 0.05f); });
   a->setShortcut(QKeySequence(Qt::ALT | Qt::Key_Down));
-  a = view->addAction(tr("Preview uses accepted probes only"), this, [this](bool on) {
-    viewport_->setPreviewSource(on ? PreviewSource::Accepted : PreviewSource::AllCaptured);
-  });
-  a->setCheckable(true);
+  QMenu* source = view->addMenu(tr("Preview and overlays &use"));
+  auto* sources = new QActionGroup(this);
+  const struct {
+    PreviewSource source;
+    const char* text;
+  } sourceItems[] = {{PreviewSource::AllCaptured, "All captured probes (candidates too)"},
+                     {PreviewSource::Accepted, "Accepted probes"},
+                     {PreviewSource::Baked, "The baked volume"}};
+  for (const auto& item : sourceItems) {
+    const PreviewSource which = item.source;
+    a = source->addAction(tr(item.text), this,
+                          [this, which] { viewport_->setPreviewSource(which); });
+    a->setCheckable(true);
+    a->setChecked(which == viewport_->previewSource());
+    sources->addAction(a);
+  }
   view->addSeparator();
   view->addAction(findChild<QDockWidget*>("probesDock")->toggleViewAction());
   view->addAction(findChild<QDockWidget*>("inspectorDock")->toggleViewAction());

@@ -305,6 +305,10 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
     update();
   });
   connect(doc, &Document::probesReset, this, &Viewport::onProbesChanged);
+  connect(doc, &Document::volumeChanged, this, [this] {
+    fieldsDirty_ = true;
+    update();
+  });
   connect(doc, &Document::probeInserted, this, &Viewport::onProbesChanged);
   connect(doc, &Document::probeRemoved, this, &Viewport::onProbesChanged);
   // A changed probe (moved, accepted, ...) keeps the drawn size: no O(n^2) radius update.

@@ -209,7 +209,8 @@ namespace {
 std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes,
                                                 PreviewSource source, Bounds3 bounds,
                                                 int glyphResolution, int previewResolution,
-                                                std::shared_ptr<const Tracer> tracer);
+                                                std::shared_ptr<const Tracer> tracer,
+                                                std::shared_ptr<const ProbeVolume> baked);
 }  // namespace
 
 namespace {
@@ -231,8 +232,9 @@ void Viewport::updateFields() {
   }
   if (!fieldsDirty_) return;
   fieldsDirty_ = false;
-  auto f = computeFields(doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
-                         glyphResolution_, previewResolution_, doc_->tracerShared());
+  auto f =
+      computeFields(doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
+                    glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume());
   applyFields(std::move(*f));
 }
 
@@ -249,9 +251,9 @@ void Viewport::startFieldsRebuild() {
       update();  // shows the new fields; starts another rebuild if the probes moved meanwhile
     });
   }
-  fieldsWatcher_->setFuture(QtConcurrent::run(computeFields, doc_->probes(), previewSource_,
-                                              scene ? scene->bounds : Bounds3(), glyphResolution_,
-                                              previewResolution_, doc_->tracerShared()));
+  fieldsWatcher_->setFuture(QtConcurrent::run(
+      computeFields, doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
+      glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume()));
 }
 
 void Viewport::applyFields(Fields&& f) {
@@ -270,9 +272,14 @@ namespace {
 std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes,
                                                 PreviewSource source, Bounds3 bounds,
                                                 int glyphResolution, int previewResolution,
-                                                std::shared_ptr<const Tracer> tracer) {
+                                                std::shared_ptr<const Tracer> tracer,
+                                                std::shared_ptr<const ProbeVolume> baked) {
   auto f = std::make_shared<Viewport::Fields>();
-  f->preview = buildPreviewVolume(probes, source);
+  if (source == PreviewSource::Baked) {
+    if (baked) f->preview = *baked;
+  } else {
+    f->preview = buildPreviewVolume(probes, source);
+  }
   f->reference = source == PreviewSource::AllCaptured
                      ? f->preview
                      : buildPreviewVolume(probes, PreviewSource::AllCaptured);

@@ -446,6 +446,19 @@ class TestEditing : public QObject {
     QVERIFY(!w.viewport()->isInvalid(w.document()->probes()[1]));
   }
 
+  void everyShortcutIsUnique() {
+    MainWindow w;
+    QMap<QString, QString> seen;
+    for (QAction* a : w.findChildren<QAction*>())
+      for (const QKeySequence& k : a->shortcuts()) {
+        const QString key = k.toString();
+        QVERIFY2(!seen.contains(key),
+                 qPrintable(key + ": " + seen.value(key) + " and " + a->text()));
+        seen.insert(key, a->text());
+      }
+    QVERIFY(seen.size() > 30);
+  }
+
   void wasdFliesWhileTheRightButtonIsHeld() {
     MainWindow w;
     w.setQuiet(true);

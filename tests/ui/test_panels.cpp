@@ -20,6 +20,7 @@
 #include "ui/LightingPanel.h"
 #include "ui/MainWindow.h"
 #include "ui/PlacementPanel.h"
+#include "ui/Viewport.h"
 
 using namespace ps;
 using namespace ps::ui;
@@ -174,6 +175,12 @@ class TestPanels : public QObject {
     QCOMPARE(f.volume.probeCount(), accepted.size());
     QCOMPARE(f.volume.tets.size(), doc->volume()->tets.size());
     QCOMPARE(Document::volumePathFor("/a/b.json"), QStringLiteral("/a/b.psv"));
+    // The preview can show the baked volume itself.
+    Viewport* vp = win.w.viewport();
+    vp->setPreviewSource(PreviewSource::Baked);
+    QVERIFY(vp->previewVolume().has_value());
+    QCOMPARE(vp->previewVolume()->probeCount(), accepted.size());
+    QCOMPARE(vp->previewVolume()->tets.size(), doc->volume()->tets.size());
   }
 
   void evaluationsArePlottedAgainstProbeCount() {
