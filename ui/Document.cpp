@@ -49,6 +49,7 @@ struct Document::JobResult {
   size_t bakedProbes = 0;
   QString error;  ///< failure ("cancelled" when cancelled); probes may still be usable
   std::optional<EvaluationPoint> evaluation;
+  std::vector<std::pair<uint64_t, Vec3>> captured;  ///< recapture: id, position captured at
 };
 
 Document::Document(QObject* parent) : QObject(parent) {
@@ -469,6 +470,26 @@ bool Document::bake(const BakeRequest& request) {
   return true;
 }
 
+bool Document::recapture(int samplesPerProbe) {
+  if (!tracer_ || busy_) return false;
+  std::vector<Probe> probes;
+  for (const Probe& p : set_.probes)
+    if (p.state != ProbeState::Rejected) probes.push_back(p);
+  if (probes.empty()) return false;
+  const LightingRig rig = set_.rig;
+  std::shared_ptr<const Tracer> tracer = tracer_;
+  startJob("recapture", tr("Capturing SH…"), [=](JobResult& result, const auto& report) mutable {
+    captureQuickly(*tracer, rig, probes, samplesPerProbe, report, 0.0, result.error);
+    if (!result.error.isEmpty()) {
+      probes.clear();
+      return;
+    }
+    for (const Probe& p : probes) result.captured.emplace_back(p.id, p.position);
+    result.probes = std::move(probes);
+  });
+  return true;
+}
+
 bool Document::evaluate(const EvalRequest& request) {
   if (!tracer_ || busy_) return false;
   std::shared_ptr<const ProbeVolume> volume;
@@ -561,6 +582,16 @@ void Document::onJobDone() {
     volumePath_ = r->volumePath;
     volumeChange_ = changeCount_;
     emit volumeChanged();
+  } else if (r->kind == QLatin1String("recapture") && !r->probes.empty()) {
+    std::vector<std::pair<uint64_t, ShRgb>> sh;
+    for (size_t i = 0; i < r->probes.size(); ++i) {
+      const Probe* now = probe(r->captured[i].first);
+      if (now && now->position == r->captured[i].second && r->probes[i].sh)
+        sh.emplace_back(now->id, *r->probes[i].sh);
+    }
+    if (!sh.empty())
+      undo_.push(
+          new SetShCommand(this, std::move(sh), tr("Recapture %1 probes").arg(r->probes.size())));
   } else if (r->kind == QLatin1String("eval") && r->evaluation) {
     evaluations_.push_back(*r->evaluation);
     emit evaluationsChanged();

@@ -155,6 +155,11 @@ class Document : public QObject {
   /// Loads a volume file for the preview and the overlays. Throws ps::Error.
   void openVolume(const QString& path);
 
+  /// Captures every non-rejected probe again in the background with the current rig (after a
+  /// lighting change) at `samplesPerProbe`; one undo step replaces their SH. Probes moved or
+  /// deleted while it runs are left alone.
+  bool recapture(int samplesPerProbe);
+
   /// Evaluates in the background the baked volume when there is one (and no probe changed since
   /// the bake), else the volume of the accepted probes with their preview SH; the result is
   /// appended to evaluations(). Throws ParameterError when there is nothing to evaluate.

@@ -81,7 +81,13 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
   pointForm->addRow(tr("Colour (RGB)"), row(pointColor_));
   pointLayout->addLayout(pointForm);
   layout->addWidget(pointBox);
+  recapture_ = new QPushButton(tr("Recapture probes with this lighting"));
+  recapture_->setToolTip(
+      tr("Quick capture (64 samples) of every non-rejected probe; one undo "
+         "step"));
+  layout->addWidget(recapture_);
   layout->addStretch(1);
+  connect(recapture_, &QPushButton::clicked, this, [this] { doc_->recapture(64); });
 
   connect(sunBox_, &QGroupBox::toggled, this, [this] { apply(tr("Edit sun")); });
   for (QDoubleSpinBox* s : {sunAz_, sunEl_, sunE_, sunColor_[0], sunColor_[1], sunColor_[2]})

@@ -44,6 +44,7 @@ class LightingPanel : public QWidget {
   QPushButton* removePointButton() const { return removePoint_; }
   QDoubleSpinBox* pointPosition(int axis) const { return pointPos_[axis]; }
   QDoubleSpinBox* pointIntensity() const { return pointI_; }
+  QPushButton* recaptureButton() const { return recapture_; }
 
  private:
   void refresh();
@@ -56,7 +57,7 @@ class LightingPanel : public QWidget {
   QGroupBox* skyBox_;
   QDoubleSpinBox* sky_[3];
   QListWidget* points_;
-  QPushButton *addPoint_, *removePoint_;
+  QPushButton *addPoint_, *removePoint_, *recapture_;
   QDoubleSpinBox *pointPos_[3], *pointI_, *pointColor_[3];
   std::vector<Light> pointLights_;  ///< the rig's point lights, as shown in the list
   std::vector<Light> otherLights_;  ///< rig lights the panel does not edit (kept as they are)

@@ -119,6 +119,24 @@ bool MoveProbesCommand::mergeWith(const QUndoCommand* other) {
   return true;
 }
 
+SetShCommand::SetShCommand(Document* doc, std::vector<std::pair<uint64_t, ShRgb>> sh,
+                           const QString& text)
+    : doc_(doc), new_(std::move(sh)) {
+  for (const auto& [id, value] : new_)
+    if (const Probe* p = doc->probe(id)) old_.emplace_back(id, p->sh);
+  setText(text);
+}
+
+void SetShCommand::redo() {
+  for (const auto& [id, sh] : new_)
+    if (const Probe* p = doc_->probe(id)) doc_->setProbePositionRaw(id, p->position, sh);
+}
+
+void SetShCommand::undo() {
+  for (const auto& [id, sh] : old_)
+    if (const Probe* p = doc_->probe(id)) doc_->setProbePositionRaw(id, p->position, sh);
+}
+
 SetRigCommand::SetRigCommand(Document* doc, LightingRig rig, const QString& text)
     : doc_(doc), old_(doc->probeSet().rig), new_(std::move(rig)) {
   setText(text);

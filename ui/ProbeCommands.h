@@ -93,6 +93,19 @@ class MoveProbesCommand : public QUndoCommand {
   std::vector<Entry> entries_;
 };
 
+/// Replaces the captured SH of several probes (a recapture); undo puts the previous SH back.
+class SetShCommand : public QUndoCommand {
+ public:
+  SetShCommand(Document* doc, std::vector<std::pair<uint64_t, ShRgb>> sh, const QString& text);
+  void undo() override;
+  void redo() override;
+
+ private:
+  Document* doc_;
+  std::vector<std::pair<uint64_t, ShRgb>> new_;
+  std::vector<std::pair<uint64_t, std::optional<ShRgb>>> old_;
+};
+
 /// Replaces the lighting rig (sun, sky, extra lights) of the probe set.
 class SetRigCommand : public QUndoCommand {
  public:

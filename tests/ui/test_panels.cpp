@@ -17,6 +17,7 @@
 #include "core/traversal/ProbeVolume.h"
 #include "ui/Document.h"
 #include "ui/EvaluationPanel.h"
+#include "ui/LightingField.h"
 #include "ui/LightingPanel.h"
 #include "ui/MainWindow.h"
 #include "ui/PlacementPanel.h"
@@ -274,6 +275,28 @@ class TestPanels : public QObject {
     doc->undoStack()->setIndex(steps);
     QVERIFY(doc->probeSet().rig.empty());
     QVERIFY(!panel->sunGroup()->isChecked());
+
+    // Recapture with a new point light: a captured probe near it sees more light; one undo
+    // step restores the previous SH.
+    {
+      const Vec3 at = doc->scene()->bounds.center() + Vec3(-1.0, 0.0, 0.7);
+      const uint64_t pid = doc->addManualProbe(at, "Add");
+      const double before = meanLuminance(*doc->probe(pid)->sh);
+      panel->addPointButton()->click();  // at the bounds' centre, in the doorway
+      panel->pointIntensity()->setValue(50);
+      const int index = doc->undoStack()->index();
+      QSignalSpy done(doc, &Document::jobFinished);
+      panel->recaptureButton()->click();
+      QVERIFY(done.wait(60000));
+      QCOMPARE(done.at(0).at(0).toString(), QString());
+      QCOMPARE(doc->undoStack()->index(), index + 1);
+      QVERIFY2(
+          meanLuminance(*doc->probe(pid)->sh) > before * 1.05,
+          qPrintable(QString("%1 -> %2").arg(before).arg(meanLuminance(*doc->probe(pid)->sh))));
+      doc->undoStack()->undo();
+      QCOMPARE(meanLuminance(*doc->probe(pid)->sh), before);
+      doc->undoStack()->setIndex(steps);
+    }
 
     // A rig set elsewhere (a loaded set) is shown: the sun's angles round-trip.
     LightingRig r;
