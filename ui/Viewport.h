@@ -121,6 +121,12 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The preview volume as it is now, without bringing it up to date.
   bool hasPreviewVolume() const { return previewVolume_.has_value(); }
 
+  /// The slice's texture (size x size, u along sliceCorners()[0] -> [1], v along [0] -> [3]):
+  /// luminance distance to the selected probe (or the volume's mean when none is selected), blue
+  /// at 0 to red at 4 stops; or relative irradiance error for the slice's normal of the preview
+  /// volume against the all-captured one, blue at 0 to red at 50 %. Transparent without a volume.
+  QImage renderSliceImage(int size);
+
   /// Renders one frame into the widget's framebuffer now (makeCurrent, paintGL, glFinish);
   /// for the frame-time benchmark.
   void renderNow();
@@ -192,7 +198,6 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void uploadOverlays();
   void drawOverlays(const QMatrix4x4& vp);
   void drawLines(const std::vector<float>& xyzrgba, GLenum mode, const QMatrix4x4& vp);
-  QImage renderSliceImage(int size);
   void initOverlayGL();
   /// Compiles and links a program; `common` prepends the version line and kCommonGlsl to the
   /// fragment shader. A shader that fails is a bug (qFatal with the log).

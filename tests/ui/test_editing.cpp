@@ -396,6 +396,34 @@ class TestEditing : public QObject {
     for (size_t i = 0; i < g.size(); i += 13) QVERIFY(luminanceDirectionVector(g.sh[i]).x > 0);
     QVERIFY(vp->previewVolume().has_value());
 
+    // The slice across Y: luminance distance to a selected probe on the dark (-X) side is ~0
+    // there and grows towards +X (brightness rises 6x across the scene); the error slice is
+    // zero when the preview is the reference itself (all captured probes).
+    {
+      uint64_t darkest = 0;
+      double darkX = 1e30;
+      for (const Probe& p : doc->probes())
+        if (p.position.x < darkX) darkX = p.position.x, darkest = p.id;
+      vp->setSelection({darkest});
+      vp->setSliceAxis(1);
+      vp->setSliceFraction(0.5f);
+      const QImage lum = vp->renderSliceImage(64);
+      auto blueness = [](QRgb c) { return qBlue(c) - qRed(c); };
+      // Across Y the slice's u runs along Z and v (image rows) along X.
+      QVERIFY(blueness(lum.pixel(32, 1)) > 100);    // v = 0: the -X side
+      QVERIFY(blueness(lum.pixel(32, 62)) < -100);  // v = 1: the +X side, > 2.5 stops brighter
+      QVERIFY(qAlpha(lum.pixel(32, 32)) > 0);
+      vp->setSliceMode(Viewport::SliceMode::Error);
+      const QImage err = vp->renderSliceImage(32);
+      for (int y = 0; y < 32; y += 5)
+        for (int x = 0; x < 32; x += 5) {
+          QCOMPARE(err.pixel(x, y), err.pixel(0, 0));
+          QVERIFY(blueness(err.pixel(x, y)) > 100);  // zero error
+        }
+      vp->setSliceMode(Viewport::SliceMode::LuminanceDistance);
+      vp->setSelection({});
+    }
+
     // A background rebuild after an edit: the old fields stay until the new ones arrive.
     QSignalSpy updated(vp, &Viewport::fieldsUpdated);
     const size_t before = vp->previewVolume()->probeCount();
