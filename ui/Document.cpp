@@ -59,6 +59,10 @@ Document::Document(QObject* parent) : QObject(parent) {
 
 Document::~Document() {
   cancelJob();
+  // The undo stack announces its last clean change while it is destroyed; nothing may hear
+  // about it (a parent window is already half destroyed when its children go).
+  disconnect(&undo_, nullptr, this, nullptr);
+  blockSignals(true);
 }
 
 void Document::cancelJob() {
