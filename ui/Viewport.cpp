@@ -323,6 +323,9 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
 Viewport::~Viewport() {
   if (fieldsWatcher_) fieldsWatcher_->waitForFinished();
   cleanup();
+  // ~QOpenGLWidget destroys the context, whose aboutToBeDestroyed must not reach this half
+  // destroyed object (UBSan).
+  if (QOpenGLContext* c = context()) disconnect(c, nullptr, this, nullptr);
 }
 
 void Viewport::onProbesChanged() {
