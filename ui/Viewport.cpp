@@ -212,7 +212,8 @@ void main() {
   float edge = smoothstep(ringWidth, ringWidth - 0.1, facing);
   c = mix(c, ring, edge);
   float alpha = vStyle.w;
-  if (uXray == 1) alpha *= mix(0.18, 0.7, edge);
+  // Hidden parts are ghosts, except for probes inside geometry: they are always hidden, and shown.
+  if (uXray == 1 && !invalid) alpha *= mix(0.18, 0.7, edge);
   fragColor = vec4(linearToSrgb(c), alpha);
 })";
 
