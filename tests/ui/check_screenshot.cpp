@@ -6,7 +6,10 @@
 //     background gradient by more than 12 in some channel);
 //   - >= 80% of on-screen probes are drawn where the JSON says: the mean absolute difference
 //     between the two renders over a small square at the projected centre exceeds 12;
-//   - at least 10 probes are on screen.
+//   - at least 10 probes are on screen;
+//   - probes are shaded by their own SH: over the drawn probes, the Spearman rank correlation
+//     between the luma at the centre of the sphere and the probe's mean radiance (sidecar) is
+//     at least 0.6.
 //
 // check_screenshot --overlays SHOT.png BASE.png: SHOT shows overlays (written with --overlays
 // glyphs,slice,...), BASE the same view without them. Thresholds:
@@ -24,6 +27,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
+#include <vector>
 
 namespace {
 int fail(const char* what) {
@@ -179,6 +184,38 @@ int main(int argc, char** argv) {
   std::printf("probes on screen %d, drawn at their projected position %d\n", onScreen, shown);
   if (onScreen < 10) return fail("fewer than 10 probes on screen");
   if (shown < 0.8 * onScreen) return fail("fewer than 80% of on-screen probes are drawn");
+
+  // 4. Shaded by their own SH: brighter probes (mean radiance) look brighter.
+  std::vector<std::pair<double, double>> pairs;  // mean radiance, centre luma
+  for (const QJsonValue& v : root["probes"].toArray()) {
+    const QJsonObject p = v.toObject();
+    if (!p["onScreen"].toBool() || !p.contains("meanRadiance")) continue;
+    const int cx = int(p["x"].toDouble()), cy = int(p["y"].toDouble());
+    if (cx < 1 || cy < 1 || cx >= w - 1 || cy >= h - 1) continue;
+    if (channelDiff(shot.pixel(cx, cy), bare.pixel(cx, cy)) <= 12) continue;  // hidden
+    double luma = 0;
+    for (int y = cy - 1; y <= cy + 1; ++y)
+      for (int x = cx - 1; x <= cx + 1; ++x) luma += qGray(shot.pixel(x, y)) / 9.0;
+    pairs.emplace_back(p["meanRadiance"].toDouble(), luma);
+  }
+  auto ranks = [&](bool second) {
+    std::vector<size_t> order(pairs.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      return second ? pairs[a].second < pairs[b].second : pairs[a].first < pairs[b].first;
+    });
+    std::vector<double> r(pairs.size());
+    for (size_t i = 0; i < order.size(); ++i) r[order[i]] = double(i);
+    return r;
+  };
+  if (pairs.size() < 10) return fail("fewer than 10 captured probes drawn");
+  const std::vector<double> ra = ranks(false), rb = ranks(true);
+  double d2 = 0;
+  for (size_t i = 0; i < pairs.size(); ++i) d2 += (ra[i] - rb[i]) * (ra[i] - rb[i]);
+  const double m = double(pairs.size());
+  const double rho = 1.0 - 6.0 * d2 / (m * (m * m - 1.0));
+  std::printf("probe luma vs mean radiance: Spearman %.2f over %zu probes\n", rho, pairs.size());
+  if (rho < 0.6) return fail("probe shading does not follow their SH");
   std::printf("check_screenshot: OK\n");
   return 0;
 }
