@@ -556,7 +556,7 @@ void Document::onJobDone() {
     std::vector<uint64_t> replaced;
     std::vector<Vec3> kept;
     for (const Probe& p : set_.probes) {
-      if (p.state == ProbeState::Candidate && !p.locked)
+      if (r->placement.replaceCandidates && p.state == ProbeState::Candidate && !p.locked)
         replaced.push_back(p.id);
       else
         kept.push_back(p.position);

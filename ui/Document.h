@@ -33,9 +33,10 @@ struct ProposalSettings {
 /// "uniform" (core/placement/Uniform.h).
 struct PlacementRequest {
   std::string method = "uniform";
-  double spacingMeters = 1.0;  ///< used when budget == 0
-  int budget = 0;              ///< > 0: the spacing giving about this many probes
-  int samplesPerProbe = 64;    ///< quick capture of the candidates, so they show their light
+  double spacingMeters = 1.0;     ///< used when budget == 0
+  int budget = 0;                 ///< > 0: the spacing giving about this many probes
+  int samplesPerProbe = 64;       ///< quick capture of the candidates, so they show their light
+  bool replaceCandidates = true;  ///< false: keep the unlocked candidates too, only add
 };
 
 /// The bake's settings: the accepted probes captured at final quality.
@@ -138,8 +139,9 @@ class Document : public QObject {
   void requestCancel();
 
   /// Runs a placement method in the background. When it finishes, one undo step replaces the
-  /// unlocked candidates by the new ones; accepted, rejected and locked probes are kept as they
-  /// are, and new points closer than half the spacing to a kept probe are dropped. Returns false
+  /// unlocked candidates by the new ones (or, with replaceCandidates off, keeps them and only
+  /// adds); accepted, rejected and locked probes are kept as they are, and new points closer
+  /// than half the spacing to a kept probe are dropped. Returns false
   /// (and does nothing) when busy, without a tracer, or for an unknown method (ParameterError
   /// thrown for bad numbers).
   bool runPlacement(const PlacementRequest& request);

@@ -1,5 +1,6 @@
 #include "ui/PlacementPanel.h"
 
+#include <QCheckBox>
 #include <QComboBox>
 #include <QDoubleSpinBox>
 #include <QFileInfo>
@@ -39,6 +40,10 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   form->addRow(tr("Spacing"), spacing_);
   form->addRow(tr("Budget"), budget_);
   form->addRow(tr("Preview samples"), captureSpp_);
+  replace_ = new QCheckBox(tr("Replace unlocked candidates"));
+  replace_->setChecked(true);
+  replace_->setToolTip(tr("Off: keep the current candidates and only add new ones"));
+  form->addRow(replace_);
   run_ = new QPushButton(tr("Run placement"));
   run_->setToolTip(
       tr("Replaces the unlocked candidates; accepted, rejected and locked probes "
@@ -96,6 +101,7 @@ PlacementRequest PlacementPanel::placementRequest() const {
   r.spacingMeters = spacing_->value();
   r.budget = budget_->value();
   r.samplesPerProbe = captureSpp_->value();
+  r.replaceCandidates = replace_->isChecked();
   return r;
 }
 

@@ -5,6 +5,7 @@
 // (Document::bake). Progress and Cancel are in the main window's status bar and here.
 #include <QWidget>
 
+class QCheckBox;
 class QComboBox;
 class QDoubleSpinBox;
 class QLabel;
@@ -33,6 +34,7 @@ class PlacementPanel : public QWidget {
   QDoubleSpinBox* spacingBox() const { return spacing_; }
   QSpinBox* budgetBox() const { return budget_; }
   QSpinBox* captureSamplesBox() const { return captureSpp_; }
+  QCheckBox* replaceBox() const { return replace_; }
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
   QPushButton* cancelButton() const { return cancel_; }
 
@@ -48,6 +50,7 @@ class PlacementPanel : public QWidget {
   QDoubleSpinBox* spacing_;
   QSpinBox* budget_;
   QSpinBox* captureSpp_;
+  QCheckBox* replace_;
   QSpinBox* bakeSpp_;
   QPushButton* run_;
   QPushButton* bake_;

@@ -1,6 +1,7 @@
 // The placement / bake and lighting panels, headless (QT_QPA_PLATFORM=offscreen): placement in
 // the background keeps accepted, rejected and locked probes and is one undo step; cancel; bake
 // writes the volume beside the probe set; the lighting panel edits the rig (undoable).
+#include <QCheckBox>
 #include <QDoubleSpinBox>
 #include <QGroupBox>
 #include <QListWidget>
@@ -105,6 +106,22 @@ class TestPanels : public QObject {
     doc->undoStack()->undo();
     QCOMPARE(doc->probes().size(), before);
     QVERIFY(doc->probe(ids[3]) && doc->probe(ids[4]));
+
+    // Keeping the candidates: the old ones stay and the new ones keep half a spacing away.
+    panel->replaceBox()->setChecked(false);
+    panel->spacingBox()->setValue(0.8);
+    QVERIFY(panel->run());
+    QCOMPARE(waitForJob(doc), QString());
+    QVERIFY(doc->probe(ids[3]) && doc->probe(ids[4]));
+    QVERIFY(doc->probes().size() > before);
+    for (const Probe& p : doc->probes())
+      if (p.method == "uniform")
+        for (uint64_t k : {ids[3], ids[4]})
+          QVERIFY(length(p.position - doc->probe(k)->position) >= 0.4);
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probes().size(), before);
+    panel->replaceBox()->setChecked(true);
+    panel->spacingBox()->setValue(1.0);
 
     // A budget: the count is near it (placeUniformBudget: within 10 % when reachable).
     panel->budgetBox()->setValue(40);
