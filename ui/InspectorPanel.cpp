@@ -69,12 +69,24 @@ void InspectorPanel::setSelection(const QSet<quint64>& ids) {
 }
 
 void InspectorPanel::onPositionEdited() {
-  if (refreshing_ || ids_.size() != 1) return;
-  const Probe* p = doc_->probe(*ids_.begin());
-  if (!p || p->locked) return;
+  if (refreshing_ || ids_.isEmpty()) return;
+  // One probe: its position. Several: their centre; an edit moves the unlocked ones together.
+  std::vector<const Probe*> movable;
+  Vec3 centre;
+  for (quint64 id : ids_)
+    if (const Probe* p = doc_->probe(id); p && !p->locked) {
+      movable.push_back(p);
+      centre += p->position;
+    }
+  if (movable.empty()) return;
+  centre = centre / double(movable.size());
   const Vec3 to(pos_[0]->value(), pos_[1]->value(), pos_[2]->value());
-  if (to == p->position) return;
-  doc_->moveProbe(p->id, to, doc_->newMergeKey());  // each numeric edit is its own undo step
+  const Vec3 delta = movable.size() == 1 ? to - movable[0]->position : to - centre;
+  if (delta == Vec3()) return;
+  std::vector<std::pair<uint64_t, Vec3>> targets;
+  for (const Probe* p : movable)
+    targets.emplace_back(p->id, movable.size() == 1 ? to : p->position + delta);
+  doc_->moveProbes(targets, doc_->newMergeKey());  // each numeric edit is its own undo step
 }
 
 void InspectorPanel::refresh() {
@@ -90,9 +102,18 @@ void InspectorPanel::refresh() {
   method_->setText(one ? QString::fromStdString(one->method.empty() ? "unknown" : one->method)
                        : QString());
   score_->setText(one ? QString::number(one->score, 'g', 5) : QString());
+  Vec3 centre;
+  int movable = 0;
+  for (const Probe* p : sel)
+    if (!p->locked) {
+      centre += p->position;
+      ++movable;
+    }
+  if (movable > 0) centre = centre / double(movable);
   for (int i = 0; i < 3; ++i) {
-    pos_[i]->setEnabled(one && !one->locked);
-    pos_[i]->setValue(one ? one->position[i] : 0.0);
+    pos_[i]->setEnabled(movable > 0);
+    pos_[i]->setValue(one ? one->position[i] : centre[i]);
+    pos_[i]->setToolTip(one ? QString() : tr("Centre of the selected, unlocked probes"));
   }
   int lockedCount = 0;
   for (const Probe* p : sel) lockedCount += p->locked ? 1 : 0;

@@ -1,8 +1,8 @@
 #pragma once
 // The inspector dock: the selected probe's provenance (placement method), score, state, lock,
 // its position as numbers the artist can edit (each edit one undo step) and its SH as an
-// irradiance sphere (IrradianceSphere.h). With several probes selected it shows their count and
-// lock state only.
+// irradiance sphere (IrradianceSphere.h). With several probes selected it shows their count, lock
+// state and the centre of the unlocked ones, whose edit moves them together.
 #include <QSet>
 #include <QWidget>
 

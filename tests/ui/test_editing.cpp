@@ -318,6 +318,24 @@ class TestEditing : public QObject {
     doc->undoStack()->undo();
     QCOMPARE(in->positionField(2)->value(), -0.5);  // the inspector follows undo
 
+    // Several probes: the fields show their centre; an edit moves them together, one step.
+    {
+      Probe q;
+      q.position = Vec3(1.0, 0.5, 0.0);
+      const uint64_t id2 = doc->addProbes({q}, "Add").at(0);
+      const Vec3 a = doc->probe(id)->position, b = doc->probe(id2)->position;
+      in->setSelection({id, id2});
+      QCOMPARE(in->positionField(1)->value(), 0.5 * (a.y + b.y));
+      const int n = doc->undoStack()->index();
+      in->positionField(1)->setValue(0.5 * (a.y + b.y) + 1.0);
+      QCOMPARE(doc->undoStack()->index(), n + 1);
+      QVERIFY(length(doc->probe(id)->position - (a + Vec3(0, 1, 0))) < 1e-9);
+      QVERIFY(length(doc->probe(id2)->position - (b + Vec3(0, 1, 0))) < 1e-9);
+      doc->undoStack()->undo();
+      doc->undoStack()->undo();
+      in->setSelection({id});
+    }
+
     // Lock from the inspector: fields disabled, undoable.
     in->lockBox()->click();
     QVERIFY(doc->probe(id)->locked);
