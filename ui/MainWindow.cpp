@@ -290,6 +290,9 @@ void MainWindow::createActions() {
     a->setShortcut(o.key);
     overlayBar->addAction(a);
   }
+  a = view->addAction(tr("Glyphs at the probes (not the grid)"), viewport_,
+                      &Viewport::setGlyphsAtProbes);
+  a->setCheckable(true);
   QMenu* slice = view->addMenu(tr("Slice"));
   auto* sliceModes = new QActionGroup(this);
   a = slice->addAction(tr("Luminance distance to the selected probe"), this,

@@ -111,6 +111,16 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   const std::optional<ProbeVolume>& previewVolume();
   /// Glyph centres and f vectors (for the screenshot's sidecar and tests).
   const ShGrid& glyphGrid();
+  /// Glyphs over the dense grid (default) or over the captured probes themselves.
+  void setGlyphsAtProbes(bool on);
+  bool glyphsAtProbes() const { return glyphsAtProbes_; }
+  struct GlyphSample {
+    Vec3 centre;
+    Vec3 f;  ///< luminanceDirectionVector of the SH there
+  };
+  /// Where the glyphs are drawn and their f; `arrowMeters` (optional) receives the arrow length
+  /// at full magnitude.
+  std::vector<GlyphSample> glyphSamples(double* arrowMeters = nullptr);
   /// The tetrahedron around the test object (-1 without a volume).
   int32_t testObjectTet();
   /// The data behind the preview and the overlays (ViewportOverlays.cpp).
@@ -213,6 +223,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   unsigned overlays_ = 0;
   PreviewSource previewSource_ = PreviewSource::AllCaptured;
   int glyphResolution_ = 20;
+  bool glyphsAtProbes_ = false;
   int previewResolution_ = 40;
   SliceMode sliceMode_ = SliceMode::LuminanceDistance;
   int sliceAxis_ = 1;
@@ -229,6 +240,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   int32_t testTetHint_ = -1;
   mutable std::unordered_map<uint64_t, std::pair<Vec3, bool>> validity_;
   QFutureWatcher<std::shared_ptr<Fields>>* fieldsWatcher_ = nullptr;
+  bool fieldsPending_ = false;  ///< a background rebuild's result is not applied yet
   bool rejectedVisible_ = true;
   Tool tool_ = Tool::Select;
   bool cutaway_ = true;

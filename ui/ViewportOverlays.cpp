@@ -177,6 +177,31 @@ const ShGrid& Viewport::glyphGrid() {
   return glyphGrid_;
 }
 
+void Viewport::setGlyphsAtProbes(bool on) {
+  glyphsAtProbes_ = on;
+  overlaysDirty_ = true;
+  update();
+}
+
+std::vector<Viewport::GlyphSample> Viewport::glyphSamples(double* arrowMeters) {
+  updateFields();
+  std::vector<GlyphSample> out;
+  if (glyphsAtProbes_) {
+    // Chajdas Fig. 2 over the captured probes themselves.
+    for (const Probe& p : doc_->probes())
+      if (p.sh && isDrawn(p)) out.push_back({p.position, luminanceDirectionVector(*p.sh)});
+    if (arrowMeters) *arrowMeters = baseRadius_ * 5.0;
+    return out;
+  }
+  out.reserve(glyphGrid_.size());
+  for (size_t i = 0; i < glyphGrid_.size(); ++i)
+    out.push_back({glyphGrid_.centre(i), luminanceDirectionVector(glyphGrid_.sh[i])});
+  if (arrowMeters)
+    *arrowMeters =
+        std::min({glyphGrid_.cellMeters.x, glyphGrid_.cellMeters.y, glyphGrid_.cellMeters.z});
+  return out;
+}
+
 int32_t Viewport::testObjectTet() {
   updateFields();
   if (!previewVolume_) return -1;
@@ -226,8 +251,10 @@ Vec3 defaultTestObjectPosition(const Scene* scene) {
 void Viewport::updateFields() {
   const Scene* scene = doc_->scene();
   if (!testObjectPlaced_) testObject_ = defaultTestObjectPosition(scene);
-  if (fieldsWatcher_ && fieldsWatcher_->isRunning()) {
+  if (fieldsPending_) {
+    // A background rebuild is under way (or done, its signal not yet delivered): take it now.
     fieldsWatcher_->waitForFinished();
+    fieldsPending_ = false;
     if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));
   }
   if (!fieldsDirty_) return;
@@ -241,11 +268,14 @@ void Viewport::updateFields() {
 void Viewport::startFieldsRebuild() {
   const Scene* scene = doc_->scene();
   if (!testObjectPlaced_) testObject_ = defaultTestObjectPosition(scene);
-  if (!fieldsDirty_ || (fieldsWatcher_ && fieldsWatcher_->isRunning())) return;
+  if (!fieldsDirty_ || fieldsPending_) return;
   fieldsDirty_ = false;
+  fieldsPending_ = true;
   if (!fieldsWatcher_) {
     fieldsWatcher_ = new QFutureWatcher<std::shared_ptr<Fields>>(this);
     connect(fieldsWatcher_, &QFutureWatcherBase::finished, this, [this] {
+      if (!fieldsPending_) return;  // already taken by updateFields()
+      fieldsPending_ = false;
       if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));
       emit fieldsUpdated();
       update();  // shows the new fields; starts another rebuild if the probes moved meanwhile
@@ -443,29 +473,28 @@ void Viewport::uploadOverlays() {
     previewTexValid_ = true;
   }
 
-  // Glyphs: one arrow of f per grid cell, length by |f| (relative to the 95th percentile).
+  // Glyphs: one arrow of f per sample, length by |f| (relative to the 95th percentile).
   glyphCount_ = 0;
-  if (overlay(Overlay::Glyphs) && glyphGrid_.size() > 0) {
-    const size_t n = glyphGrid_.size();
-    std::vector<Vec3> f(n);
-    std::vector<double> mags(n);
-    for (size_t i = 0; i < n; ++i) {
-      f[i] = luminanceDirectionVector(glyphGrid_.sh[i]);
-      mags[i] = length(f[i]);
-    }
-    std::vector<double> sorted = mags;
-    std::nth_element(sorted.begin(), sorted.begin() + long(n * 95 / 100), sorted.end());
-    const double scale = std::max(sorted[n * 95 / 100], 1e-12);
-    const double cell =
-        std::min({glyphGrid_.cellMeters.x, glyphGrid_.cellMeters.y, glyphGrid_.cellMeters.z});
+  if (overlay(Overlay::Glyphs)) {
+    double arrowMeters = 0;
+    const std::vector<GlyphSample> samples = glyphSamples(&arrowMeters);
+    const size_t n = samples.size();
     std::vector<float> inst;
-    inst.reserve(n * 8);
-    for (size_t i = 0; i < n; ++i) {
-      if (mags[i] <= 1e-12) continue;
-      const double t = std::min(mags[i] / scale, 1.0);
-      const Vec3 c = glyphGrid_.centre(i), d = f[i] / mags[i];
-      inst.insert(inst.end(), {float(c.x), float(c.y), float(c.z), float(cell * (0.35 + 0.5 * t)),
-                               float(d.x), float(d.y), float(d.z), float(t)});
+    if (n > 0) {
+      std::vector<double> mags(n);
+      for (size_t i = 0; i < n; ++i) mags[i] = length(samples[i].f);
+      std::vector<double> sorted = mags;
+      std::nth_element(sorted.begin(), sorted.begin() + long(n * 95 / 100), sorted.end());
+      const double scale = std::max(sorted[n * 95 / 100], 1e-12);
+      inst.reserve(n * 8);
+      for (size_t i = 0; i < n; ++i) {
+        if (mags[i] <= 1e-12) continue;
+        const double t = std::min(mags[i] / scale, 1.0);
+        const Vec3 c = samples[i].centre, d = samples[i].f / mags[i];
+        inst.insert(inst.end(),
+                    {float(c.x), float(c.y), float(c.z), float(arrowMeters * (0.35 + 0.5 * t)),
+                     float(d.x), float(d.y), float(d.z), float(t)});
+      }
     }
     glyphCount_ = GLsizei(inst.size() / 8);
     glBindBuffer(GL_ARRAY_BUFFER, glyphInstanceVbo_);

@@ -88,14 +88,11 @@ bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) 
   using O = ps::ui::Viewport::Overlay;
   if (vp->overlay(O::Glyphs)) {
     QJsonArray glyphs;
-    const ps::ui::ShGrid& g = vp->glyphGrid();
-    for (size_t i = 0; i < g.size(); ++i) {
-      const ps::Vec3 f = ps::ui::luminanceDirectionVector(g.sh[i]);
-      if (ps::length(f) <= 0) continue;
-      const ps::Vec3 c = g.centre(i);
+    for (const auto& g : vp->glyphSamples()) {
+      if (ps::length(g.f) <= 0) continue;
       // Visible part only: below the cut-away height.
-      if (vp->cutaway() && c.y > vp->cutHeight()) continue;
-      glyphs.append(QJsonObject{{"centre", px(c)}});
+      if (vp->cutaway() && g.centre.y > vp->cutHeight()) continue;
+      glyphs.append(QJsonObject{{"centre", px(g.centre)}});
     }
     root["glyphs"] = glyphs;
   }

@@ -413,6 +413,16 @@ class TestEditing : public QObject {
     QVERIFY(g.size() > 100);
     for (size_t i = 0; i < g.size(); i += 13) QVERIFY(luminanceDirectionVector(g.sh[i]).x > 0);
     QVERIFY(vp->previewVolume().has_value());
+    QCOMPARE(vp->glyphSamples().size(), g.size());
+    // Over the probes instead: one per captured probe, f of its own SH.
+    vp->setGlyphsAtProbes(true);
+    const auto atProbes = vp->glyphSamples();
+    QCOMPARE(atProbes.size(), doc->probes().size());
+    for (size_t i = 0; i < atProbes.size(); ++i) {
+      QCOMPARE(atProbes[i].centre, doc->probes()[i].position);
+      QCOMPARE(atProbes[i].f, luminanceDirectionVector(*doc->probes()[i].sh));
+    }
+    vp->setGlyphsAtProbes(false);
 
     // The slice across Y: luminance distance to a selected probe on the dark (-X) side is ~0
     // there and grows towards +X (brightness rises 6x across the scene); the error slice is
@@ -453,6 +463,16 @@ class TestEditing : public QObject {
     QVERIFY(vp->hasPreviewVolume());  // still the previous one
     QVERIFY(updated.wait(20000));
     QCOMPARE(vp->previewVolume()->probeCount(), before + 1);
+    // Taken synchronously while the signal is still queued: applied once, not emptied later.
+    doc->undoStack()->undo();
+    vp->startFieldsRebuild();
+    QCOMPARE(vp->previewVolume()->probeCount(), before);
+    const size_t cells = vp->glyphGrid().size();
+    QVERIFY(cells > 100);
+    QTest::qWait(200);  // delivers the rebuild's finished signal
+    QCOMPARE(vp->glyphGrid().size(), cells);
+    QCOMPARE(vp->previewVolume()->probeCount(), before);
+    doc->undoStack()->redo();
     doc->undoStack()->undo();
 
     // Drag the test object; its tetrahedron contains it.
