@@ -56,6 +56,9 @@ QVariant ProbeTableModel::data(const QModelIndex& index, int role) const {
       return QString::fromStdString(p.method);
     case Score:
       return display ? QVariant(QString::number(p.score, 'g', 4)) : QVariant(p.score);
+    case Locked:
+      return display ? QVariant(p.locked ? QStringLiteral("locked") : QString())
+                     : QVariant(int(p.locked));
     default:
       return {};
   }
@@ -63,7 +66,7 @@ QVariant ProbeTableModel::data(const QModelIndex& index, int role) const {
 
 QVariant ProbeTableModel::headerData(int section, Qt::Orientation orientation, int role) const {
   if (orientation != Qt::Horizontal || role != Qt::DisplayRole) return {};
-  static const char* names[] = {"id", "state", "x", "y", "z", "method", "score"};
+  static const char* names[] = {"id", "state", "x", "y", "z", "method", "score", "locked"};
   return section >= 0 && section < ColumnCount ? QString::fromLatin1(names[section]) : QVariant();
 }
 

@@ -1,6 +1,6 @@
 #pragma once
 // Table model over the document's probes: one row per probe, in the document's order.
-// Columns: id, state, x, y, z, method, score. SortRole gives raw values for sorting.
+// Columns: id, state, x, y, z, method, score, locked. SortRole gives raw values for sorting.
 #include <QAbstractTableModel>
 
 namespace ps::ui {
@@ -10,7 +10,7 @@ class Document;
 class ProbeTableModel : public QAbstractTableModel {
   Q_OBJECT
  public:
-  enum Column { Id, State, X, Y, Z, Method, Score, ColumnCount };
+  enum Column { Id, State, X, Y, Z, Method, Score, Locked, ColumnCount };
   /// Raw value for sorting (numbers as numbers); ProbeIdRole gives the probe id of any cell.
   static constexpr int SortRole = Qt::UserRole;
   static constexpr int ProbeIdRole = Qt::UserRole + 1;

@@ -8,6 +8,7 @@
 #include <QMouseEvent>
 #include <QSignalSpy>
 #include <QStandardPaths>
+#include <QTableView>
 #include <QtTest>
 #include <random>
 
@@ -17,6 +18,7 @@
 #include "ui/InspectorPanel.h"
 #include "ui/IrradianceSphere.h"
 #include "ui/MainWindow.h"
+#include "ui/ProbeTableModel.h"
 #include "ui/SurfacePlacement.h"
 #include "ui/Viewport.h"
 
@@ -336,9 +338,17 @@ class TestEditing : public QObject {
       in->setSelection({id});
     }
 
-    // Lock from the inspector: fields disabled, undoable.
+    // Lock from the inspector: fields disabled, undoable, shown in the probe list.
     in->lockBox()->click();
     QVERIFY(doc->probe(id)->locked);
+    {
+      QAbstractItemModel* m = w.probeTable()->model();
+      bool shown = false;
+      for (int r = 0; r < m->rowCount(); ++r)
+        if (m->index(r, ProbeTableModel::Id).data(ProbeTableModel::ProbeIdRole).toULongLong() == id)
+          shown = m->index(r, ProbeTableModel::Locked).data().toString() == "locked";
+      QVERIFY(shown);
+    }
     QVERIFY(!in->positionField(0)->isEnabled());
     doc->undoStack()->undo();
     QVERIFY(!doc->probe(id)->locked);
