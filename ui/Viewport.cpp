@@ -341,6 +341,8 @@ void Viewport::setSelection(const QSet<quint64>& ids) {
   if (ids == selection_) return;
   selection_ = ids;
   probesDirty_ = true;
+  // The slice measures the distance to the selected probe; glyphs at probes follow visibility.
+  if (overlays_) overlaysDirty_ = true;
   update();
 }
 
