@@ -19,7 +19,10 @@ void saveProbeSet(const ProbeSet& set, const std::filesystem::path& path);
 /// The whole content of a file. Throws ps::FileError when it is missing or unreadable.
 std::string readWholeFile(const std::filesystem::path& path);
 
-/// Writes `bytes` to `path` atomically: a temp file beside it, fsync, rename.
-void writeFileAtomic(const std::filesystem::path& path, const std::string& bytes);
+/// Writes `bytes` to `path` atomically: a temp file beside it, fsync, rename. With
+/// `durable = false` the fsyncs are skipped (still atomic for a killed process, not for a power
+/// loss; for caches whose entries are checksummed).
+void writeFileAtomic(const std::filesystem::path& path, const std::string& bytes,
+                     bool durable = true);
 
 }  // namespace ps
