@@ -48,11 +48,11 @@ void registerBake(CLI::App& app) {
   cmd->add_flag("--no-cache", o->noCache,
                 "Capture every probe, neither reading nor writing a cache");
   cmd->callback([o] {
-    const ProbeSet set = loadProbeSet(o->set);
-    if (set.scenePath.empty()) throw FileError(o->set, "scene", "the probe set names no scene");
     if (o->spp > kMaxSamplesPerProbe)
       throw ParameterError("--spp: " + std::to_string(o->spp) + " samples per probe is above the " +
                            "limit of " + std::to_string(kMaxSamplesPerProbe));
+    const ProbeSet set = loadProbeSet(o->set);
+    if (set.scenePath.empty()) throw FileError(o->set, "scene", "the probe set names no scene");
     const Scene scene = loadScene(set.scenePath);
     const Tracer tracer(scene);
     BakeSettings bs;

@@ -121,7 +121,7 @@ ProbeSet loadProbeSet(const fs::path& path) {
   ojson j;
   try {
     j = ojson::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, out_of_range (1e999), ...
     throw FileError(file, "", std::string("not valid JSON: ") + e.what());
   }
   const JsonField root(file, "", &j);
