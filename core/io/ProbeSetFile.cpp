@@ -116,8 +116,11 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
 }
 
 ProbeSet loadProbeSet(const fs::path& path) {
+  return parseProbeSet(readWholeFile(path), path);
+}
+
+ProbeSet parseProbeSet(const std::string& text, const fs::path& path) {
   const std::string file = path.string();
-  const std::string text = readWholeFile(path);
   ojson j;
   try {
     j = ojson::parse(text);

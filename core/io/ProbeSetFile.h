@@ -12,6 +12,9 @@ namespace ps {
 /// (`probes[12].position: expected 3 numbers, got 2`), or a version newer than this build.
 ProbeSet loadProbeSet(const std::filesystem::path& path);
 
+/// loadProbeSet() on the file's text: `path` names the file in errors and resolves `scene`.
+ProbeSet parseProbeSet(const std::string& text, const std::filesystem::path& path);
+
 /// Writes atomically (temp file, fsync, rename); `scenePath` is stored relative to the file's
 /// folder. Throws ps::FileError when the file cannot be written; the old file is then intact.
 void saveProbeSet(const ProbeSet& set, const std::filesystem::path& path);

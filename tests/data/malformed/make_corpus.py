@@ -144,3 +144,30 @@ write("gltf-missing-accessor.gltf",
       gltf(extra=lambda g: g["meshes"][0]["primitives"][0]["attributes"].update(POSITION=7)))
 write("glb-truncated.glb", struct.pack("<4sII", b"glTF", 2, 1 << 30) + b"\0" * 8)
 write("glb-version-1.glb", struct.pack("<4sII", b"glTF", 1, 20) + b"\0" * 8)
+
+# ---- well-formed seeds for the fuzz targets (tests/fuzz/seeds) ------------------------------
+SEEDS = os.path.join(HERE, "..", "..", "fuzz", "seeds")
+for sub in ("probeset", "volume", "gltf"):
+    os.makedirs(os.path.join(SEEDS, sub), exist_ok=True)
+
+
+def seed(sub, name, data):
+    mode = "wb" if isinstance(data, bytes) else "w"
+    with open(os.path.join(SEEDS, sub, name), mode) as f:
+        f.write(data)
+
+
+seed("probeset", "good.json", js(probe_set(importance_volumes=[
+    {"name": "hall", "min": [0, 0, 0], "max": [1, 1, 1], "weight": 2}], rig={
+    "sky_radiance": [0.1, 0.2, 0.3], "lights": [
+        {"type": "directional", "name": "sun", "direction": [0, -1, 0], "intensity": [3, 3, 3]},
+        {"type": "spot", "name": "s", "position": [0, 2, 0], "direction": [0, -1, 0],
+         "intensity": [1, 1, 1], "range_m": 5, "inner_cone_rad": 0.3, "outer_cone_rad": 0.5}]})))
+seed("probeset", "version1.json", js(dict((k, v) for k, v in probe_set(version=1).items()
+                                          if k not in ("scene_hash", "importance_volumes"))))
+seed("volume", "one-tet.psv", good)
+# Two tets sharing a face: positions 0..4, tets (1,2,3,0) and (1,3,2,4).
+seed("volume", "two-tets.psv", volume(
+    P=5, T=2, H=4, positions=[0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1],
+    tets=[1, 2, 3, 0, 1, 3, 2, 4], neighbors=[-1, -1, -1, 1, -1, -1, -1, 0]))
+seed("gltf", "triangle.gltf", gltf())
