@@ -9,6 +9,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/io/SceneHash.h"
 #include "core/placement/Uniform.h"
 #include "core/trace/Tracer.h"
 #include "ui/ProbeCommands.h"
@@ -24,6 +25,7 @@ std::filesystem::path toPath(const QString& s) {
 struct LoadedScene {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const Tracer> tracer;
+  uint64_t hash = 0;  ///< sceneContentHash() of the file
 };
 
 LoadedScene load(const QString& path) {
@@ -31,7 +33,7 @@ LoadedScene load(const QString& path) {
   // The deleter keeps the scene alive for as long as the tracer lives.
   auto tracer =
       std::shared_ptr<const Tracer>(new Tracer(*scene), [scene](const Tracer* t) { delete t; });
-  return {scene, tracer};
+  return {scene, tracer, sceneContentHash(toPath(path))};
 }
 }  // namespace
 
@@ -83,7 +85,9 @@ void Document::openScene(const QString& path) {
   LoadedScene loaded = load(path);  // throws; nothing changed yet
   ProbeSet set;
   set.scenePath = path.toStdString();
+  set.sceneHash = loaded.hash;
   replace(loaded.scene, loaded.tracer, std::move(set), path, QString());
+  sceneHash_ = loaded.hash;
   if (autoPropose_) proposeCandidates();
 }
 
@@ -104,10 +108,17 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
   }
   LoadedScene loaded = load(scenePath);  // throws; nothing changed yet
   replace(loaded.scene, loaded.tracer, std::move(set), scenePath, path);
+  sceneHash_ = loaded.hash;
+}
+
+std::string Document::staleCapturesText() const {
+  if (sceneHash_ == 0) return "";
+  return describeStaleCaptures(set_, staleCaptures(set_, sceneHash_));
 }
 
 void Document::saveProbeSet(const QString& path) {
   ProbeSet set = set_;
+  if (sceneHash_ != 0) set.sceneHash = sceneHash_;
   if (!scenePath_.isEmpty())
     set.scenePath = std::filesystem::absolute(toPath(scenePath_)).lexically_normal().string();
   ps::saveProbeSet(set, toPath(path));  // throws; the document is unchanged then
@@ -121,6 +132,7 @@ void Document::setScene(Scene scene) {
   ProbeSet set;
   set.scenePath = s->sourcePath;
   replace(s, nullptr, std::move(set), QString::fromStdString(s->sourcePath), QString());
+  sceneHash_ = 0;  // built in memory: no file to hash
 }
 
 int Document::indexOf(uint64_t id) const {
@@ -200,6 +212,7 @@ void Document::proposeCandidates() {
   const ProposalSettings settings = proposal_;
   const LightingRig rig = set_.rig;
   std::shared_ptr<const Tracer> tracer = tracer_;
+  const uint64_t sceneHash = sceneHash_;
   jobCancel_ = std::make_shared<std::atomic<bool>>(false);
   auto cancel = jobCancel_;
   // Progress arrives from worker threads; it is forwarded (throttled) to the GUI thread. The
@@ -260,8 +273,10 @@ void Document::proposeCandidates() {
         const auto captures = captureProbes(*tracer, rig, points, cs, [&](double f) {
           return report(tr("Capturing SH…"), 0.4 + 0.6 * f);
         });
-        for (size_t i = 0; i < captures.size() && i < result->probes.size(); ++i)
+        for (size_t i = 0; i < captures.size() && i < result->probes.size(); ++i) {
           result->probes[i].sh = captures[i].sh;
+          result->probes[i].captureSceneHash = sceneHash;
+        }
       } catch (const Cancelled&) {
         throw;
       } catch (const Error& err) {

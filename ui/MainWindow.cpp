@@ -199,6 +199,8 @@ bool MainWindow::openProbeSet(const QString& path) {
     showError(tr("Open probe set"), QString::fromStdString(e.what()));
     return false;
   }
+  const std::string stale = doc_->staleCapturesText();
+  if (!stale.empty()) statusBar()->showMessage(QString::fromStdString(stale), 15000);
   viewport_->frameAll();
   return true;
 }
