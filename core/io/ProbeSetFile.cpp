@@ -116,6 +116,14 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
 }
 
 ProbeSet loadProbeSet(const fs::path& path) {
+  // A probe set of a million probes with SH is ~1 GB of JSON; refuse larger before reading it.
+  constexpr uintmax_t kMaxBytes = uintmax_t(1) << 30;
+  std::error_code ec;
+  const uintmax_t size = fs::file_size(path, ec);
+  if (!ec && size > kMaxBytes)
+    throw FileError(path.string(), "",
+                    "file of " + std::to_string(size) + " bytes is above the probe-set limit of " +
+                        std::to_string(kMaxBytes) + " bytes");
   return parseProbeSet(readWholeFile(path), path);
 }
 

@@ -174,6 +174,14 @@ TEST(ProbeSetFile, StaleCapturesAreNamedWhenTheSceneChanges) {
   EXPECT_THROW(sceneContentHash(dir / "scenes" / "missing.gltf"), FileError);
 }
 
+TEST(ProbeSetFile, AHugeFileIsRefusedBeforeItIsRead) {
+  const fs::path dir = tempDir();
+  writeText(dir / "huge.json", "{");
+  fs::resize_file(dir / "huge.json", uintmax_t(3) << 30);  // sparse: no disk space used
+  EXPECT_NE(loadError(dir / "huge.json").find("above the probe-set limit"), std::string::npos);
+  fs::remove(dir / "huge.json");
+}
+
 TEST(ProbeSetFile, NewerVersionIsRefusedWithAClearMessage) {
   const fs::path dir = tempDir();
   writeText(dir / "v9.json", R"({"format": "probestudio.probeset", "version": 9, "probes": []})");
