@@ -12,6 +12,7 @@
 #include "core/eval/Evaluate.h"
 #include "core/io/ProbeSetFile.h"
 #include "core/io/VolumeFile.h"
+#include "core/io/SceneHash.h"
 #include "core/placement/Uniform.h"
 #include "core/trace/Tracer.h"
 #include "ui/ProbeCommands.h"
@@ -27,6 +28,7 @@ std::filesystem::path toPath(const QString& s) {
 struct LoadedScene {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const Tracer> tracer;
+  uint64_t hash = 0;  ///< sceneContentHash() of the file
 };
 
 LoadedScene load(const QString& path) {
@@ -34,7 +36,7 @@ LoadedScene load(const QString& path) {
   // The deleter keeps the scene alive for as long as the tracer lives.
   auto tracer =
       std::shared_ptr<const Tracer>(new Tracer(*scene), [scene](const Tracer* t) { delete t; });
-  return {scene, tracer};
+  return {scene, tracer, sceneContentHash(toPath(path))};
 }
 }  // namespace
 
@@ -106,7 +108,9 @@ void Document::openScene(const QString& path) {
   LoadedScene loaded = load(path);  // throws; nothing changed yet
   ProbeSet set;
   set.scenePath = path.toStdString();
+  set.sceneHash = loaded.hash;
   replace(loaded.scene, loaded.tracer, std::move(set), path, QString());
+  sceneHash_ = loaded.hash;
   if (autoPropose_) proposeCandidates();
 }
 
@@ -127,10 +131,17 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
   }
   LoadedScene loaded = load(scenePath);  // throws; nothing changed yet
   replace(loaded.scene, loaded.tracer, std::move(set), scenePath, path);
+  sceneHash_ = loaded.hash;
+}
+
+std::string Document::staleCapturesText() const {
+  if (sceneHash_ == 0) return "";
+  return describeStaleCaptures(set_, staleCaptures(set_, sceneHash_));
 }
 
 void Document::saveProbeSet(const QString& path) {
   ProbeSet set = set_;
+  if (sceneHash_ != 0) set.sceneHash = sceneHash_;
   if (!scenePath_.isEmpty())
     set.scenePath = std::filesystem::absolute(toPath(scenePath_)).lexically_normal().string();
   ps::saveProbeSet(set, toPath(path));  // throws; the document is unchanged then
@@ -144,6 +155,7 @@ void Document::setScene(Scene scene) {
   ProbeSet set;
   set.scenePath = s->sourcePath;
   replace(s, nullptr, std::move(set), QString::fromStdString(s->sourcePath), QString());
+  sceneHash_ = 0;  // built in memory: no file to hash
 }
 
 int Document::indexOf(uint64_t id) const {
@@ -347,7 +359,7 @@ namespace {
 /// them uncaptured and is reported in `error`.
 void captureQuickly(const Tracer& tracer, const LightingRig& rig, std::vector<Probe>& probes,
                     int samples, const std::function<bool(QString, double)>& report, double from,
-                    QString& error) {
+                    QString& error, uint64_t sceneHash) {
   std::vector<Vec3> points;
   for (const Probe& p : probes) points.push_back(p.position);
   try {
@@ -356,7 +368,10 @@ void captureQuickly(const Tracer& tracer, const LightingRig& rig, std::vector<Pr
     const auto captures = captureProbes(tracer, rig, points, cs, [&](double f) {
       return report(QObject::tr("Capturing SH…"), from + (1 - from) * f);
     });
-    for (size_t i = 0; i < captures.size() && i < probes.size(); ++i) probes[i].sh = captures[i].sh;
+    for (size_t i = 0; i < captures.size() && i < probes.size(); ++i) {
+      probes[i].sh = captures[i].sh;
+      probes[i].captureSceneHash = sceneHash;
+    }
   } catch (const Cancelled&) {
     throw;
   } catch (const Error& err) {
@@ -370,6 +385,7 @@ void Document::proposeCandidates() {
   const ProposalSettings settings = proposal_;
   const LightingRig rig = set_.rig;
   std::shared_ptr<const Tracer> tracer = tracer_;
+  const uint64_t sceneHash = sceneHash_;
   startJob("propose", tr("Proposing probes…"), [=](JobResult& result, const auto& report) {
     const Bounds3 b = tracer->scene().bounds;
     const Vec3 e = b.extent();
@@ -398,7 +414,7 @@ void Document::proposeCandidates() {
       result.probes.push_back(probe);
     }
     captureQuickly(*tracer, rig, result.probes, settings.samplesPerProbe, report, 0.4,
-                   result.error);
+                   result.error, sceneHash);
   });
 }
 
@@ -411,6 +427,7 @@ bool Document::runPlacement(const PlacementRequest& request) {
     throw ParameterError("budget: expected at least 4 probes (or 0 for no budget)");
   const LightingRig rig = set_.rig;
   std::shared_ptr<const Tracer> tracer = tracer_;
+  const uint64_t sceneHash = sceneHash_;
   startJob("place", tr("Placing probes…"), [=](JobResult& result, const auto& report) {
     result.placement = request;
     UniformSettings us;
@@ -431,7 +448,8 @@ bool Document::runPlacement(const PlacementRequest& request) {
       probe.method = request.method;
       result.probes.push_back(probe);
     }
-    captureQuickly(*tracer, rig, result.probes, request.samplesPerProbe, report, 0.5, result.error);
+    captureQuickly(*tracer, rig, result.probes, request.samplesPerProbe, report, 0.5, result.error,
+                   sceneHash);
   });
   return true;
 }
@@ -482,8 +500,9 @@ bool Document::recapture(int samplesPerProbe) {
   if (probes.empty()) return false;
   const LightingRig rig = set_.rig;
   std::shared_ptr<const Tracer> tracer = tracer_;
+  const uint64_t sceneHash = sceneHash_;
   startJob("recapture", tr("Capturing SH…"), [=](JobResult& result, const auto& report) mutable {
-    captureQuickly(*tracer, rig, probes, samplesPerProbe, report, 0.0, result.error);
+    captureQuickly(*tracer, rig, probes, samplesPerProbe, report, 0.0, result.error, sceneHash);
     if (!result.error.isEmpty()) {
       probes.clear();
       return;

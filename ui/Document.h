@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <utility>
+#include <string>
 #include <vector>
 
 #include "core/io/ProbeSet.h"
@@ -86,6 +87,11 @@ class Document : public QObject {
   int indexOf(uint64_t id) const;
   const Probe* probe(uint64_t id) const;
   QString scenePath() const { return scenePath_; }
+  /// sceneContentHash() of the open scene's file; 0 for a scene built in memory.
+  uint64_t sceneHash() const { return sceneHash_; }
+  /// Which captures of the probe set the scene's changes made stale, in one line (empty when
+  /// none, or when the scene has no file).
+  std::string staleCapturesText() const;
   QString probeSetPath() const { return setPath_; }
   bool isModified() const { return !undo_.isClean(); }
   QUndoStack* undoStack() { return &undo_; }
@@ -212,6 +218,7 @@ class Document : public QObject {
   std::shared_ptr<const Tracer> tracer_;
   ProbeSet set_;
   QString scenePath_, setPath_;
+  uint64_t sceneHash_ = 0;
   QUndoStack undo_;
   bool autoPropose_ = true;
   ProposalSettings proposal_;

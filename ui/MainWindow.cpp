@@ -486,6 +486,8 @@ bool MainWindow::openProbeSet(const QString& path) {
     return false;
   }
   addRecentFile(path);
+  const std::string stale = doc_->staleCapturesText();
+  if (!stale.empty()) statusBar()->showMessage(QString::fromStdString(stale), 15000);
   viewport_->frameAll();
   return true;
 }

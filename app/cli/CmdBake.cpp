@@ -14,6 +14,7 @@
 #include "core/eval/Evaluate.h"
 #include "core/io/JsonFields.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
 #include "core/placement/Uniform.h"
 #include "core/tessellation/Tetrahedralization.h"
@@ -23,11 +24,17 @@ namespace ps::cli {
 namespace fs = std::filesystem;
 using ojson = nlohmann::ordered_json;
 
+namespace {
+constexpr int kMaxSamplesPerProbe = 1 << 24;
+}  // namespace
+
 void registerBake(CLI::App& app) {
   struct Opts {
     std::string set, out;
     int spp = 1024;
     uint64_t seed = 1;
+    std::string cacheDir;
+    bool noCache = false;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -36,7 +43,14 @@ void registerBake(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "Volume to write (.psv)")->required();
   cmd->add_option("--spp", o->spp, "Samples per probe")->check(CLI::PositiveNumber);
   cmd->add_option("--seed", o->seed, "Random seed");
+  cmd->add_option("--cache", o->cacheDir,
+                  "Capture cache folder (default: SET.capture-cache beside the probe set)");
+  cmd->add_flag("--no-cache", o->noCache,
+                "Capture every probe, neither reading nor writing a cache");
   cmd->callback([o] {
+    if (o->spp > kMaxSamplesPerProbe)
+      throw ParameterError("--spp: " + std::to_string(o->spp) + " samples per probe is above the " +
+                           "limit of " + std::to_string(kMaxSamplesPerProbe));
     const ProbeSet set = loadProbeSet(o->set);
     if (set.scenePath.empty()) throw FileError(o->set, "scene", "the probe set names no scene");
     const Scene scene = loadScene(set.scenePath);
@@ -44,6 +58,13 @@ void registerBake(CLI::App& app) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = o->spp;
     bs.capture.seed = o->seed;
+    bs.sceneHash = sceneContentHash(set.scenePath);
+    if (set.sceneHash != 0 && set.sceneHash != bs.sceneHash)
+      std::printf("note: the scene changed since %s was saved (hash %s, now %s)\n", o->set.c_str(),
+                  sceneHashText(set.sceneHash).c_str(), sceneHashText(bs.sceneHash).c_str());
+    if (!o->noCache)
+      bs.cacheDir =
+          o->cacheDir.empty() ? fs::path(o->set + ".capture-cache") : fs::path(o->cacheDir);
     BakeResult r = bakeProbeSet(set, tracer, bs, terminalProgress("bake"));
     // Store the scene path relative to the volume, like the probe set does.
     ojson meta = ojson::parse(r.file.metadataJson);
@@ -53,10 +74,10 @@ void registerBake(CLI::App& app) {
     r.file.metadataJson = meta.dump();
     saveVolume(r.file, o->out);
     std::printf(
-        "baked %zu probes, %zu tetrahedra (capture %.2f s at %d spp, tetrahedralize %.3f s) -> "
-        "%s\n",
-        r.probes, r.file.volume.tets.size(), r.captureSeconds, o->spp, r.tetraSeconds,
-        o->out.c_str());
+        "baked %zu probes (%zu captured, %zu from the cache), %zu tetrahedra (capture %.2f s at "
+        "%d spp, tetrahedralize %.3f s) -> %s\n",
+        r.probes, r.captured, r.cacheHits, r.file.volume.tets.size(), r.captureSeconds, o->spp,
+        r.tetraSeconds, o->out.c_str());
   });
 }
 

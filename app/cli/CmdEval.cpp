@@ -42,6 +42,12 @@ void registerEval(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Random seed");
   cmd->add_flag("--json", o->json, "Print JSON");
   cmd->callback([o] {
+    // Absurd requests get a message before anything is allocated or traced.
+    if (o->queries > 10'000'000)
+      throw ParameterError("--queries: " + std::to_string(o->queries) +
+                           " is above the limit of 10 million query points");
+    if (o->referenceSpp > (1 << 24) || o->spp > (1 << 24))
+      throw ParameterError("--spp, --reference-spp: above the limit of 16777216 samples");
     std::string scenePath;
     LightingRig rig;
     ProbeVolume volume;

@@ -14,6 +14,7 @@
 #include "core/eval/Evaluate.h"
 #include "core/io/JsonFields.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
 #include "core/placement/Uniform.h"
 #include "core/tessellation/Tetrahedralization.h"
@@ -53,6 +54,19 @@ void registerInfo(CLI::App& app) {
                 set.placement.method.c_str(), set.placement.spacingMeters, set.placement.budget,
                 set.rig.lights.size(), set.rig.skyRadiance.r, set.rig.skyRadiance.g,
                 set.rig.skyRadiance.b);
+    std::printf("  %zu importance volumes\n", set.importanceVolumes.size());
+    std::error_code ec;
+    if (set.scenePath.empty() || !fs::exists(set.scenePath, ec)) {
+      std::printf("  scene hash %s (the scene file is not there to compare)\n",
+                  sceneHashText(set.sceneHash).c_str());
+      return;
+    }
+    const uint64_t now = sceneContentHash(set.scenePath);
+    std::printf(
+        "  scene hash %s, %s\n", sceneHashText(set.sceneHash).c_str(),
+        set.sceneHash == now ? "matches the scene" : ("scene now " + sceneHashText(now)).c_str());
+    const std::string stale = describeStaleCaptures(set, staleCaptures(set, now));
+    if (!stale.empty()) std::printf("  %s\n", stale.c_str());
   });
 }
 

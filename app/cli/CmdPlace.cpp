@@ -14,6 +14,7 @@
 #include "core/eval/Evaluate.h"
 #include "core/io/JsonFields.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
 #include "core/placement/Uniform.h"
 #include "core/tessellation/Tetrahedralization.h"
@@ -53,6 +54,7 @@ void registerPlace(CLI::App& app) {
     const Tracer tracer(scene);
     ProbeSet set;
     set.scenePath = fs::absolute(o->scene).string();
+    set.sceneHash = sceneContentHash(o->scene);
     set.rig = o->rig.build();
     set.placement.method = o->method;
     UniformSettings us;

@@ -21,6 +21,7 @@ nlohmann::ordered_json rgbJson(Rgb c) {
 }
 
 bool isVolumePath(const std::filesystem::path& p) {
+  if (p.extension() == ".psv") return true;  // a damaged volume is still reported as a volume
   std::ifstream in(p, std::ios::binary);
   char magic[8] = {};
   in.read(magic, 8);
@@ -31,7 +32,7 @@ VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& vol
   nlohmann::ordered_json meta;
   try {
     meta = nlohmann::ordered_json::parse(vf.metadataJson);
-  } catch (const nlohmann::json::parse_error&) {
+  } catch (const nlohmann::json::exception&) {
     throw FileError(volumePath.string(), "metadata", "not valid JSON");
   }
   const JsonField root(volumePath.string(), "metadata", &meta);

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 
+#include "core/bake/CaptureCache.h"
 #include "core/common/Error.h"
 #include "core/io/JsonFields.h"
 #include "core/tessellation/Tetrahedralization.h"
@@ -21,29 +22,61 @@ ProbeVolume volumeFromProbes(std::span<const Vec3> positions, std::span<const Sh
   return buildProbeVolume(t, shOfVertex);
 }
 
-BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSettings& settings,
-                        const ProgressFn& progress) {
-  std::vector<Vec3> positions;
-  std::vector<uint64_t> ids;
+BakeProbes gatherAcceptedProbes(const ProbeSet& set) {
+  BakeProbes b;
   for (const Probe& p : set.probes)
     if (p.state == ProbeState::Accepted) {
-      positions.push_back(p.position);
-      ids.push_back(p.id);
+      b.positions.push_back(p.position);
+      b.ids.push_back(p.id);
     }
-  if (positions.size() < 4)
-    throw ParameterError("bake: the probe set has " + std::to_string(positions.size()) +
+  if (b.positions.size() < 4)
+    throw ParameterError("bake: the probe set has " + std::to_string(b.positions.size()) +
                          " accepted probes; a volume needs at least 4 (accept candidates first)");
+  return b;
+}
+
+void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& tracer,
+                  const BakeSettings& settings, const ProgressFn& progress, BakeResult& r) {
+  const size_t n = probes.positions.size();
+  probes.sh.assign(n, ShRgb{});
+  std::optional<CaptureCache> cache;
+  if (settings.cacheDir && settings.sceneHash != 0) cache.emplace(*settings.cacheDir);
+  std::vector<uint64_t> keys(n, 0);
+  std::vector<size_t> missing;
+  for (size_t i = 0; i < n; ++i) {
+    if (cache) {
+      keys[i] = CaptureCache::key(settings.sceneHash, rig, settings.capture, probes.positions[i]);
+      if (auto sh = cache->find(keys[i])) {
+        probes.sh[i] = *sh;
+        ++r.cacheHits;
+        continue;
+      }
+    }
+    missing.push_back(i);
+  }
+  if (missing.empty()) return;
+  std::vector<Vec3> points;
+  points.reserve(missing.size());
+  for (size_t i : missing) points.push_back(probes.positions[i]);
+  const auto captures = captureProbes(tracer, rig, points, settings.capture, progress);
+  for (size_t k = 0; k < missing.size(); ++k) {
+    probes.sh[missing[k]] = captures[k].sh;
+    if (cache) cache->store(keys[missing[k]], captures[k].sh);
+  }
+  r.captured += missing.size();
+}
+
+BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSettings& settings,
+                        const ProgressFn& progress) {
   BakeResult r;
-  r.probes = positions.size();
+  BakeProbes probes = gatherAcceptedProbes(set);
+  r.probes = probes.positions.size();
   auto t0 = std::chrono::steady_clock::now();
   ProgressFn captureProgress;
   if (progress) captureProgress = [&](double f) { return progress(0.95 * f); };
-  const auto captures =
-      captureProbes(tracer, set.rig, positions, settings.capture, captureProgress);
+  captureStage(probes, set.rig, tracer, settings, captureProgress, r);
   auto t1 = std::chrono::steady_clock::now();
-  std::vector<ShRgb> sh(captures.size());
-  for (size_t i = 0; i < captures.size(); ++i) sh[i] = captures[i].sh;
-  r.file.volume = volumeFromProbes(positions, sh);
+  r.file.volume = volumeFromProbes(probes.positions, probes.sh);
   auto t2 = std::chrono::steady_clock::now();
   r.captureSeconds = std::chrono::duration<double>(t1 - t0).count();
   r.tetraSeconds = std::chrono::duration<double>(t2 - t1).count();
@@ -53,7 +86,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   meta["scene"] = set.scenePath;
   meta["rig"] = rigToJson(set.rig);
   meta["capture_spp"] = settings.capture.samplesPerProbe;
-  meta["probe_ids"] = ids;
+  meta["probe_ids"] = probes.ids;
   r.file.metadataJson = meta.dump();
   if (progress && !progress(1.0)) throw Cancelled();
   return r;

@@ -1,6 +1,10 @@
 #pragma once
 // Bake: the accepted probes of a set captured at final quality, tetrahedralized and turned into
-// the runtime volume (DESIGN.md data flow, last stage).
+// the runtime volume (DESIGN.md data flow, last stage). Stages, in order, each a function below
+// so that more can be slotted in: gather the accepted probes -> capture (through the capture
+// cache) -> [leak refinement] -> tetrahedralize -> metadata.
+#include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -17,14 +21,36 @@ ProbeVolume volumeFromProbes(std::span<const Vec3> positions, std::span<const Sh
 
 struct BakeSettings {
   CaptureSettings capture{.samplesPerProbe = 1024};
+  /// Folder of the capture cache (see CaptureCache); none = capture every probe.
+  std::optional<std::filesystem::path> cacheDir;
+  /// sceneContentHash() of the scene the tracer was built from; part of every cache key. The
+  /// cache is used only when this is non-zero.
+  uint64_t sceneHash = 0;
 };
 
 struct BakeResult {
   VolumeFile file;
   size_t probes = 0;
+  size_t captured = 0;   ///< probes traced in this bake
+  size_t cacheHits = 0;  ///< probes whose SH came from the capture cache
   double captureSeconds = 0;
   double tetraSeconds = 0;
 };
+
+/// The bake's working data between stages.
+struct BakeProbes {
+  std::vector<uint64_t> ids;
+  std::vector<Vec3> positions;
+  std::vector<ShRgb> sh;  ///< filled by the capture stage
+};
+
+/// Stage 1: the accepted probes of `set`. Throws ps::ParameterError when fewer than 4.
+BakeProbes gatherAcceptedProbes(const ProbeSet& set);
+
+/// Stage 2: fills `probes.sh`, from the cache where it has an entry, tracing the rest (in one
+/// captureProbes call) and storing them in the cache. Adds to r.captured / r.cacheHits.
+void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& tracer,
+                  const BakeSettings& settings, const ProgressFn& progress, BakeResult& r);
 
 /// Captures every accepted probe of `set` with the set's rig and builds the volume. The volume's
 /// metadata JSON records the scene path (absolute; saveVolume's caller may relativize), the rig

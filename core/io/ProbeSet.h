@@ -20,6 +20,15 @@ struct Probe {
   std::string method;       ///< provenance: the placement method, or "manual"
   double score = 0;         ///< method-specific (error removed, cluster size, ...)
   std::optional<ShRgb> sh;  ///< captured incident radiance, when captured
+  /// sceneContentHash() of the scene the SH was captured in; 0 = unknown (a version-1 file).
+  uint64_t captureSceneHash = 0;
+};
+
+/// An axis-aligned box where placement should put more probes (weight > 1) or fewer (< 1).
+struct ImportanceVolume {
+  std::string name;
+  Vec3 lo, hi;  ///< metres, lo <= hi on every axis
+  double weight = 1.0;
 };
 
 struct PlacementSettings {
@@ -29,10 +38,13 @@ struct PlacementSettings {
 };
 
 struct ProbeSet {
-  static constexpr int kFormatVersion = 1;
+  static constexpr int kFormatVersion = 2;
   std::string scenePath;  ///< relative to the probe-set file when saved
+  /// sceneContentHash() of the scene when the set was last saved from a loaded scene; 0 = unknown.
+  uint64_t sceneHash = 0;
   LightingRig rig;
   PlacementSettings placement;
+  std::vector<ImportanceVolume> importanceVolumes;
   std::vector<Probe> probes;
   uint64_t nextId = 1;
 

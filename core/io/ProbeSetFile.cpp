@@ -5,9 +5,11 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <unordered_set>
 
 #include "core/common/Error.h"
 #include "core/io/JsonFields.h"
@@ -39,6 +41,29 @@ ProbeState parseState(const JsonField& f) {
   f.fail("expected one of \"candidate\", \"accepted\", \"rejected\", got \"" + s + "\"");
 }
 
+std::string hashToHex(uint64_t h) {
+  if (h == 0) return "";
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+uint64_t hashFromHex(const JsonField& f) {
+  const std::string s = f.string();
+  if (s.empty()) return 0;
+  if (s.size() != 16 || s.find_first_not_of("0123456789abcdef") != std::string::npos)
+    f.fail("expected 16 lowercase hex digits or \"\", got \"" + s + "\"");
+  return std::stoull(s, nullptr, 16);
+}
+
+// Version 1 -> 2: version 2 added the scene hash, importance volumes and the per-capture scene
+// hash. A version-1 file has none of them: its captures are of an unknown scene state.
+void migrateV1ToV2(ojson& j) {
+  j["version"] = 2;
+  if (!j.contains("scene_hash")) j["scene_hash"] = "";
+  if (!j.contains("importance_volumes")) j["importance_volumes"] = ojson::array();
+}
+
 }  // namespace
 
 void saveProbeSet(const ProbeSet& set, const fs::path& path) {
@@ -53,10 +78,21 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
     if (!ec && !rel.empty()) scene = rel.generic_string();
   }
   j["scene"] = scene;
+  j["scene_hash"] = hashToHex(set.sceneHash);
   j["rig"] = rigToJson(set.rig);
   j["placement"] = {{"method", set.placement.method},
                     {"spacing_m", set.placement.spacingMeters},
                     {"budget", set.placement.budget}};
+  ojson volumes = ojson::array();
+  for (const ImportanceVolume& v : set.importanceVolumes) {
+    ojson o;
+    o["name"] = v.name;
+    o["min"] = vecToJson(v.lo);
+    o["max"] = vecToJson(v.hi);
+    o["weight"] = v.weight;
+    volumes.push_back(std::move(o));
+  }
+  j["importance_volumes"] = std::move(volumes);
   j["next_id"] = set.nextId;
   ojson probes = ojson::array();
   for (const Probe& p : set.probes) {
@@ -71,6 +107,7 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
       ojson sh = ojson::array();
       for (const Rgb& c : p.sh->c) sh.push_back(rgbToJson(c));
       o["sh"] = std::move(sh);
+      o["sh_scene_hash"] = hashToHex(p.captureSceneHash);
     }
     probes.push_back(std::move(o));
   }
@@ -79,12 +116,23 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
 }
 
 ProbeSet loadProbeSet(const fs::path& path) {
+  // A probe set of a million probes with SH is ~1 GB of JSON; refuse larger before reading it.
+  constexpr uintmax_t kMaxBytes = uintmax_t(1) << 30;
+  std::error_code ec;
+  const uintmax_t size = fs::file_size(path, ec);
+  if (!ec && size > kMaxBytes)
+    throw FileError(path.string(), "",
+                    "file of " + std::to_string(size) + " bytes is above the probe-set limit of " +
+                        std::to_string(kMaxBytes) + " bytes");
+  return parseProbeSet(readWholeFile(path), path);
+}
+
+ProbeSet parseProbeSet(const std::string& text, const fs::path& path) {
   const std::string file = path.string();
-  const std::string text = readWholeFile(path);
   ojson j;
   try {
     j = ojson::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, out_of_range (1e999), ...
     throw FileError(file, "", std::string("not valid JSON: ") + e.what());
   }
   const JsonField root(file, "", &j);
@@ -98,6 +146,7 @@ ProbeSet loadProbeSet(const fs::path& path) {
                             std::to_string(ProbeSet::kFormatVersion) + "); update ProbeStudio");
   if (version < 1)
     root.at("version").fail("expected a version >= 1, got " + std::to_string(version));
+  if (version == 1) migrateV1ToV2(j);
 
   ProbeSet set;
   const std::string scene = root.at("scene").string();
@@ -106,6 +155,7 @@ ProbeSet loadProbeSet(const fs::path& path) {
     if (sp.is_relative()) sp = fs::absolute(path).parent_path() / sp;
     set.scenePath = sp.lexically_normal().string();
   }
+  set.sceneHash = hashFromHex(root.at("scene_hash"));
   if (root.has("rig")) set.rig = rigFromJson(root.at("rig"));
   if (root.has("placement")) {
     const JsonField pl = root.at("placement");
@@ -113,18 +163,31 @@ ProbeSet loadProbeSet(const fs::path& path) {
     set.placement.spacingMeters = pl.at("spacing_m").number();
     set.placement.budget = pl.at("budget").integer();
   }
+  const JsonField volumes = root.at("importance_volumes");
+  for (size_t i = 0; i < volumes.arraySize(); ++i) {
+    const JsonField vf = volumes.index(i);
+    ImportanceVolume v;
+    if (vf.has("name")) v.name = vf.at("name").string();
+    v.lo = vf.at("min").vec3();
+    v.hi = vf.at("max").vec3();
+    for (int a = 0; a < 3; ++a)
+      if (v.lo[a] > v.hi[a]) vf.at("max").fail("expected max >= min on every axis");
+    v.weight = vf.at("weight").number();
+    if (!(v.weight >= 0)) vf.at("weight").fail("expected a weight >= 0");
+    set.importanceVolumes.push_back(std::move(v));
+  }
   const JsonField probes = root.at("probes");
   const size_t n = probes.arraySize();
   set.probes.reserve(n);
   uint64_t maxId = 0;
+  std::unordered_set<uint64_t> seenIds;
   for (size_t i = 0; i < n; ++i) {
     const JsonField pf = probes.index(i);
     Probe p;
     const int64_t id = pf.at("id").integer64();
     if (id <= 0) pf.at("id").fail("expected a positive integer, got " + std::to_string(id));
     p.id = static_cast<uint64_t>(id);
-    for (const Probe& q : set.probes)
-      if (q.id == p.id) pf.at("id").fail("duplicate id " + std::to_string(id));
+    if (!seenIds.insert(p.id).second) pf.at("id").fail("duplicate id " + std::to_string(id));
     p.position = pf.at("position").vec3();
     p.state = parseState(pf.at("state"));
     if (pf.has("locked")) p.locked = pf.at("locked").boolean();
@@ -137,6 +200,7 @@ ProbeSet loadProbeSet(const fs::path& path) {
       ShRgb sh;
       for (int c = 0; c < kShCoeffCount; ++c) sh.c[c] = shf.index(c).rgb();
       p.sh = sh;
+      if (pf.has("sh_scene_hash")) p.captureSceneHash = hashFromHex(pf.at("sh_scene_hash"));
     }
     maxId = std::max(maxId, p.id);
     set.probes.push_back(std::move(p));
@@ -160,7 +224,7 @@ std::string readWholeFile(const fs::path& path) {
   return s.str();
 }
 
-void writeFileAtomic(const fs::path& path, const std::string& bytes) {
+void writeFileAtomic(const fs::path& path, const std::string& bytes, bool durable) {
   const fs::path target = fs::absolute(path);
   const fs::path dir = target.parent_path();
   std::error_code ec;
@@ -184,7 +248,7 @@ void writeFileAtomic(const fs::path& path, const std::string& bytes) {
     written += static_cast<size_t>(w);
   }
   ::fchmod(fd, 0644);
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+  if ((durable && ::fsync(fd) != 0) || ::close(fd) != 0) {
     ::unlink(tmpl.c_str());
     throw FileError(path.string(), "", "cannot save: fsync failed");
   }
@@ -192,6 +256,7 @@ void writeFileAtomic(const fs::path& path, const std::string& bytes) {
     ::unlink(tmpl.c_str());
     throw FileError(path.string(), "", "cannot save: rename failed");
   }
+  if (!durable) return;
   // Make the rename itself durable.
   const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
   if (dfd >= 0) {

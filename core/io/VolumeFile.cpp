@@ -119,8 +119,10 @@ void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
 }
 
 VolumeFile loadVolume(const std::filesystem::path& path) {
-  const std::string file = path.string();
-  const std::string data = readWholeFile(path);
+  return parseVolume(readWholeFile(path), path.string());
+}
+
+VolumeFile parseVolume(const std::string& data, const std::string& file) {
   Reader r(file, data);
   r.need(8, "magic");
   if (std::memcmp(data.data(), kMagic, 8) != 0)

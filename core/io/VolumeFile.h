@@ -20,6 +20,8 @@ void saveVolume(const VolumeFile& v, const std::filesystem::path& path);
 /// Throws ps::FileError naming the file and the problem (bad magic, version, truncated data,
 /// counts beyond the file's size, bad CRC, indices out of range).
 VolumeFile loadVolume(const std::filesystem::path& path);
+/// loadVolume() on the file's bytes; `name` names the file in errors.
+VolumeFile parseVolume(const std::string& data, const std::string& name);
 
 uint32_t crc32(const void* data, size_t size, uint32_t crc = 0);
 

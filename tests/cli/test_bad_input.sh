@@ -42,6 +42,14 @@ cat >"$tmp/short.json" <<'JSON'
 JSON
 expect_error "probes[0].position: expected 3 numbers, got 2" "$cli" info "$tmp/short.json"
 
+m="$root/tests/data/malformed"
+expect_error "$m/ps-overflow-number.json: not valid JSON" "$cli" info "$m/ps-overflow-number.json"
+expect_error "$m/vol-bad-magic.psv: magic: not a ProbeStudio volume" "$cli" info "$m/vol-bad-magic.psv"
+expect_error "$m/vol-huge-probe-count.psv: header: counts" "$cli" query "$m/vol-huge-probe-count.psv" --at 0,0,0
+expect_error "--spp: 100000000 samples per probe is above the limit" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --spp 100000000
+expect_error "--queries: 2000000000 is above the limit" "$cli" eval "$m/ps-empty.json" --queries 2000000000
+expect_error "limit 50 million" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2000000000 -o "$tmp/s.json"
+
 # Volumes and parameters
 printf 'PSVOLUM1\001\000' >"$tmp/trunc.psv"
 expect_error "$tmp/trunc.psv: " "$cli" query "$tmp/trunc.psv" --at 0,0,0

@@ -9,6 +9,10 @@ scene="$root/resources/scenes/cornell.gltf"
 
 "$cli" place "$scene" --budget 40 --accept -o "$tmp/set.json"
 "$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128
+# Re-baking the unchanged set takes every probe from the capture cache and gives the same volume.
+"$cli" bake "$tmp/set.json" -o "$tmp/v2.psv" --spp 128 | grep -q "(0 captured, "
+cmp "$tmp/v.psv" "$tmp/v2.psv"
+"$cli" info "$tmp/set.json" | grep -q "matches the scene"
 "$cli" eval "$tmp/v.psv" --queries 32 --reference-spp 256 --json >"$tmp/eval.json"
 "$cli" info "$tmp/set.json" | grep -q "accepted"
 "$cli" info "$tmp/v.psv" | grep -q "probe volume"
@@ -24,7 +28,7 @@ tmp = sys.argv[1]
 s = json.load(open(f"{tmp}/set.json"))
 n = len(s["probes"])
 assert 36 <= n <= 44, f"budget 40 gave {n} probes"
-assert s["version"] == 1 and s["scene"].endswith("cornell.gltf")
+assert s["version"] == 2 and len(s["scene_hash"]) == 16 and s["scene"].endswith("cornell.gltf")
 e = json.load(open(f"{tmp}/eval.json"))
 assert e["probes"] == n and e["queries"] == 32
 for k in ("rel_rmse", "p95_rel_error", "max_rel_error", "seconds"):

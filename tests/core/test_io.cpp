@@ -1,6 +1,9 @@
 // Probe-set JSON and volume binary: round trips, stable output, and clear errors naming the file
 // and the field for malformed input.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -8,6 +11,7 @@
 
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
 
 namespace fs = std::filesystem;
@@ -46,6 +50,8 @@ ProbeSet sampleSet(const fs::path& dir) {
   s.rig.lights.push_back(sun);
   s.placement.method = "uniform";
   s.placement.spacingMeters = 0.75;
+  s.sceneHash = 0x0123456789abcdefull;
+  s.importanceVolumes.push_back({"stairs", {-1, 0, -2}, {1.5, 3, 2}, 4.0});
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-10, 10);
   for (int i = 0; i < 20; ++i) {
@@ -59,6 +65,7 @@ ProbeSet sampleSet(const fs::path& dir) {
       ShRgb sh;
       for (auto& c : sh.c) c = {u(rng), u(rng), u(rng)};
       p.sh = sh;
+      p.captureSceneHash = i % 2 ? s.sceneHash : 0xfedcba9876543210ull;
     }
     s.add(p);
   }
@@ -93,6 +100,7 @@ TEST(ProbeSetFile, RoundTripKeepsEverythingExactly) {
     EXPECT_EQ(r.probes[i].sh.has_value(), s.probes[i].sh.has_value());
     if (s.probes[i].sh) {
       EXPECT_EQ(*r.probes[i].sh, *s.probes[i].sh);
+      EXPECT_EQ(r.probes[i].captureSceneHash, s.probes[i].captureSceneHash);
     }
   }
   EXPECT_EQ(r.nextId, s.nextId);
@@ -100,6 +108,86 @@ TEST(ProbeSetFile, RoundTripKeepsEverythingExactly) {
   ASSERT_EQ(r.rig.lights.size(), 1u);
   EXPECT_EQ(r.rig.lights[0].intensity, s.rig.lights[0].intensity);
   EXPECT_EQ(r.placement.spacingMeters, 0.75);
+  EXPECT_EQ(r.sceneHash, s.sceneHash);
+  ASSERT_EQ(r.importanceVolumes.size(), 1u);
+  EXPECT_EQ(r.importanceVolumes[0].name, "stairs");
+  EXPECT_EQ(r.importanceVolumes[0].lo, Vec3(-1, 0, -2));
+  EXPECT_EQ(r.importanceVolumes[0].hi, Vec3(1.5, 3, 2));
+  EXPECT_EQ(r.importanceVolumes[0].weight, 4.0);
+}
+
+TEST(ProbeSetFile, Version1IsMigrated) {
+  const fs::path dir = tempDir();
+  writeText(dir / "v1.json",
+            R"({"format": "probestudio.probeset", "version": 1, "scene": "room.gltf",
+    "rig": {"sky_radiance": [1, 1, 1], "lights": []},
+    "placement": {"method": "uniform", "spacing_m": 1.5, "budget": 0}, "next_id": 3,
+    "probes": [{"id": 1, "position": [0, 1, 2], "state": "accepted", "locked": true,
+                "method": "manual", "score": 0.5,
+                "sh": [[1,1,1],[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0]]},
+               {"id": 2, "position": [3, 1, 2], "state": "candidate"}]})");
+  const ProbeSet r = loadProbeSet(dir / "v1.json");
+  EXPECT_EQ(r.sceneHash, 0u);
+  EXPECT_TRUE(r.importanceVolumes.empty());
+  ASSERT_EQ(r.probes.size(), 2u);
+  EXPECT_TRUE(r.probes[0].locked);
+  ASSERT_TRUE(r.probes[0].sh.has_value());
+  EXPECT_EQ(r.probes[0].sh->c[0], Rgb(1, 1, 1));
+  EXPECT_EQ(r.probes[0].captureSceneHash, 0u);
+  // The migrated capture has no scene hash: reported as possibly stale, never silently fresh.
+  const StaleCaptures st = staleCaptures(r, 42);
+  EXPECT_TRUE(st.changed.empty());
+  EXPECT_EQ(st.unknown, std::vector<uint64_t>{1});
+  // Saving writes the current version.
+  saveProbeSet(r, dir / "v2.json");
+  EXPECT_NE(readText(dir / "v2.json").find("\"version\": 2"), std::string::npos);
+}
+
+TEST(ProbeSetFile, StaleCapturesAreNamedWhenTheSceneChanges) {
+  const fs::path dir = tempDir();
+  fs::create_directories(dir / "scenes");
+  writeText(dir / "scenes" / "room.gltf", R"({"asset": {"version": "2.0"},
+    "buffers": [{"uri": "room.bin", "byteLength": 4}]})");
+  writeText(dir / "scenes" / "room.bin", "abcd");
+  const uint64_t h0 = sceneContentHash(dir / "scenes" / "room.gltf");
+  EXPECT_NE(h0, 0u);
+  EXPECT_EQ(h0, sceneContentHash(dir / "scenes" / "room.gltf"));
+  ProbeSet s = sampleSet(dir);
+  for (Probe& p : s.probes)
+    if (p.sh) p.captureSceneHash = h0;
+  EXPECT_FALSE(staleCaptures(s, h0).any());
+  // Changing the external buffer (not the .gltf) changes the hash.
+  writeText(dir / "scenes" / "room.bin", "abce");
+  const uint64_t h1 = sceneContentHash(dir / "scenes" / "room.gltf");
+  EXPECT_NE(h1, h0);
+  const StaleCaptures st = staleCaptures(s, h1);
+  std::vector<uint64_t> captured;
+  for (const Probe& p : s.probes)
+    if (p.sh) captured.push_back(p.id);
+  EXPECT_EQ(st.changed, captured);
+  const std::string msg = describeStaleCaptures(s, st);
+  EXPECT_NE(msg.find(std::to_string(captured.size()) + " of " + std::to_string(captured.size()) +
+                     " captures are stale"),
+            std::string::npos)
+      << msg;
+  EXPECT_NE(msg.find("probes " + std::to_string(captured[0]) + ", "), std::string::npos) << msg;
+  EXPECT_THROW(sceneContentHash(dir / "scenes" / "missing.gltf"), FileError);
+}
+
+TEST(ProbeSetFile, AHugeFileIsRefusedBeforeItIsRead) {
+  const fs::path dir = tempDir();
+  writeText(dir / "huge.json", "{");
+  fs::resize_file(dir / "huge.json", uintmax_t(3) << 30);  // sparse: no disk space used
+  EXPECT_NE(loadError(dir / "huge.json").find("above the probe-set limit"), std::string::npos);
+  fs::remove(dir / "huge.json");
+}
+
+TEST(ProbeSetFile, NewerVersionIsRefusedWithAClearMessage) {
+  const fs::path dir = tempDir();
+  writeText(dir / "v9.json", R"({"format": "probestudio.probeset", "version": 9, "probes": []})");
+  EXPECT_EQ(loadError(dir / "v9.json"),
+            (dir / "v9.json").string() +
+                ": version: version 9 is newer than this build reads (2); update ProbeStudio");
 }
 
 TEST(ProbeSetFile, SceneIsStoredRelativeToTheFile) {
@@ -244,4 +332,53 @@ TEST(VolumeFile, CorruptFilesAreRefusedWithTheReason) {
   std::string huge = good;
   huge[16] = huge[17] = huge[18] = '\xff';  // probe count ~16 million in a tiny file
   expectError(huge, "header: counts");
+}
+
+// A process killed (SIGKILL) at any moment of a save leaves either the previous file or the new
+// one, whole and loadable: never a torn file (writeFileAtomic: temp file, fsync, rename).
+TEST(ProbeSetFile, SaveKilledMidWayLeavesALoadableFile) {
+  const fs::path dir = tempDir();
+  const fs::path target = dir / "set.json";
+  ProbeSet a = sampleSet(dir);
+  ProbeSet b = a;
+  // Big enough that a save takes a while, so kills land inside it.
+  for (int i = 0; i < 3000; ++i) {
+    Probe p;
+    p.position = {i * 0.001, 1.0 / (i + 3), -i * 0.5};
+    p.sh = ShRgb{};
+    b.add(p);
+  }
+  saveProbeSet(a, target);
+  const std::string bytesA = readText(target);
+  saveProbeSet(b, target);
+  const std::string bytesB = readText(target);
+  std::mt19937 rng(11);
+#if defined(__SANITIZE_ADDRESS__)
+  const int rounds = 20;
+#else
+  const int rounds = 60;
+#endif
+  int killedWhileRunning = 0;
+  for (int round = 0; round < rounds; ++round) {
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      for (int k = 0;; ++k) saveProbeSet(k % 2 ? a : b, target);  // until killed
+    }
+    ::usleep(std::uniform_int_distribution<int>(2000, 30000)(rng));
+    ::kill(child, SIGKILL);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    killedWhileRunning += WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL;
+    const std::string now = readText(target);
+    ASSERT_TRUE(now == bytesA || now == bytesB)
+        << "torn file after kill " << round << ", " << now.size() << " bytes";
+    EXPECT_NO_THROW(loadProbeSet(target));
+  }
+  EXPECT_EQ(killedWhileRunning, rounds);
+  // The kills did land inside saves: they left temporary files behind (never the target torn).
+  size_t temps = 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    temps += e.path().filename().string().find(".tmp-") != std::string::npos;
+  EXPECT_GT(temps, 0u);
 }

@@ -1,0 +1,43 @@
+#pragma once
+// A capture cache on disk: one small file per captured probe, keyed by everything that decides
+// the capture (scene content hash, lighting rig, capture settings, probe position), so a re-bake
+// after moving one probe recaptures only that probe.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+
+#include "core/capture/Capture.h"
+#include "core/math/Sh.h"
+#include "core/scene/LightingRig.h"
+
+namespace ps {
+
+class CaptureCache {
+ public:
+  /// Opens (creating when missing) the cache folder `dir`. Throws ps::FileError when it cannot
+  /// be created.
+  explicit CaptureCache(std::filesystem::path dir);
+
+  /// The key of one capture. Changes with any bit of the scene hash, rig, settings (samples,
+  /// seed, mode; not the thread count, which does not change results) or position, and with
+  /// kAlgorithmVersion.
+  static uint64_t key(uint64_t sceneHash, const LightingRig& rig, const CaptureSettings& settings,
+                      Vec3 position);
+
+  /// The cached SH for `key`, or nothing when absent. A damaged entry (truncated, bad CRC,
+  /// another key) counts as absent and is overwritten by the next store().
+  std::optional<ShRgb> find(uint64_t key) const;
+  /// Stores atomically (a killed bake never leaves a half entry).
+  void store(uint64_t key, const ShRgb& sh) const;
+
+  const std::filesystem::path& dir() const { return dir_; }
+
+  /// Bump when the capture integrator changes its results, to invalidate every old entry.
+  static constexpr uint32_t kAlgorithmVersion = 1;
+
+ private:
+  std::filesystem::path entryPath(uint64_t key) const;
+  std::filesystem::path dir_;
+};
+
+}  // namespace ps

@@ -1,0 +1,38 @@
+#pragma once
+// The content hash of a scene, and which captures of a probe set it makes stale.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/io/ProbeSet.h"
+
+namespace ps {
+
+/// 64-bit FNV-1a of `size` bytes, continuing from `h` (the FNV offset basis by default).
+uint64_t fnv1a64(const void* data, size_t size, uint64_t h = 0xcbf29ce484222325ull);
+
+/// The hash of a scene's content: FNV-1a 64 of the file's bytes and, for a .gltf, of each
+/// external buffer and image it references (in document order; data: URIs are inside the file
+/// already). Never 0 (0 means "unknown" in a probe set). Throws ps::FileError when the scene or
+/// a referenced file cannot be read.
+uint64_t sceneContentHash(const std::filesystem::path& scene);
+
+/// 16 lowercase hex digits, or "unknown" for 0.
+std::string sceneHashText(uint64_t h);
+
+struct StaleCaptures {
+  std::vector<uint64_t> changed;  ///< ids of probes captured in a different scene state
+  std::vector<uint64_t> unknown;  ///< ids of probes whose capture recorded no scene hash
+  bool any() const { return !changed.empty() || !unknown.empty(); }
+};
+
+/// The captured probes of `set` whose SH does not come from the scene as it is now
+/// (`currentSceneHash`, from sceneContentHash()).
+StaleCaptures staleCaptures(const ProbeSet& set, uint64_t currentSceneHash);
+
+/// One line for the user, e.g. "3 of 40 captures are stale (the scene changed since they were
+/// captured): probes 4, 7, 12"; empty when nothing is stale. Lists at most `maxIds` ids.
+std::string describeStaleCaptures(const ProbeSet& set, const StaleCaptures& s, size_t maxIds = 12);
+
+}  // namespace ps

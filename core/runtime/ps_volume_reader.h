@@ -1,0 +1,482 @@
+// ps_volume_reader.h: a dependency-free, header-only C++17 reader for ProbeStudio probe volumes
+// (.psv, format version 1, docs/formats.md "Probe volume"). Copy this one file into an engine.
+//
+//   ps_runtime::Volume vol;
+//   std::string error;
+//   if (!ps_runtime::loadVolumeFile("level.psv", vol, &error)) { log(error); return; }
+//   ps_runtime::Location loc = ps_runtime::locate(vol, x, y, z, lastTet);
+//   float sh[27];  // 9 coefficients x RGB, coefficient-major
+//   ps_runtime::interpolate(vol, loc, sh);
+//   lastTet = loc.tet;  // coherent queries then walk a few steps
+//
+// Queries follow Sukys 2014, sec. 3.2.1 ("Interpolation with barycentric coordinates",
+// "Traversal", "Drawbacks"), as ProbeStudio's core does (core/traversal/ProbeVolume.cpp): walk
+// from a start tetrahedron towards the most negative barycentric coordinate using the stored
+// float matrices (double orientations in thin tetrahedra), and clamp a point outside the hull to
+// the nearest point of the hull surface. The answers equal the core's (tests/runtime).
+//
+// Loading validates everything before allocating: the header's counts must match the file's
+// size exactly, the CRC-32 must match, and every index must be in range; a bad file gives
+// false and a one-line reason, never a crash. Needs a little-endian host.
+#ifndef PS_VOLUME_READER_H
+#define PS_VOLUME_READER_H
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace ps_runtime {
+
+struct Volume {
+  std::vector<float> positions;                   // 3 per probe
+  std::vector<float> sh;                          // 27 per probe
+  std::vector<std::array<int32_t, 4>> tets;       // 4 probe indices
+  std::vector<std::array<int32_t, 4>> neighbors;  // opposite vertex i; -1 on the hull
+  std::vector<std::array<float, 9>> matrices;     // (w0, w1, w2) = M (p - v3)
+  std::vector<std::array<int32_t, 2>> hullFaces;  // (tet, local vertex opposite the face)
+  std::string metadataJson;
+  // Derived at load: thin tets (walk with double orientations) and a cold-start grid.
+  std::vector<uint8_t> thin;
+  std::vector<int32_t> grid;
+  float gridLo[3] = {0, 0, 0}, gridCell[3] = {1, 1, 1};
+  int32_t gridDims[3] = {0, 0, 0};
+
+  size_t probeCount() const { return positions.size() / 3; }
+};
+
+struct Location {
+  int32_t tet = -1;
+  float weights[4] = {0, 0, 0, 0};  // barycentric, in [0, 1], sum 1
+  bool outside = false;             // clamped to the hull
+};
+
+namespace detail {
+
+constexpr double kBarycentricSlack = double(1e-5f);
+constexpr double kThinRelativeVolume = 1e-2;
+constexpr double kFlatRelativeVolume = 1e-12;
+
+struct V3 {
+  double x, y, z;
+  double operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
+};
+inline V3 operator-(V3 a, V3 b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+inline V3 operator+(V3 a, V3 b) {
+  return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+inline V3 operator*(V3 a, double s) {
+  return {a.x * s, a.y * s, a.z * s};
+}
+inline double dot(V3 a, V3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+inline V3 cross(V3 a, V3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+inline double orient(V3 a, V3 b, V3 c, V3 d) {
+  return dot(b - a, cross(c - a, d - a));
+}
+
+inline V3 pos(const Volume& v, int32_t i) {
+  return {v.positions[3 * size_t(i)], v.positions[3 * size_t(i) + 1],
+          v.positions[3 * size_t(i) + 2]};
+}
+
+inline uint32_t crc32(const uint8_t* p, size_t n) {
+  static const std::array<uint32_t, 256> table = [] {
+    std::array<uint32_t, 256> t{};
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < n; ++i) c = table[(c ^ p[i]) & 0xFF] ^ (c >> 8);
+  return ~c;
+}
+
+inline bool fail(std::string* error, const std::string& msg) {
+  if (error) *error = msg;
+  return false;
+}
+
+inline bool isFlat(const std::array<float, 9>& m) {
+  for (float x : m)
+    if (x != 0.0f) return false;
+  return true;
+}
+
+inline std::array<double, 4> matrixWeights(const Volume& v, int32_t t, V3 p) {
+  const auto& m = v.matrices[size_t(t)];
+  const V3 d = p - pos(v, v.tets[size_t(t)][3]);
+  std::array<double, 4> w;
+  w[0] = double(m[0]) * d.x + double(m[1]) * d.y + double(m[2]) * d.z;
+  w[1] = double(m[3]) * d.x + double(m[4]) * d.y + double(m[5]) * d.z;
+  w[2] = double(m[6]) * d.x + double(m[7]) * d.y + double(m[8]) * d.z;
+  w[3] = 1.0 - w[0] - w[1] - w[2];
+  return w;
+}
+
+inline std::array<double, 4> orientWeights(const Volume& v, int32_t t, V3 p, bool& flat) {
+  V3 q[4];
+  for (int i = 0; i < 4; ++i) q[i] = pos(v, v.tets[size_t(t)][i]);
+  std::array<double, 4> o;
+  o[0] = orient(p, q[1], q[2], q[3]);
+  o[1] = orient(q[0], p, q[2], q[3]);
+  o[2] = orient(q[0], q[1], p, q[3]);
+  o[3] = orient(q[0], q[1], q[2], p);
+  flat = isFlat(v.matrices[size_t(t)]);
+  if (!flat) {
+    const double vol = orient(q[0], q[1], q[2], q[3]);
+    for (double& x : o) x /= vol;
+    return o;
+  }
+  for (int i = 0; i < 4; ++i) {
+    const V3 a = q[(i + 1) & 3], b = q[(i + 2) & 3], c = q[(i + 3) & 3];
+    const double n = std::sqrt(dot(cross(b - a, c - a), cross(b - a, c - a)));
+    o[i] = n > 0 ? o[i] / n : 0.0;
+  }
+  return o;
+}
+
+inline int argMin(const std::array<double, 4>& w) {
+  int k = 0;
+  for (int i = 1; i < 4; ++i)
+    if (w[i] < w[k]) k = i;
+  return k;
+}
+
+inline void cleanWeights(const std::array<double, 4>& w, float out[4]) {
+  double c[4], sum = 0;
+  for (int i = 0; i < 4; ++i) {
+    c[i] = std::isfinite(w[i]) ? std::min(std::max(w[i], 0.0), 1.0) : 0.0;
+    sum += c[i];
+  }
+  for (int i = 0; i < 4; ++i) out[i] = sum > 0 ? static_cast<float>(c[i] / sum) : 0.25f;
+}
+
+enum class WalkKind { Inside, Outside, Failed };
+struct Walk {
+  WalkKind kind = WalkKind::Failed;
+  int32_t tet = -1;
+  std::array<double, 4> w{};
+};
+
+// Sukys 3.2.1 "Traversal", with Brent's cycle detection and a step cap.
+inline Walk walk(const Volume& v, V3 p, int32_t start) {
+  const bool haveThin = v.thin.size() == v.tets.size();
+  const size_t cap = 4 * v.tets.size() + 100;
+  int32_t t = start, tortoise = start;
+  size_t power = 1, lambda = 0;
+  for (size_t step = 0; step < cap; ++step) {
+    std::array<double, 4> w;
+    bool flat = false;
+    if (haveThin && v.thin[size_t(t)]) {
+      w = orientWeights(v, t, p, flat);
+    } else {
+      w = matrixWeights(v, t, p);
+      if (w[3] == 1.0 && w[0] == 0.0 && w[1] == 0.0 && w[2] == 0.0 && isFlat(v.matrices[size_t(t)]))
+        w = orientWeights(v, t, p, flat);
+    }
+    const int k = argMin(w);
+    if (!flat && w[k] >= -kBarycentricSlack) return {WalkKind::Inside, t, w};
+    const int32_t n = v.neighbors[size_t(t)][k];
+    if (n < 0) return {WalkKind::Outside, t, w};
+    t = n;
+    if (t == tortoise) return {WalkKind::Failed, t, w};
+    if (++lambda == power) {
+      tortoise = t;
+      power *= 2;
+      lambda = 0;
+    }
+  }
+  return {WalkKind::Failed, t, {}};
+}
+
+// Closest point on triangle abc (Ericson, Real-Time Collision Detection, 5.1.5).
+inline V3 closestOnTriangle(V3 p, V3 a, V3 b, V3 c, double bary[3]) {
+  const V3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  auto set = [&](double x, double y, double z) { bary[0] = x, bary[1] = y, bary[2] = z; };
+  if (d1 <= 0 && d2 <= 0) return set(1, 0, 0), a;
+  const V3 bp = p - b;
+  const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return set(0, 1, 0), b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double s = d1 / (d1 - d3);
+    set(1 - s, s, 0);
+    return a + ab * s;
+  }
+  const V3 cp = p - c;
+  const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return set(0, 0, 1), c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double s = d2 / (d2 - d6);
+    set(1 - s, 0, s);
+    return a + ac * s;
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double s = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    set(0, 1 - s, s);
+    return b + (c - b) * s;
+  }
+  const double denom = va + vb + vc;
+  if (!(denom > 0)) return set(1, 0, 0), a;
+  const double sv = vb / denom, sw = vc / denom;
+  set(1 - sv - sw, sv, sw);
+  return a + ab * sv + ac * sw;
+}
+
+// Sukys 3.2.1 "Drawbacks": outside the hull, clamp to the nearest point of the hull surface.
+inline Location clampToHull(const Volume& v, V3 p) {
+  Location best;
+  best.outside = true;
+  double bestD2 = std::numeric_limits<double>::infinity();
+  for (const auto& hf : v.hullFaces) {
+    const int32_t t = hf[0];
+    const int opp = hf[1];
+    const int i0 = (opp + 1) & 3, i1 = (opp + 2) & 3, i2 = (opp + 3) & 3;
+    const auto& tet = v.tets[size_t(t)];
+    double bary[3];
+    const V3 q = closestOnTriangle(p, pos(v, tet[i0]), pos(v, tet[i1]), pos(v, tet[i2]), bary);
+    const double d2 = dot(q - p, q - p);
+    if (d2 < bestD2) {
+      bestD2 = d2;
+      best.tet = t;
+      std::array<double, 4> w{};
+      w[i0] = bary[0];
+      w[i1] = bary[1];
+      w[i2] = bary[2];
+      cleanWeights(w, best.weights);
+    }
+  }
+  return best;
+}
+
+inline Location bruteForce(const Volume& v, V3 p) {
+  int32_t bestTet = -1;
+  double bestMin = -std::numeric_limits<double>::infinity();
+  std::array<double, 4> bestW{};
+  for (int32_t t = 0; t < static_cast<int32_t>(v.tets.size()); ++t) {
+    bool flat = false;
+    const auto w = orientWeights(v, t, p, flat);
+    if (flat) continue;
+    const double m = *std::min_element(w.begin(), w.end());
+    if (m > bestMin) {
+      bestMin = m;
+      bestTet = t;
+      bestW = w;
+    }
+  }
+  if (bestTet < 0 || bestMin < -kBarycentricSlack) return clampToHull(v, p);
+  Location loc;
+  loc.tet = bestTet;
+  cleanWeights(bestW, loc.weights);
+  return loc;
+}
+
+inline int32_t coldStart(const Volume& v, V3 p) {
+  if (v.grid.empty()) return 0;
+  int32_t c[3];
+  for (int a = 0; a < 3; ++a) {
+    const double x = (p[a] - v.gridLo[a]) / v.gridCell[a];
+    const double clamped = std::min(std::max(std::isfinite(x) ? x : 0.0, 0.0), v.gridDims[a] - 1.0);
+    c[a] = static_cast<int32_t>(clamped);
+  }
+  return v
+      .grid[size_t(c[0]) + size_t(v.gridDims[0]) * (size_t(c[1]) + size_t(v.gridDims[1]) * c[2])];
+}
+
+// The same derived data as the core's buildLocator(): thin tets and a cold-start grid of about
+// one cell per probe whose cells hold the tet found at their centre.
+inline void buildLocator(Volume& v) {
+  v.thin.assign(v.tets.size(), 0);
+  v.grid.clear();
+  for (int a = 0; a < 3; ++a) v.gridDims[a] = 0;
+  if (v.tets.empty()) return;
+  for (size_t k = 0; k < v.tets.size(); ++k) {
+    V3 q[4];
+    for (int i = 0; i < 4; ++i) q[i] = pos(v, v.tets[k][i]);
+    double l2 = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) l2 = std::max(l2, dot(q[i] - q[j], q[i] - q[j]));
+    const double l = std::sqrt(l2);
+    const double rel = std::abs(orient(q[0], q[1], q[2], q[3])) / (l * l * l);
+    v.thin[k] = !(rel >= kThinRelativeVolume);
+  }
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::numeric_limits<double>::infinity();
+    hi[a] = -std::numeric_limits<double>::infinity();
+  }
+  for (size_t i = 0; i < v.probeCount(); ++i)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], double(v.positions[3 * i + a]));
+      hi[a] = std::max(hi[a], double(v.positions[3 * i + a]));
+    }
+  const double target = std::min(std::max(double(v.probeCount()), 1.0), double(1 << 20));
+  const double e[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+  const double maxE = std::max(e[0], std::max(e[1], e[2]));
+  double volume = 1;
+  for (int a = 0; a < 3; ++a) volume *= std::max(e[a], 1e-3 * maxE);
+  const double cell = std::cbrt(volume / target);
+  size_t cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    const int32_t n = static_cast<int32_t>(std::min(std::max(std::ceil(e[a] / cell), 1.0), 1024.0));
+    v.gridDims[a] = n;
+    v.gridLo[a] = static_cast<float>(lo[a]);
+    v.gridCell[a] = static_cast<float>(std::max(e[a] / n, 1e-30));
+    cells *= size_t(n);
+  }
+  v.grid.assign(cells, 0);
+  int32_t t = 0;
+  for (int32_t z = 0; z < v.gridDims[2]; ++z)
+    for (int32_t y = 0; y < v.gridDims[1]; ++y)
+      for (int32_t x = 0; x < v.gridDims[0]; ++x) {
+        const V3 centre = {v.gridLo[0] + (x + 0.5) * double(v.gridCell[0]),
+                           v.gridLo[1] + (y + 0.5) * double(v.gridCell[1]),
+                           v.gridLo[2] + (z + 0.5) * double(v.gridCell[2])};
+        const Walk r = walk(v, centre, t);
+        if (r.kind != WalkKind::Failed) t = r.tet;
+        v.grid[size_t(x) + size_t(v.gridDims[0]) * (size_t(y) + size_t(v.gridDims[1]) * z)] = t;
+      }
+}
+
+template <typename T>
+inline void readArray(const uint8_t*& p, std::vector<T>& out, size_t count) {
+  out.resize(count);
+  if (count) std::memcpy(out.data(), p, count * sizeof(T));
+  p += count * sizeof(T);
+}
+
+}  // namespace detail
+
+/// Loads a volume from `size` bytes. On failure returns false and sets *error (when given) to
+/// a one-line reason; `out` is then unspecified.
+inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
+                             std::string* error = nullptr) {
+  using detail::fail;
+  static_assert(sizeof(float) == 4, "IEEE-754 binary32 floats required");
+  const uint32_t probe = 1;
+  uint8_t first;
+  std::memcpy(&first, &probe, 1);
+  if (first != 1) return fail(error, "big-endian hosts are not supported");
+  const auto* b = static_cast<const uint8_t*>(data);
+  const size_t kHeader = 8 + 6 * 4;
+  if (size < kHeader + 4) return fail(error, "truncated: " + std::to_string(size) + " bytes");
+  if (std::memcmp(b, "PSVOLUM1", 8) != 0) return fail(error, "not a ProbeStudio volume");
+  uint32_t h[6];
+  std::memcpy(h, b + 8, sizeof h);
+  if (h[0] != 1) return fail(error, "unsupported version " + std::to_string(h[0]));
+  if (h[1] != 2) return fail(error, "unsupported SH order " + std::to_string(h[1]));
+  const uint64_t P = h[2], T = h[3], H = h[4], M = h[5];
+  const uint64_t need = kHeader + P * 30 * 4 + T * 17 * 4 + H * 8 + M + 4;
+  if (need != size)
+    return fail(error, "header counts need " + std::to_string(need) + " bytes, file has " +
+                           std::to_string(size));
+  uint32_t crc;
+  std::memcpy(&crc, b + size - 4, 4);
+  if (detail::crc32(b, size - 4) != crc) return fail(error, "CRC-32 mismatch: corrupted file");
+  if (P < 4 || T < 1) return fail(error, "a volume needs at least 4 probes and 1 tetrahedron");
+  const uint8_t* p = b + kHeader;
+  detail::readArray(p, out.positions, size_t(P) * 3);
+  detail::readArray(p, out.sh, size_t(P) * 27);
+  detail::readArray(p, out.tets, size_t(T));
+  detail::readArray(p, out.neighbors, size_t(T));
+  detail::readArray(p, out.matrices, size_t(T));
+  detail::readArray(p, out.hullFaces, size_t(H));
+  out.metadataJson.assign(reinterpret_cast<const char*>(p), size_t(M));
+  for (float x : out.positions)
+    if (!std::isfinite(x)) return fail(error, "NaN or infinite probe position");
+  for (float x : out.sh)
+    if (!std::isfinite(x)) return fail(error, "NaN or infinite SH coefficient");
+  for (size_t t = 0; t < T; ++t) {
+    for (int k = 0; k < 4; ++k) {
+      if (out.tets[t][k] < 0 || uint64_t(out.tets[t][k]) >= P)
+        return fail(error, "tets[" + std::to_string(t) + "]: probe index out of range");
+      if (out.neighbors[t][k] < -1 || int64_t(out.neighbors[t][k]) >= int64_t(T))
+        return fail(error, "neighbors[" + std::to_string(t) + "]: index out of range");
+    }
+    for (float m : out.matrices[t])
+      if (!std::isfinite(m)) return fail(error, "matrices[" + std::to_string(t) + "]: NaN");
+  }
+  for (size_t k = 0; k < H; ++k)
+    if (out.hullFaces[k][0] < 0 || uint64_t(out.hullFaces[k][0]) >= T || out.hullFaces[k][1] < 0 ||
+        out.hullFaces[k][1] > 3)
+      return fail(error, "hull_faces[" + std::to_string(k) + "]: index out of range");
+  detail::buildLocator(out);
+  return true;
+}
+
+/// Loads a .psv file. On failure returns false with a reason naming the file.
+inline bool loadVolumeFile(const char* path, Volume& out, std::string* error = nullptr) {
+  std::FILE* f = std::fopen(path, "rb");
+  if (!f) return detail::fail(error, std::string(path) + ": cannot open");
+  std::vector<uint8_t> bytes;
+  uint8_t buf[65536];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) bytes.insert(bytes.end(), buf, buf + n);
+  const bool readError = std::ferror(f) != 0;
+  std::fclose(f);
+  if (readError) return detail::fail(error, std::string(path) + ": read error");
+  std::string why;
+  if (!loadVolumeMemory(bytes.data(), bytes.size(), out, &why))
+    return detail::fail(error, std::string(path) + ": " + why);
+  return true;
+}
+
+/// The tetrahedron containing (x, y, z) and its barycentric weights, walking from `hintTet`
+/// (the previous query's tet, or -1). Outside the hull: the nearest hull point (outside = true).
+inline Location locate(const Volume& v, double x, double y, double z, int32_t hintTet = -1) {
+  using namespace detail;
+  if (v.tets.empty()) return {};
+  const V3 p = {x, y, z};
+  if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
+    Location loc;
+    loc.tet = 0;
+    for (float& w : loc.weights) w = 0.25f;
+    loc.outside = true;
+    return loc;
+  }
+  const int32_t n = static_cast<int32_t>(v.tets.size());
+  const int32_t start = (hintTet >= 0 && hintTet < n) ? hintTet : coldStart(v, p);
+  const Walk r = walk(v, p, start);
+  if (r.kind == WalkKind::Inside) {
+    Location loc;
+    loc.tet = r.tet;
+    bool flat = false;
+    const auto w = orientWeights(v, r.tet, p, flat);
+    cleanWeights(flat ? r.w : w, loc.weights);
+    return loc;
+  }
+  if (r.kind == WalkKind::Outside) return clampToHull(v, p);
+  return bruteForce(v, p);
+}
+
+/// The SH (27 floats: 9 coefficients x RGB) blended with the location's weights.
+inline void interpolate(const Volume& v, const Location& loc, float out[27]) {
+  double acc[27] = {};
+  if (loc.tet >= 0)
+    for (int i = 0; i < 4; ++i) {
+      const float* s = v.sh.data() + size_t(27) * size_t(v.tets[size_t(loc.tet)][i]);
+      for (int k = 0; k < 27; ++k) acc[k] += double(loc.weights[i]) * s[k];
+    }
+  for (int k = 0; k < 27; ++k) out[k] = static_cast<float>(acc[k]);
+}
+
+}  // namespace ps_runtime
+
+#endif  // PS_VOLUME_READER_H
