@@ -1,0 +1,61 @@
+#pragma once
+// The dense field placement methods start from: cheap probes inside the domain of interest
+// (the scene bounds or the importance volumes), minus the points inside geometry (Kontkanen &
+// Laine sec. 5), refined adaptively where geometry is near and where neighbouring samples
+// differ, so that empty space and uniform lighting cost little.
+
+#include <cstdint>
+#include <vector>
+
+#include "core/capture/Capture.h"
+#include "core/common/Progress.h"
+#include "core/io/ProbeSet.h"
+#include "core/math/Sh.h"
+#include "core/math/Vec3.h"
+#include "core/scene/LightingRig.h"
+#include "core/trace/Tracer.h"
+
+namespace ps {
+
+/// One cheap probe of the dense field.
+struct FieldSample {
+  Vec3 position;
+  ShRgb sh;                     ///< incident radiance (low spp)
+  ShRgb shStdError;             ///< standard error of each coefficient
+  Vec3 f;                       ///< luminanceDirection(sh) (Chajdas sec. 2.1, eq. 1)
+  double backfaceFraction = 0;  ///< validity (Kontkanen & Laine sec. 5); invalid ones are dropped
+  int depth = 0;                ///< octree level the sample was made at (0 = base grid)
+  double cellSize = 0;          ///< edge of the octree cell the sample is the centre of, metres
+};
+
+struct DenseFieldSettings {
+  double baseSpacingMeters = 0;  ///< base grid spacing; 0 = domain diagonal / 12
+  int maxDepth = 2;              ///< refinement levels below the base grid
+  int samplesPerProbe = 64;
+  CaptureMode mode = CaptureMode::Full;
+  size_t maxSamples = 200000;  ///< ParameterError above this, before any capture
+  double invalidBackfaceFraction = 0.25;
+  std::vector<ImportanceVolume> importanceVolumes;  ///< empty: the scene bounds
+  uint64_t seed = 1;
+};
+
+struct DenseField {
+  std::vector<FieldSample> samples;
+  Bounds3 domain;
+  double seconds = 0;
+};
+
+/// Builds the dense field. Deterministic for a given seed.
+DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
+                           const DenseFieldSettings& settings, const ProgressFn& progress = {});
+
+/// f = integral over the sphere of w * lum(L(w)) dw for the band-limited radiance of `sh`
+/// (Chajdas sec. 2.1, eq. 1, as an integral instead of a sum over cube-map texels). Only the
+/// l = 1 band contributes: with Y1-1 = k y, Y10 = k z, Y11 = k x (k = 0.488603) and the basis
+/// orthonormal, the integral of x * L is c11 / k, and so on.
+inline Vec3 luminanceDirection(const ShRgb& sh) {
+  constexpr double k = 0.488602511902919921;
+  return Vec3{luminance(sh.c[3]), luminance(sh.c[1]), luminance(sh.c[2])} * (1.0 / k);
+}
+
+}  // namespace ps
