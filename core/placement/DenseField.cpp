@@ -147,6 +147,8 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
     if (field.samples.size() + m > s.maxSamples) {
       PS_CHECK_LT(0, depth);  // the base level was checked above
       field.refinementTruncated = true;
+      for (FieldSample& fs : field.samples)
+        if (fs.depth == depth - 1) fs.refined = false;  // its children were not made
       break;
     }
     // Validity (Kontkanen & Laine sec. 5: a point whose rays mostly see back faces is inside
@@ -262,6 +264,7 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
       }
       if (!split) continue;
       ++splits;
+      if (self >= 0) field.samples[size_t(self)].refined = true;
       for (int dz = 0; dz < 2; ++dz)
         for (int dy = 0; dy < 2; ++dy)
           for (int dx = 0; dx < 2; ++dx) {

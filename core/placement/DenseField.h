@@ -26,6 +26,7 @@ struct FieldSample {
   double backfaceFraction = 0;  ///< validity (Kontkanen & Laine sec. 5); invalid ones are dropped
   int depth = 0;                ///< octree level the sample was made at (0 = base grid)
   double cellSize = 0;          ///< edge of the octree cell the sample is the centre of, metres
+  bool refined = false;         ///< the cell was split: samples of the next level cover it
 };
 
 struct DenseFieldSettings {
