@@ -46,18 +46,25 @@ std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh) {
   return r;
 }
 
-GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,
-                         const GreedySettings& s, const ProgressFn& progress) {
+void checkGreedySettings(const GreedySettings& s, size_t keptCount) {
   if (s.budget == 0 && !(s.maxError > 0))
     throw ParameterError("greedy: give --budget N or --max-error E (or both)");
   if (s.budget != 0 && s.budget < 4)
     throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(s.budget));
-  if (s.budget != 0 && size_t(s.budget) < kept.size() + 4)
+  if (s.budget != 0 && size_t(s.budget) < keptCount + 4)
     throw ParameterError("budget: " + std::to_string(s.budget) + " probes leave room for fewer " +
-                         "than 4 new ones beside the " + std::to_string(kept.size()) +
-                         " kept probes; expected at least " + std::to_string(kept.size() + 4));
+                         "than 4 new ones beside the " + std::to_string(keptCount) +
+                         " kept probes; expected at least " + std::to_string(keptCount + 4));
   if (!(s.maxError >= 0) || !std::isfinite(s.maxError))
     throw ParameterError("max-error: expected a non-negative relative error");
+  if (s.budget > int(kMaxProbes))
+    throw ParameterError("budget: at most 65535 probes for greedy, got " +
+                         std::to_string(s.budget));
+}
+
+GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,
+                         const GreedySettings& s, const ProgressFn& progress) {
+  checkGreedySettings(s, kept.size());
   const size_t S = field.samples.size();
   if (S < 4)
     throw ParameterError("greedy: the dense field has " + std::to_string(S) +

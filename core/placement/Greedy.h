@@ -54,6 +54,9 @@ struct GreedyResult {
 /// axes and the 8 cube diagonals).
 std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh);
 
+/// The parameter checks of placeGreedy, to run before building a dense field for it.
+void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
+
 /// Greedy placement over `field`. The error of a sample is the RMS over the 14 fixed normals of
 /// the difference between the irradiance luminance interpolated from the probes' SH (Delaunay
 /// tetrahedra, barycentric weights, clamped to the hull outside it: core/traversal) and the
