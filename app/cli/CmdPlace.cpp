@@ -125,9 +125,13 @@ std::vector<Proposal> placeWithGreedy(PlaceContext& c) {
     for (size_t i = 0; i < points.size(); ++i) kept.push_back({points[i], caps[i].sh});
   }
   const GreedyResult r = placeGreedy(field, kept, gs, terminalProgress("greedy"));
-  std::printf("greedy: field error %.4f with %zu probes%s\n", r.fieldError,
-              r.positions.size() + kept.size(),
-              r.noImprovement ? " (stopped: no candidate lowered the error)" : "");
+  std::printf("greedy: field error %.4f with %zu probes\n", r.fieldError,
+              r.positions.size() + kept.size());
+  if (r.noImprovement)
+    std::printf(
+        "greedy: from %zu probes on, no candidate lowered the field error (its noise "
+        "floor: a larger --field-spp lowers it)\n",
+        r.probesAtNoImprovement);
   c.set.placement.budget = o.budget;
   c.set.placement.spacingMeters = field.baseSpacingMeters;
   std::vector<Proposal> out;

@@ -358,9 +358,14 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       }
       if (best != S && bestTrial.weightedErrSq <= currentWeightedErrSq) break;
     }
-    if (best == S || bestTrial.weightedErrSq > currentWeightedErrSq) {
+    if (best == S) break;
+    if (bestTrial.weightedErrSq > currentWeightedErrSq) {
+      // The field's noise floor: no candidate lowers the error any more. Without a budget there
+      // is nothing more to gain; with one, the least harmful candidate is added so that methods
+      // stay comparable at equal probe count.
+      if (!result.noImprovement) result.probesAtNoImprovement = pos.size();
       result.noImprovement = true;
-      break;
+      if (s.budget == 0) break;
     }
     addSample(best, std::sqrt(state[best].errSq) / refRms);
     commit(bestTrial);

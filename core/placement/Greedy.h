@@ -43,11 +43,13 @@ struct GreedyResult {
   /// fieldError after the initial set (index 0) and after each greedy addition (index i).
   std::vector<double> errorHistory;
   double fieldError = 0;  ///< at the end
-  /// True when placement stopped before the budget or the error target because no candidate
-  /// lowered the field error.
+  /// True when, at some point, no candidate lowered the field error (the field's noise floor):
+  /// without a budget placement stops there; with one it goes on adding the least harmful
+  /// candidate, so errorHistory is non-increasing only up to probesAtNoImprovement.
   bool noImprovement = false;
-  size_t trials = 0;         ///< meshes tried (candidates evaluated)
-  size_t reevaluations = 0;  ///< samples re-interpolated after additions (locality measure)
+  size_t probesAtNoImprovement = 0;  ///< probe count (kept included) when that first happened
+  size_t trials = 0;                 ///< meshes tried (candidates evaluated)
+  size_t reevaluations = 0;          ///< samples re-interpolated after additions (locality measure)
 };
 
 /// The irradiance luminance of `sh` for the 14 fixed normals the error is measured with (the 6
