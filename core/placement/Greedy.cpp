@@ -79,9 +79,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
                     [&](size_t i) { ref[i] = greedyErrorNormalsIrradiance(field.samples[i].sh); });
   // The variance of each sample's irradiance from its capture noise (the coefficients' standard
   // errors, taken as independent, through E(n) = sum A_l c_lm Y_lm(n)), averaged over the
-  // normals: a sample's squared error less this and less the interpolation's own noise
-  // (sum w^2 var over the tet's probes) is an unbiased estimate of its true squared error, so
-  // that greedy does not chase the cheap capture's noise.
+  // normals: a sample's squared error less this estimates its true squared error, so that
+  // greedy does not chase the cheap capture's noise. (The probes' own noise, carried into the
+  // interpolation, is not subtracted: next to a light it is so large that it would hide the
+  // harm a bright probe does to its whole fan of tetrahedra.)
   static const std::array<Vec3, kNormals> normals = errorNormals();
   std::vector<double> noiseVar(S, 0.0);
   tbb::parallel_for(size_t(0), S, [&](size_t i) {
@@ -106,12 +107,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   // The probes: kept ones first, then field samples. vals[p] = irradiance vector of probe p.
   std::vector<Vec3> pos;
   std::vector<IrrVec> vals;
-  std::vector<double> valNoiseVar;  // noise variance of each probe's value (0 for kept probes)
   std::vector<ShRgb> zeroSh;
   for (const KeptProbe& k : kept) {
     pos.push_back(k.position);
     vals.push_back(greedyErrorNormalsIrradiance(k.sh));
-    valNoiseVar.push_back(0.0);
   }
   GreedyResult result;
   std::vector<char> isProbe(S, 0);
@@ -119,7 +118,6 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     isProbe[i] = 1;
     pos.push_back(field.samples[i].position);
     vals.push_back(ref[i]);
-    valNoiseVar.push_back(noiseVar[i]);
     result.positions.push_back(field.samples[i].position);
     result.sampleIndex.push_back(i);
     result.scores.push_back(score);
@@ -241,21 +239,18 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       const auto& tv = volume.tets[size_t(loc.tet)];
       // Barycentric blend of the probes' irradiance (linear in SH, so equal to the irradiance of
       // the interpolated SH: core/traversal interpolate).
-      // The interpolation carries the probes' noise too: sum of w^2 times their variances.
       IrrVec interp{};
-      double interpNoiseVar = 0;
       for (int c = 0; c < 4; ++c) {
         const size_t p = size_t(probeOfVertex[size_t(tv[size_t(c)])]);
         const double w = double(loc.weights[size_t(c)]);
         for (int k = 0; k < kNormals; ++k) interp[k] += w * vals[p][k];
-        interpNoiseVar += w * w * valNoiseVar[p];
       }
       double e = 0;
       for (int k = 0; k < kNormals; ++k) e += (interp[k] - ref[i][k]) * (interp[k] - ref[i][k]);
       SampleState& st = trial.changedState[q];
       st.errSq = (isProbe[i] || i == extraProbe)
                      ? 0.0
-                     : std::clamp(e / kNormals - noiseVar[i] - interpNoiseVar, 0.0, errSqCap);
+                     : std::clamp(e / kNormals - noiseVar[i], 0.0, errSqCap);
       st.tet = tetKey(tv);
       st.outside = loc.outside;
     });
@@ -355,11 +350,9 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       for (size_t c : candidates) {
         pos.push_back(field.samples[c].position);
         vals.push_back(ref[c]);
-        valNoiseVar.push_back(noiseVar[c]);
         Trial trial = evaluate(c);
         pos.pop_back();
         vals.pop_back();
-        valNoiseVar.pop_back();
         result.reevaluations += trial.changed.size();
         ++result.trials;
         if (best == S || trial.weightedErrSq < bestTrial.weightedErrSq) {
