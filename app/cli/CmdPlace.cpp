@@ -13,6 +13,7 @@
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
 #include "core/io/SceneHash.h"
+#include "core/placement/Ascent.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
 #include "core/placement/Uniform.h"
@@ -35,6 +36,10 @@ struct PlaceOpts {
   int fieldDepth = 2;
   int fieldSpp = 64;
   size_t fieldMaxSamples = 200000;
+  // Ascent.
+  int ascentIterations = 8;
+  double ascentStep = 0;  // 0 = half the start grid's spacing
+  bool ascentDirect = false;
   RigOptions rig;
 };
 
@@ -139,10 +144,34 @@ std::vector<Proposal> placeWithGreedy(PlaceContext& c) {
   return out;
 }
 
+/// `ascent` (Sukys 3.1.2): the uniform grid (--budget or --spacing), each probe then climbing
+/// the luminance-weighted direction field of its own cheap captures (core/placement/Ascent.h).
+std::vector<Proposal> placeWithAscent(PlaceContext& c) {
+  const PlaceOpts& o = c.opts;
+  const std::vector<Proposal> grid = placeWithUniform(c);
+  std::vector<Vec3> start;
+  for (const Proposal& p : grid) start.push_back(p.position);
+  AscentSettings as;
+  as.iterations = o.ascentIterations;
+  as.stepMeters = o.ascentStep > 0 ? o.ascentStep : 0.5 * c.set.placement.spacingMeters;
+  as.minStepMeters = 0.05 * as.stepMeters;
+  as.samplesPerProbe = o.fieldSpp;
+  as.mode = o.ascentDirect ? CaptureMode::Full : CaptureMode::IndirectOnly;
+  as.seed = o.seed;
+  const AscentResult r = placeAscent(c.tracer, c.set.rig, start, as, terminalProgress("ascent"));
+  std::printf("ascent: %zu steps taken, %zu reverted, %zu probes dark from the start\n", r.steps,
+              r.reverted, r.darkProbes);
+  std::vector<Proposal> out;
+  for (size_t i = 0; i < r.positions.size(); ++i)
+    out.push_back({r.positions[i], r.travelMeters[i]});
+  return out;
+}
+
 const std::map<std::string, PlaceMethod>& methods() {
   static const std::map<std::string, PlaceMethod> kMethods = {
       {"uniform", placeWithUniform},
       {"greedy", placeWithGreedy},
+      {"ascent", placeWithAscent},
   };
   return kMethods;
 }
@@ -172,11 +201,16 @@ void registerPlace(CLI::App& app) {
   cmd->add_option("--field-spacing", o->fieldSpacing,
                   "Dense field base grid spacing in metres (default: domain diagonal / 12)");
   cmd->add_option("--field-depth", o->fieldDepth, "Dense field refinement levels (0 to 8)");
-  cmd->add_option("--field-spp", o->fieldSpp, "Dense field samples per probe")
+  cmd->add_option("--field-spp", o->fieldSpp, "Samples per cheap probe (dense field, ascent)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--field-max-samples", o->fieldMaxSamples,
                   "Dense field sample limit: a base grid above it is an error, a refinement level "
                   "above it is skipped");
+  cmd->add_option("--ascent-iterations", o->ascentIterations, "ascent: steps per probe at most");
+  cmd->add_option("--ascent-step", o->ascentStep,
+                  "ascent: first step in metres (default: half the grid spacing)");
+  cmd->add_flag("--ascent-direct", o->ascentDirect,
+                "ascent: follow the full light instead of the indirect light only");
   cmd->add_flag("--accept", o->accept, "Mark the proposals accepted instead of candidates");
   cmd->add_option("--seed", o->seed, "Random seed");
   cmd->add_option("-o,--output", o->out, "Probe set to write (.json)")->required();

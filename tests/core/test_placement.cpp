@@ -11,6 +11,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/eval/Evaluate.h"
+#include "core/placement/Ascent.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
 #include "core/placement/Uniform.h"
@@ -310,4 +311,42 @@ TEST(Greedy, BeatsUniformOnTwoRoomsAtEqualProbeCount) {
                                     << " at " << u.points.size() << " probes";
   std::printf("two-rooms, %zu probes: rel_rmse greedy %.4f, uniform %.4f\n", u.points.size(),
               eg.relRmse, eu.relRmse);
+}
+
+// ----------------------------------------------------------------------------------- ascent
+
+TEST(Ascent, ClimbsTowardsThePointLightWithoutEnteringGeometry) {
+  // pillar-room, full capture: f at a probe that sees the point light at (2, 2.7, 1.5) points
+  // mostly at it, so the lit probes end closer to it; the rejection keeps every probe in the
+  // room and out of the pillar.
+  const Loaded& l = loaded("pillar-room.gltf");
+  const std::vector<Vec3> start = placeUniformBudget(*l.tracer, 48, {}).points;
+  AscentSettings s;
+  s.mode = CaptureMode::Full;
+  s.samplesPerProbe = kFieldSpp;
+  const AscentResult a = placeAscent(*l.tracer, {}, start, s);
+  const AscentResult b = placeAscent(*l.tracer, {}, start, s);
+  EXPECT_EQ(a.positions, b.positions);
+  ASSERT_EQ(a.positions.size(), start.size());
+  EXPECT_GT(a.steps, start.size());
+  const Vec3 light(2, 2.7, 1.5);
+  double before = 0, after = 0;
+  for (size_t i = 0; i < start.size(); ++i) {
+    before += length(start[i] - light);
+    after += length(a.positions[i] - light);
+    EXPECT_TRUE(inBox(a.positions[i], {-4, 0, -4}, {4, 3, 4})) << a.positions[i];
+    EXPECT_FALSE(inBox(a.positions[i], {-0.6, 0, -0.6}, {0.6, 3, 0.6})) << a.positions[i];
+  }
+  EXPECT_LT(after, 0.8 * before);
+}
+
+TEST(Ascent, RejectsBadParameters) {
+  const Loaded& l = loaded("pillar-room.gltf");
+  const std::vector<Vec3> start = {Vec3(1, 1, 1)};
+  AscentSettings s;
+  s.iterations = 0;
+  EXPECT_THROW(placeAscent(*l.tracer, {}, start, s), ParameterError);
+  s = AscentSettings{};
+  s.stepMeters = 0;
+  EXPECT_THROW(placeAscent(*l.tracer, {}, start, s), ParameterError);
 }
