@@ -59,18 +59,24 @@ std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh);
 /// The parameter checks of placeGreedy, to run before building a dense field for it.
 void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 
-/// Greedy placement over `field`. The error of a sample is the RMS over the 14 fixed normals of
-/// the difference between the irradiance luminance interpolated from the probes' SH (Delaunay
-/// tetrahedra, barycentric weights, clamped to the hull outside it: core/traversal) and the
-/// sample's own; fieldError = sqrt(mean of squared sample errors / mean of squared sample
-/// irradiances), the relative RMS error over the field (eval's rel_rmse on field samples).
+/// Greedy placement over `field`. The squared error of a sample is the mean over the 14 fixed
+/// normals of the squared difference between the irradiance luminance interpolated from the
+/// probes (Delaunay tetrahedra, barycentric weights, clamped to the hull outside it:
+/// core/traversal) and the sample's own, less the variance of the sample's capture noise
+/// (from shStdError), floored at 0 and capped by errorCapRelative when set. Samples are
+/// weighted by their octree cell's volume (0 for a refined cell; uniform weights when the field
+/// records no cell sizes), and fieldError = sqrt(sum w err^2 / sum w |E|^2): eval's rel_rmse
+/// on the field, as a volume average.
 /// The initial probes: the kept ones, plus the field samples nearest to the 8 corners of the
 /// field's bounding box (only the 4 alternate corners when the budget is smaller than
-/// kept + 8). After each addition only the samples whose tetrahedron disappeared, or that were
-/// outside the hull, are re-interpolated.
+/// kept + 8). Each addition tries candidates from the tetrahedra holding the most weighted
+/// error (in each, the worst sample and the sample nearest the centroid of its samples),
+/// re-tetrahedralizing with each, and keeps the one leaving the lowest field error; only the
+/// samples whose tetrahedron disappeared, or that were outside the hull, are re-interpolated.
+/// An addition never raises the field error until none can lower it (noImprovement).
 /// Throws ps::ParameterError when neither budget nor maxError is set, a budget is below 4 or
-/// not above kept + 4, the field has fewer than 4 samples, or the initial probes span less
-/// than 3D; ps::Cancelled through `progress`.
+/// below kept + 4, the field has fewer than 4 samples or is black, or the initial probes span
+/// less than 3D; ps::Cancelled through `progress`.
 GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,
                          const GreedySettings& settings, const ProgressFn& progress = {});
 

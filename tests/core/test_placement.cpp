@@ -174,6 +174,18 @@ TEST(DenseField, MaxSamplesGuardsBeforeCapture) {
   EXPECT_THROW(buildDenseField(*l.tracer, {}, s), ParameterError);
 }
 
+TEST(DenseField, CancelsThroughItsProgressCallback) {
+  const Loaded& l = loaded("pillar-room.gltf");
+  int calls = 0;
+  EXPECT_THROW(buildDenseField(*l.tracer, {}, smallField(1),
+                               [&](double) {
+                                 ++calls;
+                                 return false;
+                               }),
+               Cancelled);
+  EXPECT_GE(calls, 1);
+}
+
 // ----------------------------------------------------------------------------------- greedy
 
 namespace {
