@@ -16,6 +16,7 @@
 #include "core/placement/Ascent.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
+#include "core/placement/SpawnMerge.h"
 #include "core/placement/Uniform.h"
 
 namespace ps::cli {
@@ -167,11 +168,56 @@ std::vector<Proposal> placeWithAscent(PlaceContext& c) {
   return out;
 }
 
+/// `spawn-merge` (Sukys 3.1.1): a uniform grid of half the budget (or at --spacing), then merge
+/// similar close neighbours and spawn between differing ones, up to the budget as the probe cap
+/// (4 times the grid without a budget).
+std::vector<Proposal> placeWithSpawnMerge(PlaceContext& c) {
+  const PlaceOpts& o = c.opts;
+  if (o.maxError != 0)
+    throw ParameterError(
+        "--max-error: only for --method greedy (spawn-merge takes --budget as "
+        "its probe cap, or --spacing)");
+  const int keptCount = int(c.kept.size());
+  if (o.budget != 0 && o.budget - keptCount < 8)
+    throw ParameterError(
+        "--budget: spawn-merge needs at least 8 new probes (its grid is half "
+        "the budget), got " +
+        std::to_string(o.budget - keptCount));
+  UniformSettings us;
+  us.seed = o.seed;
+  std::vector<Vec3> grid;
+  if (o.budget != 0) {
+    auto r = placeUniformBudget(c.tracer, (o.budget - keptCount) / 2, us, terminalProgress("grid"));
+    grid = std::move(r.points);
+    us.spacingMeters = r.spacingMeters;
+    c.set.placement.budget = o.budget;
+  } else {
+    us.spacingMeters = o.spacing != 0 ? o.spacing : std::max(0.25, c.scene.bounds.diagonal() / 10);
+    grid = placeUniform(c.tracer, us, terminalProgress("grid"));
+  }
+  c.set.placement.spacingMeters = us.spacingMeters;
+  SpawnMergeSettings ss;
+  ss.spacingMeters = us.spacingMeters;
+  ss.maxProbes = o.budget != 0 ? size_t(o.budget) : 4 * (grid.size() + c.kept.size());
+  ss.samplesPerProbe = o.fieldSpp;
+  ss.seed = o.seed;
+  std::vector<Vec3> kept;
+  for (const Probe* k : c.kept) kept.push_back(k->position);
+  const SpawnMergeResult r =
+      placeSpawnMerge(c.tracer, c.set.rig, grid, kept, ss, terminalProgress("spawn-merge"));
+  std::printf("spawn-merge: %zu grid probes, %zu spawned, %zu merges in %d iterations\n",
+              grid.size(), r.spawned, r.merged, r.iterations);
+  std::vector<Proposal> out;
+  for (const SpawnMergeProbe& p : r.probes) out.push_back({p.position, p.score});
+  return out;
+}
+
 const std::map<std::string, PlaceMethod>& methods() {
   static const std::map<std::string, PlaceMethod> kMethods = {
       {"uniform", placeWithUniform},
       {"greedy", placeWithGreedy},
       {"ascent", placeWithAscent},
+      {"spawn-merge", placeWithSpawnMerge},
   };
   return kMethods;
 }
@@ -201,7 +247,8 @@ void registerPlace(CLI::App& app) {
   cmd->add_option("--field-spacing", o->fieldSpacing,
                   "Dense field base grid spacing in metres (default: domain diagonal / 12)");
   cmd->add_option("--field-depth", o->fieldDepth, "Dense field refinement levels (0 to 8)");
-  cmd->add_option("--field-spp", o->fieldSpp, "Samples per cheap probe (dense field, ascent)")
+  cmd->add_option("--field-spp", o->fieldSpp,
+                  "Samples per cheap probe (dense field, ascent, spawn-merge)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--field-max-samples", o->fieldMaxSamples,
                   "Dense field sample limit: a base grid above it is an error, a refinement level "

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# probestudio place: the greedy and ascent methods end to end (budget, max error, provenance, stored rig),
+# probestudio place: the greedy, ascent and spawn-merge methods end to end (budget, max error, provenance, stored rig),
 # locked probes of an existing set kept with --keep, and bad option combinations.
 # Usage: test_place.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
@@ -13,6 +13,7 @@ field=(--field-depth 1 --field-spp 32)
 cmp "$tmp/g.json" "$tmp/g2.json"  # deterministic for a seed
 "$cli" place "$scene" --method greedy --max-error 0.3 "${field[@]}" -o "$tmp/e.json"
 "$cli" place "$scene" --method ascent --budget 32 --field-spp 32 -o "$tmp/a.json"
+"$cli" place "$scene" --method spawn-merge --budget 40 --field-spp 32 -o "$tmp/sm.json"
 # Lock two probes, then place around them.
 python3 - "$tmp" <<'PY'
 import json, sys
@@ -56,6 +57,9 @@ for p in a["probes"]:
     x, y, z = p["position"]
     assert -4 < x < 4 and 0 < y < 3 and -4 < z < 4 and not (-0.6 < x < 0.6 and -0.6 < z < 0.6), p
 assert any(p["score"] > 0 for p in a["probes"]), "ascent moved no probe"
+sm = json.load(open(f"{tmp}/sm.json"))
+assert 4 <= len(sm["probes"]) <= 40 and all(p["method"] == "spawn-merge" for p in sm["probes"])
+assert any(p["score"] > 0 for p in sm["probes"]), "spawn-merge spawned nothing"
 e = json.load(open(f"{tmp}/e.json"))
 assert 4 <= len(e["probes"]) < 200 and e["placement"]["method"] == "greedy"
 print("place ok")
@@ -74,6 +78,7 @@ expect_error "budget: expected at least 4 probes, got 3" "$cli" place "$scene" -
 expect_error "beside the 2 kept probes" "$cli" place "$scene" --method greedy --budget 5 --keep "$tmp/locked.json" -o "$tmp/x.json"
 expect_error "base samples (limit 200000)" "$cli" place "$scene" --method greedy --budget 8 --field-spacing 0.01 -o "$tmp/x.json"
 expect_error "field depth: expected 0 to 8" "$cli" place "$scene" --method greedy --budget 8 --field-depth 9 -o "$tmp/x.json"
-expect_error "available: ascent, greedy, uniform" "$cli" place "$scene" --method magic -o "$tmp/x.json"
+expect_error "available: ascent, greedy, spawn-merge, uniform" "$cli" place "$scene" --method magic -o "$tmp/x.json"
+expect_error "spawn-merge needs at least 8 new probes" "$cli" place "$scene" --method spawn-merge --budget 6 -o "$tmp/x.json"
 test ! -e "$tmp/x.json" || { echo "FAIL: a failed place wrote its output"; fail=1; }
 exit $fail

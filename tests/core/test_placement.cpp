@@ -14,6 +14,7 @@
 #include "core/placement/Ascent.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
+#include "core/placement/SpawnMerge.h"
 #include "core/placement/Uniform.h"
 #include "core/scene/Scene.h"
 #include "core/tessellation/Tetrahedralization.h"
@@ -361,4 +362,55 @@ TEST(Ascent, RejectsBadParameters) {
   s = AscentSettings{};
   s.stepMeters = 0;
   EXPECT_THROW(placeAscent(*l.tracer, {}, start, s), ParameterError);
+}
+
+// ------------------------------------------------------------------------------ spawn-merge
+
+TEST(SpawnMerge, SpawnsWhereLightingDiffersWithinTheCapAndOutsideGeometry) {
+  // pillar-room: the point light and the pillar's shadow make neighbours differ; the probe cap
+  // holds; no probe ends inside the pillar or outside the room; deterministic for a seed.
+  const Loaded& l = loaded("pillar-room.gltf");
+  const UniformBudgetResult grid = placeUniformBudget(*l.tracer, 32, {});
+  SpawnMergeSettings s;
+  s.spacingMeters = grid.spacingMeters;
+  s.maxProbes = 64;
+  s.samplesPerProbe = kFieldSpp;
+  const SpawnMergeResult a = placeSpawnMerge(*l.tracer, {}, grid.points, {}, s);
+  const SpawnMergeResult b = placeSpawnMerge(*l.tracer, {}, grid.points, {}, s);
+  ASSERT_EQ(a.probes.size(), b.probes.size());
+  for (size_t i = 0; i < a.probes.size(); ++i)
+    EXPECT_EQ(a.probes[i].position, b.probes[i].position);
+  EXPECT_GT(a.spawned, 0u);
+  EXPECT_LE(a.probes.size(), 64u);
+  EXPECT_GT(a.probes.size(), grid.points.size());
+  for (const SpawnMergeProbe& p : a.probes) {
+    EXPECT_TRUE(inBox(p.position, {-4, 0, -4}, {4, 3, 4})) << p.position;
+    EXPECT_FALSE(inBox(p.position, {-0.6, 0, -0.6}, {0.6, 3, 0.6})) << p.position;
+  }
+}
+
+TEST(SpawnMerge, MergesCloseProbesWithTheSameLighting) {
+  // A constant sky and no occluder near the probes: every pair within the merge distance is
+  // alike, so the 8 probes of a small cube (edge 0.2 spacing) merge pairwise.
+  Scene scene;
+  scene.positions = {50, 0, 0, 50.1f, 0, 0, 50, 0.1f, 0};
+  scene.normals = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+  scene.indices = {0, 1, 2};
+  scene.triangleMaterial = {0};
+  scene.materials.push_back(Material{});
+  for (uint32_t v = 0; v < 3; ++v) scene.bounds.extend(scene.vertex(v));
+  scene.bounds.extend({-1, -1, -1});
+  const Tracer tracer(scene);
+  LightingRig rig;
+  rig.skyRadiance = {1, 1, 1};
+  std::vector<Vec3> cube;
+  for (int i = 0; i < 8; ++i) cube.push_back(Vec3(i & 1, (i >> 1) & 1, (i >> 2) & 1) * 0.2);
+  SpawnMergeSettings s;
+  s.spacingMeters = 1.0;
+  s.maxIterations = 1;
+  s.samplesPerProbe = 256;
+  const SpawnMergeResult r = placeSpawnMerge(tracer, rig, cube, {}, s);
+  EXPECT_EQ(r.merged, 4u);
+  EXPECT_EQ(r.spawned, 0u);
+  EXPECT_EQ(r.probes.size(), 4u);
 }
