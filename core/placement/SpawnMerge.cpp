@@ -6,11 +6,11 @@
 #include <cmath>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <utility>
 
 #include "core/common/Error.h"
 #include "core/math/Random.h"
-#include "core/tessellation/Tetrahedralization.h"
 
 namespace ps {
 
@@ -53,22 +53,37 @@ SpawnMergeResult placeSpawnMerge(const Tracer& tracer, const LightingRig& rig,
   SpawnMergeResult r;
   for (int it = 0; it < s.maxIterations; ++it) {
     r.iterations = it + 1;
-    std::vector<Vec3> pos;
-    for (const P& p : probes) pos.push_back(p.position);
-    const Tetrahedralization t = tetrahedralize(pos);  // neighbours: its edges
-    std::vector<int32_t> probeOfVertex(t.vertices.size(), -1);
-    for (size_t p = 0; p < pos.size(); ++p)
-      if (probeOfVertex[size_t(t.vertexOfInput[p])] < 0)
-        probeOfVertex[size_t(t.vertexOfInput[p])] = int32_t(p);
+    // Neighbours: every pair closer than spawnMaxDistance * spacing ("not too much apart"),
+    // found through a hash grid of that cell size.
+    const double reach = std::max(s.spawnMaxDistance, s.mergeDistance) * s.spacingMeters;
+    std::unordered_map<uint64_t, std::vector<int32_t>> cells;
+    auto cellKey = [&](int64_t x, int64_t y, int64_t z) {
+      return (uint64_t(x & 0x1FFFFF) << 42) | (uint64_t(y & 0x1FFFFF) << 21) |
+             uint64_t(z & 0x1FFFFF);
+    };
+    auto cellOf = [&](Vec3 p, int64_t c[3]) {
+      for (int k = 0; k < 3; ++k) c[k] = int64_t(std::floor(p[k] / reach));
+    };
+    for (size_t i = 0; i < probes.size(); ++i) {
+      int64_t c[3];
+      cellOf(probes[i].position, c);
+      cells[cellKey(c[0], c[1], c[2])].push_back(int32_t(i));
+    }
     std::set<std::pair<int32_t, int32_t>> edgeSet;
-    for (const auto& tet : t.tets)
-      for (int a = 0; a < 4; ++a)
-        for (int b = a + 1; b < 4; ++b) {
-          int32_t u = probeOfVertex[size_t(tet[size_t(a)])];
-          int32_t v = probeOfVertex[size_t(tet[size_t(b)])];
-          if (u > v) std::swap(u, v);
-          edgeSet.emplace(u, v);
-        }
+    for (size_t i = 0; i < probes.size(); ++i) {
+      int64_t c[3];
+      cellOf(probes[i].position, c);
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const auto cell = cells.find(cellKey(c[0] + dx, c[1] + dy, c[2] + dz));
+            if (cell == cells.end()) continue;
+            for (int32_t j : cell->second)
+              if (j > int32_t(i) &&
+                  length(probes[size_t(j)].position - probes[i].position) <= reach)
+                edgeSet.emplace(int32_t(i), j);
+          }
+    }
     struct Edge {
       int32_t a, b;
       double lengthMeters, difference;

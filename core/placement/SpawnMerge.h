@@ -17,7 +17,7 @@ struct SpawnMergeSettings {
   double spacingMeters = 1.0;  ///< the start grid's spacing: distances below are relative to it
   int maxIterations = 6;
   size_t maxProbes = 256;  ///< the probe cap (Sukys: "maximum number of light probes reached")
-  /// Neighbours (Delaunay edges) closer than mergeDistance * spacing whose relative SH
+  /// Neighbours closer than mergeDistance * spacing whose relative SH
   /// difference is below mergeDifference merge into one probe at their midpoint.
   double mergeDistance = 0.75;
   double mergeDifference = 0.1;
@@ -48,9 +48,10 @@ struct SpawnMergeResult {
 double shRelativeDifference(const ShRgb& a, const ShRgb& b);
 
 /// Spawn-and-merge from `start` (the grid), with `kept` probes (locked) taking part in the
-/// comparisons but never merged or moved. Deterministic for a seed. Throws ps::ParameterError for
-/// a spacing <= 0, fewer than 1 iteration, or fewer than 4 probes in all (start + kept) spanning
-/// 3D; ps::Cancelled through `progress`.
+/// comparisons but never merged or moved. Neighbours are the pairs closer than
+/// max(spawnMaxDistance, mergeDistance) * spacing. Deterministic for a seed. Throws
+/// ps::ParameterError for a spacing <= 0 or fewer than 1 iteration; ps::Cancelled through
+/// `progress`.
 SpawnMergeResult placeSpawnMerge(const Tracer& tracer, const LightingRig& rig,
                                  std::span<const Vec3> start, std::span<const Vec3> kept,
                                  const SpawnMergeSettings& settings,
