@@ -270,6 +270,28 @@ TEST(Greedy, MeetsItsBudgetPastTheFieldsNoiseFloor) {
   std::printf("cornell: no improvement from %zu probes on\n", r.probesAtNoImprovement);
 }
 
+TEST(Greedy, EveryRoomAndBothSidesOfThePillarGetProbes) {
+  // two-rooms: room A is x < -0.05, room B x > 0.05; pillar-room: the pillar spans
+  // x, z in [-0.6, 0.6] (scripts/make_scenes.py). Every region gets several probes.
+  GreedySettings s;
+  s.budget = 24;
+  const GreedyResult rooms = placeGreedy(twoRoomsField(), {}, s);
+  int a = 0, b = 0;
+  for (const Vec3& p : rooms.positions) (p.x < 0 ? a : b) += 1;
+  EXPECT_GE(a, 4);
+  EXPECT_GE(b, 4);
+  const DenseField pillar = buildDenseField(*loaded("pillar-room.gltf").tracer, {}, smallField(1));
+  const GreedyResult r = placeGreedy(pillar, {}, s);
+  int sides[4] = {0, 0, 0, 0};  // -x, +x, -z, +z of the pillar
+  for (const Vec3& p : r.positions) {
+    sides[0] += p.x < -0.6;
+    sides[1] += p.x > 0.6;
+    sides[2] += p.z < -0.6;
+    sides[3] += p.z > 0.6;
+  }
+  for (int side : sides) EXPECT_GE(side, 3);
+}
+
 TEST(Greedy, KeepsLockedProbesAndBuildsAroundThem) {
   const DenseField& f = twoRoomsField();
   std::vector<KeptProbe> kept = {{f.samples[7].position, f.samples[7].sh},
