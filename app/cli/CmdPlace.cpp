@@ -243,7 +243,7 @@ void registerPlace(CLI::App& app) {
                   "greedy: stop once the dense field's relative RMS irradiance error is this low");
   cmd->add_option("--keep", o->keep,
                   "Existing probe set whose locked probes are kept (with their ids) and built "
-                  "around");
+                  "around; its rig is used when no rig option is given");
   cmd->add_option("--field-spacing", o->fieldSpacing,
                   "Dense field base grid spacing in metres (default: domain diagonal / 12)");
   cmd->add_option("--field-depth", o->fieldDepth, "Dense field refinement levels (0 to 8)");
@@ -280,9 +280,12 @@ void registerPlace(CLI::App& app) {
     PlaceContext ctx{scene, tracer, *o, set, {}};
     if (!o->keep.empty()) {
       // The locked probes of the existing set stay, with their ids, states and captures; its
-      // importance volumes too. Everything else of it is replaced.
+      // importance volumes too, and its rig unless rig options are given. Everything else of it
+      // is replaced.
       const ProbeSet old = loadProbeSet(o->keep);
       set.importanceVolumes = old.importanceVolumes;
+      // Without rig options the kept set's rig stays (its captures were made with it).
+      if (o->rig.suns.empty() && o->rig.points.empty() && o->rig.env.empty()) set.rig = old.rig;
       set.nextId = old.nextId;
       for (const Probe& p : old.probes)
         if (p.locked) set.probes.push_back(p);

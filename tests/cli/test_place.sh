@@ -51,6 +51,7 @@ for name in ("k", "ku"):
     assert all(p["id"] > max(q["id"] for q in old["probes"]) for p in new), name
 k = json.load(open(f"{tmp}/k.json"))
 assert len(k["probes"]) == 20, len(k["probes"])
+assert k["rig"]["sky_radiance"] == [0.1, 0.1, 0.1], "--keep without rig options keeps the rig"
 a = json.load(open(f"{tmp}/a.json"))
 assert 28 <= len(a["probes"]) <= 36 and all(p["method"] == "ascent" for p in a["probes"])
 for p in a["probes"]:
