@@ -180,6 +180,53 @@ void BM_LocateCoherentWarmVsColdVsBrute(benchmark::State& state) {
 }
 BENCHMARK(BM_LocateCoherentWarmVsColdVsBrute)->UseManualTime()->Unit(benchmark::kMillisecond);
 
+// The same three ways, one per benchmark, in CPU time per query (robust to a shared machine).
+void BM_LocateCoherentWarm(benchmark::State& state) {
+  const QueryFixture& q = queries();
+  int32_t hint = -1;
+  size_t i = 0;
+  for (auto _ : state) {
+    hint = locate(q.volume, q.coherent[i], hint).tet;
+    benchmark::DoNotOptimize(hint);
+    i = (i + 1) % q.coherent.size();
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_LocateCoherentWarm);
+
+void BM_LocateCoherentCold(benchmark::State& state) {
+  const QueryFixture& q = queries();
+  size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(locate(q.volume, q.coherent[i]).tet);
+    i = (i + 1) % q.coherent.size();
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_LocateCoherentCold);
+
+void BM_LocateRandomCold(benchmark::State& state) {
+  const QueryFixture& q = queries();
+  size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(locate(q.volume, q.random[i]).tet);
+    i = (i + 1) % q.random.size();
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_LocateRandomCold);
+
+void BM_LocateBruteForceScan(benchmark::State& state) {
+  const QueryFixture& q = queries();
+  size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(bruteForceScan(q.volume, q.random[i]));
+    i = (i + 1) % q.random.size();
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_LocateBruteForceScan);
+
 // Random points: cold start from the locator (the reported time) against a brute-force scan.
 void BM_LocateRandomLocatorVsBrute(benchmark::State& state) {
   const QueryFixture& q = queries();

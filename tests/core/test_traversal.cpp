@@ -422,6 +422,11 @@ TEST(ProbeVolume, LocateBatchMatchesLocate) {
     path.push_back(
         {0.5 + 0.45 * std::cos(a), 0.5 + 0.45 * std::sin(a), 0.5 + 0.3 * std::sin(3 * a)});
   }
+  // Then incoherent points (each a cold start from the locator) and a jump back onto the path.
+  uint64_t s = streamSeed(29, 1);
+  for (int i = 0; i < 500; ++i) path.push_back({uniform01(s), uniform01(s), uniform01(s)});
+  path.push_back(path[0]);
+  path.push_back(path[1]);
   std::vector<VolumeLocation> out(path.size());
   locateBatch(v, path, out);
   for (size_t i = 0; i < path.size(); ++i) {
