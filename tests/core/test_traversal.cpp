@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 #include "core/common/Tolerances.h"
@@ -345,6 +346,33 @@ TEST(ProbeVolume, FarOutsideGivesNearestHullPoint) {
       EXPECT_LT(relDiff(got, linearSh(c.nearest)), 2e-6) << c.query;
       EXPECT_FALSE(got.c[0].isBlack());
     }
+  }
+}
+
+TEST(ProbeVolume, FarQueriesAreNeverBlackAndClampToTheHull) {
+  // Random directions at distances 2 to 1e6 from a random cloud's centre: every answer is
+  // outside, finite, not black, and is the value at a hull point q = sum w_i v_i (linear SH
+  // reproduced there) no farther from p than any probe (the nearest hull point is at least as
+  // close as the nearest vertex).
+  const auto pts = randomFloatPoints(500, 43);
+  const ProbeVolume v = buildLinear(pts);
+  uint64_t s = streamSeed(43, 1);
+  for (int i = 0; i < 2000 / kScale; ++i) {
+    const Vec3 dir = uniformSphere(uniform01(s), uniform01(s));
+    const double dist = 2 * std::pow(10.0, 5.7 * uniform01(s));
+    const Vec3 p = Vec3(0.5, 0.5, 0.5) + dir * dist;
+    const VolumeLocation loc = locate(v, p, i % 2 ? -1 : int32_t(i % v.tets.size()));
+    ASSERT_TRUE(loc.outside) << p;
+    expectValidWeights(loc);
+    Vec3 q;
+    for (int k = 0; k < 4; ++k) q = q + v.position(v.tets[loc.tet][k]) * double(loc.weights[k]);
+    const ShRgb got = interpolate(v, loc);
+    EXPECT_FALSE(got.c[0].isBlack()) << p;
+    EXPECT_LT(relDiff(got, linearSh(q)), 2e-6) << p;
+    double nearestProbe = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < v.probeCount(); ++k)
+      nearestProbe = std::min(nearestProbe, length(v.position(int32_t(k)) - p));
+    EXPECT_LE(length(q - p), nearestProbe * (1 + 1e-6)) << p;
   }
 }
 
