@@ -161,4 +161,10 @@ grep -q "one.txt: has 1 normals for 5 points" "$tmp/err" || { cat "$tmp/err"; ex
 if "$cli" query "$tmp/cube.psv" --at 0.5,0.5,0.5 --normal 0,0,0 --json 2>"$tmp/err"; then
   echo "a zero normal was accepted"; exit 1
 fi
-grep -q "normal" "$tmp/err" || { cat "$tmp/err"; exit 1; }
+grep -q -- "--normal: 0,0,0 has zero length" "$tmp/err" || { cat "$tmp/err"; exit 1; }
+printf '0 1 0\n0 1 0\n0 0 0\n0 1 0\n0 1 0\n' >"$tmp/zero.txt"
+if "$cli" query "$tmp/cube.psv" --points "$tmp/qp.txt" --normals "$tmp/zero.txt" --json 2>"$tmp/err"; then
+  echo "a zero normal in a file was accepted"; exit 1
+fi
+grep -q "zero.txt: normal 2: has zero length" "$tmp/err" || { cat "$tmp/err"; exit 1; }
+echo "bad normals refused"
