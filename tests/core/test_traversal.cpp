@@ -250,6 +250,35 @@ TEST(ProbeVolume, PointsOnVerticesEdgesAndFaces) {
   EXPECT_EQ(detail::locateBruteForceCount(), fallbacksBefore);
 }
 
+TEST(ProbeVolume, GridQueriesOnVerticesEdgesAndFacesMatchExhaustiveSearch) {
+  // A regular grid: every cell cospherical, so the split into tets (by symbolic perturbation)
+  // may include flat ones. Queries exactly at grid vertices, edge and face midpoints and cell
+  // centres, from a cold start and from several hints, land in a tet that contains them
+  // exactly, never a flat one, and reproduce the linear SH.
+  const ProbeVolume v = buildLinear(testing::gridPoints(6));
+  const ExactTetIndex oracle(v);
+  const uint64_t fallbacksBefore = detail::locateBruteForceCount();
+  std::vector<Vec3> queries;
+  for (int z = 0; z <= 10; ++z)
+    for (int y = 0; y <= 10; ++y)
+      for (int x = 0; x <= 10; ++x) queries.push_back(Vec3(x, y, z) * 0.5);
+  const int32_t n = int32_t(v.tets.size());
+  for (size_t i = 0; i < queries.size(); ++i) {
+    const Vec3 p = queries[i];
+    const std::vector<int32_t> found = oracle.containing(p);
+    ASSERT_FALSE(found.empty()) << p;
+    for (int32_t hint : {-1, int32_t(i % n), int32_t((i * 7919) % n)}) {
+      const VolumeLocation loc = locate(v, p, hint);
+      ASSERT_FALSE(loc.outside) << p;
+      expectValidWeights(loc);
+      EXPECT_NE(std::find(found.begin(), found.end(), loc.tet), found.end()) << p;
+      EXPECT_NE(v.matrices[loc.tet], (std::array<float, 9>{})) << "flat tet for " << p;
+      EXPECT_LT(relDiff(interpolate(v, loc), linearSh(p)), 2e-6) << p;
+    }
+  }
+  EXPECT_EQ(detail::locateBruteForceCount(), fallbacksBefore);
+}
+
 TEST(ProbeVolume, WalkFromEveryHintTerminates) {
   const ProbeVolume v = buildLinear(randomFloatPoints(400, 9));
   const uint64_t fallbacksBefore = detail::locateBruteForceCount();
