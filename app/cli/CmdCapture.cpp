@@ -50,6 +50,7 @@ void registerCapture(CLI::App& app) {
     const std::vector<Vec3> pts =
         o->at.empty() ? readPointsFile(o->pointsFile) : std::vector<Vec3>{parseVec3(o->at, "--at")};
     const Scene scene = loadScene(o->scene);
+    for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
     const Tracer tracer(scene);
     CaptureSettings cs;
     cs.samplesPerProbe = o->spp;

@@ -170,8 +170,12 @@ class PathTracer {
         if (bounce == 0 && firstHitBackface) *firstHitBackface = true;
         break;
       }
-      L += beta * m.emission;  // emission, reached by sampled rays only
-      if (m.albedo.isBlack()) break;
+      // Emission, reached by sampled rays only; factor times texture at the hit's UV0.
+      if (!m.emission.isBlack())
+        L +=
+            beta * (m.isTextured() ? scene_.emissionAt(hit->triangle, hit->u, hit->v) : m.emission);
+      const Rgb albedo = m.isTextured() ? scene_.albedoAt(hit->triangle, hit->u, hit->v) : m.albedo;
+      if (albedo.isBlack()) break;
 
       // Shade on the side the ray arrived from.
       const Vec3 n = hit->frontFace ? hit->geometricNormal : -hit->geometricNormal;
@@ -184,14 +188,14 @@ class PathTracer {
         const double cosTheta = dot(n, a->directionToLight);
         if (cosTheta > 0) e += a->irradiance * cosTheta;
       }
-      const Rgb brdfPi = m.albedo * (1.0 / kPi);
+      const Rgb brdfPi = albedo * (1.0 / kPi);
       L += beta * brdfPi * e;
 
       // Lambertian bounce, cosine-weighted: f cos / pdf = albedo.
       const double u1 = uniform01(rng), u2 = uniform01(rng);
       d = cosineHemisphere(n, u1, u2);
       o = p;
-      beta = beta * m.albedo;
+      beta = beta * albedo;
       if (bounce + 1 >= kRussianRouletteStartBounce) {
         const double q = std::min(1.0, beta.maxComponent());  // survival by throughput
         if (!(q > 0) || uniform01(rng) >= q) break;

@@ -33,7 +33,8 @@ class Tracer {
   Tracer(const Tracer&) = delete;
   Tracer& operator=(const Tracer&) = delete;
 
-  /// Closest hit in (tMin, tMax), or nothing.
+  /// Closest hit in (tMin, tMax), or nothing. Points cut out by an alphaMode MASK material
+  /// (Scene::isCutOutAt) are not hit: rays pass through them (here and in occluded()).
   std::optional<Hit> intersect(const Ray& ray) const;
   /// True when anything lies in (tMin, tMax).
   bool occluded(const Ray& ray) const;
