@@ -120,6 +120,7 @@ class PathTracer {
         scene_(tracer.scene()),
         lights_(allLights(tracer.scene(), rig)),
         sky_(rig.skyRadiance),
+        env_(environmentOf(rig)),
         eps_(tracer.rayEpsilon()) {
     // O(1) here: traceRadiance builds one per ray. Material indices are checked per hit.
     PS_CHECK_EQ(scene_.triangleMaterial.size(), scene_.triangleCount());
@@ -127,6 +128,14 @@ class PathTracer {
 
   const std::vector<Light>& lights() const { return lights_; }
   Rgb sky() const { return sky_; }
+  /// True when rays that leave the scene can bring light (constant sky or a non-black map).
+  bool hasSky() const {
+    if (!sky_.isBlack()) return true;
+    if (!env_) return false;
+    for (float v : env_->rgb)
+      if (v > 0) return true;
+    return false;
+  }
 
   /// Also checks every triangle's material index (once per capture).
   bool hasEmissiveSurface() const {
@@ -159,7 +168,9 @@ class PathTracer {
     for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
       const auto hit = tracer_.intersect(Ray{o, d});
       if (!hit) {
-        L += beta * sky_;  // escaped: the constant sky
+        // Escaped: the constant sky plus the environment map (sampled by the cosine-weighted
+        // bounce directions and, from the probe, the uniform sphere directions: unbiased).
+        L += beta * (env_ ? sky_ + env_->radiance(d) : sky_);
         break;
       }
       const uint32_t materialIndex = scene_.triangleMaterial[hit->triangle];
@@ -222,6 +233,7 @@ class PathTracer {
   const Scene& scene_;
   std::vector<Light> lights_;
   Rgb sky_;
+  std::shared_ptr<const EnvironmentMap> env_;
   double eps_;
 };
 
@@ -263,10 +275,11 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
     throw ParameterError("capture: threads is " + std::to_string(settings.threads) +
                          ", expected 0 (all) or a positive count");
   const PathTracer pt(tracer, rig);
-  if (pt.lights().empty() && pt.sky().isBlack() && !pt.hasEmissiveSurface())
+  if (pt.lights().empty() && !pt.hasSky() && !pt.hasEmissiveSurface())
     throw ParameterError(
         "the scene has no light: it brings no punctual light and no emissive surface, and the "
-        "rig is empty; add a sun (--sun DX,DY,DZ,E) or a sky (--env R,G,B)");
+        "rig is empty (or its environment map is black); add a sun (--sun DX,DY,DZ,E), a sky "
+        "(--env R,G,B) or an environment map (--env-map FILE.hdr)");
   for (size_t i = 0; i < points.size(); ++i)
     if (!isFinite(points[i]))
       throw ParameterError("capture: probe " + std::to_string(i) +
