@@ -258,11 +258,72 @@ struct ShAccumulator {
   }
 };
 
+/// Running mean and variance (Welford) of the per-ray estimates of the luminance of the L2
+/// irradiance for the six axis normals (+x, -x, +y, -y, +z, -z).
+struct AxisIrradianceAccumulator {
+  std::array<double, 6> mean{};
+  std::array<double, 6> m2{};
+  int n = 0;
+
+  void add(Vec3 d, double lum) {
+    ++n;
+    const double inv = 1.0 / n;
+    const double cs[3] = {d.x, d.y, d.z};
+    for (int k = 0; k < 6; ++k) {
+      const double c = (k % 2 == 0 ? 1.0 : -1.0) * cs[k / 2];
+      // sum_l A_l (2l + 1) P_l(c), A = (pi, 2pi/3, pi/4) (Ramamoorthi & Hanrahan 2001, eq. 8)
+      const double x = lum * kPi * (1.0 + 2.0 * c + 0.625 * (3.0 * c * c - 1.0));
+      const double delta = x - mean[size_t(k)];
+      mean[size_t(k)] += delta * inv;
+      m2[size_t(k)] += delta * (x - mean[size_t(k)]);
+    }
+  }
+
+  /// CaptureSettings' relative error, with `direct` the delta lights' irradiance per axis.
+  double relativeError(const std::array<double, 6>& direct) const {
+    if (n < 2) return std::numeric_limits<double>::infinity();
+    double brightest = 0;
+    for (int k = 0; k < 6; ++k)
+      brightest = std::max(brightest, mean[size_t(k)] + direct[size_t(k)]);
+    double worst = 0;
+    for (int k = 0; k < 6; ++k) {
+      const double se = std::sqrt(std::max(0.0, m2[size_t(k)] / (n - 1)) / n);
+      worst = std::max(worst, se);
+    }
+    if (worst == 0) return 0;
+    return brightest > 0 ? worst / brightest : std::numeric_limits<double>::infinity();
+  }
+};
+
 double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace
+
+int luminanceBin(Rgb radiance) {
+  const double y = luminance(radiance);
+  if (!(y >= std::ldexp(1.0, kLuminanceLog2Min))) return 0;  // black and NaN too
+  const int k = static_cast<int>(std::floor(std::log2(y))) - kLuminanceLog2Min + 1;
+  return std::clamp(k, 1, kLuminanceBins - 1);
+}
+
+int hueBin(Rgb c) {
+  const double mx = c.maxComponent();
+  const double mn = std::min(c.r, std::min(c.g, c.b));
+  if (!(mx > 0) || mx - mn <= 1e-6 * mx) return -1;
+  // HSV hue in degrees (Smith 1978).
+  const double d = mx - mn;
+  double h;
+  if (mx == c.r)
+    h = 60.0 * std::fmod((c.g - c.b) / d + 6.0, 6.0);
+  else if (mx == c.g)
+    h = 60.0 * ((c.b - c.r) / d + 2.0);
+  else
+    h = 60.0 * ((c.r - c.g) / d + 4.0);
+  const int k = static_cast<int>(h / (360.0 / kHueBins));
+  return std::clamp(k, 0, kHueBins - 1);
+}
 
 std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig& rig,
                                         std::span<const Vec3> points,
@@ -271,6 +332,16 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
   if (settings.samplesPerProbe < 1)
     throw ParameterError("capture: samplesPerProbe is " + std::to_string(settings.samplesPerProbe) +
                          ", expected at least 1");
+  const bool adaptive = settings.targetRelativeError > 0;
+  if (!(settings.targetRelativeError >= 0) || !std::isfinite(settings.targetRelativeError))
+    throw ParameterError("capture: targetRelativeError is " +
+                         std::to_string(settings.targetRelativeError) +
+                         ", expected 0 (fixed samples) or a positive fraction");
+  if (adaptive && (settings.minSamplesPerProbe < 2 ||
+                   settings.maxSamplesPerProbe < settings.minSamplesPerProbe))
+    throw ParameterError("capture: adaptive sampling needs 2 <= minSamplesPerProbe (" +
+                         std::to_string(settings.minSamplesPerProbe) + ") <= maxSamplesPerProbe (" +
+                         std::to_string(settings.maxSamplesPerProbe) + ")");
   if (settings.threads < 0)
     throw ParameterError("capture: threads is " + std::to_string(settings.threads) +
                          ", expected 0 (all) or a positive count");
@@ -286,7 +357,9 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
                            " has a non-finite position, expected finite coordinates");
 
   std::vector<ProbeCapture> out(points.size());
-  const int n = settings.samplesPerProbe;
+  const int maxSamples = adaptive ? settings.maxSamplesPerProbe : settings.samplesPerProbe;
+  const std::array<Vec3, 6> axes = {Vec3{1, 0, 0},  Vec3{-1, 0, 0}, Vec3{0, 1, 0},
+                                    Vec3{0, -1, 0}, Vec3{0, 0, 1},  Vec3{0, 0, -1}};
   std::atomic<bool> cancelled{false};
   size_t done = 0;  // guarded by progressMutex
   std::mutex progressMutex;
@@ -296,10 +369,22 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
     const Vec3 p = points[probe];
     uint64_t rng = streamState(settings.seed, probe);
     const double offset[2] = {uniform01(rng), uniform01(rng)};
+    // The delta lights' direct light: added to the SH in Full mode, and part of the irradiance
+    // the relative error is measured against.
+    const ShRgb direct = settings.mode == CaptureMode::Full ? pt.directDeltaSh(p) : ShRgb{};
+    std::array<double, 6> directLum{};
+    for (size_t k = 0; k < 6; ++k) directLum[k] = luminance(direct.irradiance(axes[k]));
     ShAccumulator acc;
+    AxisIrradianceAccumulator irr;
+    ProbeCapture& c = out[probe];
+    std::array<double, kHueBins> hue{};
     int backfaces = 0;
-    for (int j = 0; j < n; ++j) {
+    int j = 0;
+    for (; j < maxSamples; ++j) {
       if (j % kCancelPollSamples == kCancelPollSamples - 1 && cancelled.load()) return;
+      if (adaptive && j >= settings.minSamplesPerProbe && j % kAdaptiveBatchSamples == 0 &&
+          irr.relativeError(directLum) <= settings.targetRelativeError)
+        break;
       double u, v;
       r2Point(static_cast<uint64_t>(j), offset, u, v);
       const Vec3 dir = uniformSphere(u, v);
@@ -307,10 +392,20 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
       const Rgb L = pt.radiance(p, dir, rng, &backface);
       backfaces += backface ? 1 : 0;
       acc.add(dir, L);
+      const double lum = luminance(L);
+      irr.add(dir, lum);
+      c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;
+      const int h = hueBin(L);
+      if (h >= 0) hue[size_t(h)] += lum;
     }
-    ProbeCapture& c = out[probe];
+    const int n = j;
     c.samples = n;
     c.backfaceFraction = static_cast<double>(backfaces) / n;
+    for (double& b : c.luminanceHistogram) b /= n;
+    double hueTotal = 0;
+    for (double b : hue) hueTotal += b;
+    for (size_t k = 0; k < hue.size(); ++k)
+      c.hueHistogram[k] = hueTotal > 0 ? hue[k] / hueTotal : 0;
     for (int i = 0; i < kShCoeffCount; ++i) {
       c.sh.c[i] = acc.mean[i];
       for (int ch = 0; ch < 3; ++ch) {
@@ -319,7 +414,8 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
         c.shStdError.c[i][ch] = std::sqrt(std::max(0.0, var) / n);
       }
     }
-    if (settings.mode == CaptureMode::Full) c.sh += pt.directDeltaSh(p);
+    c.sh += direct;
+    c.relativeError = irr.relativeError(directLum);
     for (int i = 0; i < kShCoeffCount; ++i) {
       PS_CHECK(isFinite(c.sh.c[i]));
       PS_CHECK(isFinite(c.shStdError.c[i]));
