@@ -10,6 +10,7 @@
 #include "app/cli/Common.h"
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
+#include "core/capture/VirtualOffset.h"
 #include "core/common/Error.h"
 #include "core/eval/Evaluate.h"
 #include "core/io/JsonFields.h"
@@ -29,7 +30,7 @@ void registerCapture(CLI::App& app) {
     int spp = 256, maxSpp = 65536;
     double targetError = 0;
     uint64_t seed = 1;
-    bool json = false, histograms = false;
+    bool json = false, histograms = false, virtualOffset = false;
     RigOptions rig;
   };
   auto o = std::make_shared<Opts>();
@@ -53,6 +54,10 @@ void registerCapture(CLI::App& app) {
       ->check(CLI::IsMember({"full", "indirect"}));
   cmd->add_option("--seed", o->seed, "Random seed");
   cmd->add_flag("--json", o->json, "Print a JSON array (the only output format for now)");
+  cmd->add_flag("--virtual-offset", o->virtualOffset,
+                "Move points inside geometry (more than 25 % of 64 rays hit back faces) to the "
+                "nearest valid point outside before capturing; \"position\" is where it was "
+                "captured");
   cmd->add_flag("--histograms", o->histograms,
                 "Add luminance_histogram and hue_histogram (layout in core/capture/Capture.h) "
                 "to each object");
@@ -60,11 +65,14 @@ void registerCapture(CLI::App& app) {
   cmd->callback([o] {
     if (o->at.empty() && o->pointsFile.empty())
       throw ParameterError("capture: give --at X,Y,Z or --points FILE");
-    const std::vector<Vec3> pts =
+    std::vector<Vec3> pts =
         o->at.empty() ? readPointsFile(o->pointsFile) : std::vector<Vec3>{parseVec3(o->at, "--at")};
     const Scene scene = loadScene(o->scene);
     for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
     const Tracer tracer(scene);
+    if (o->virtualOffset)
+      for (Vec3& p : pts)
+        if (const auto q = ps::virtualOffset(tracer, p, VirtualOffsetSettings{})) p = *q;
     CaptureSettings cs;
     cs.samplesPerProbe = o->spp;
     cs.targetRelativeError = o->targetError;

@@ -145,6 +145,7 @@ Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>
 Tracer::~Tracer() = default;
 
 std::optional<Hit> Tracer::intersect(const Ray& ray) const {
+  if (rayLog_) rayLog_->push_back({ray, false});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
@@ -173,6 +174,7 @@ std::optional<Hit> Tracer::intersect(const Ray& ray) const {
 }
 
 bool Tracer::occluded(const Ray& ray) const {
+  if (rayLog_) rayLog_->push_back({ray, true});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay r;

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "core/math/Vec3.h"
 #include "core/scene/Scene.h"
@@ -25,6 +26,12 @@ struct Hit {
   bool frontFace = true;  ///< the ray arrived against geometricNormal
 };
 
+/// A ray as traced, for benchmarks that replay a stage's rays through bare Embree.
+struct LoggedRay {
+  Ray ray;
+  bool occlusion = false;  ///< traced by occluded() (a shadow ray), else by intersect()
+};
+
 class Tracer {
  public:
   /// Builds the BVH. The scene must outlive the tracer.
@@ -42,6 +49,10 @@ class Tracer {
   /// Distance by which ray origins are offset from surfaces (scaled to the scene,
   /// tol::kRayOffsetRelative of the bounds diagonal).
   double rayEpsilon() const { return rayEpsilon_; }
+
+  /// Benchmarks only: while set, every ray traced is appended to `log` (not thread-safe: trace
+  /// from one thread while it is set). Null (off) by default.
+  void setRayLog(std::vector<LoggedRay>* log) { rayLog_ = log; }
   const Scene& scene() const { return scene_; }
 
  private:
@@ -49,6 +60,7 @@ class Tracer {
   const Scene& scene_;
   std::unique_ptr<Impl> impl_;
   double rayEpsilon_ = 0;
+  std::vector<LoggedRay>* rayLog_ = nullptr;
 };
 
 }  // namespace ps
