@@ -8,6 +8,7 @@
 #include <benchmark/benchmark.h>
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -111,6 +112,12 @@ std::map<std::string, double>& rates() {
   return r;
 }
 
+/// Wall seconds per iteration per benchmark name.
+std::map<std::string, double>& seconds() {
+  static std::map<std::string, double> r;
+  return r;
+}
+
 void fillRay(const Ray& ray, RTCRay& r) {
   r.org_x = float(ray.origin.x);
   r.org_y = float(ray.origin.y);
@@ -173,17 +180,82 @@ void BM_CaptureRaysPerSecond(benchmark::State& state, const std::string& name) {
   state.counters["probes"] = double(f->points.size());
 }
 
+// ---- Time to a given error -----------------------------------------------------------------
+
+constexpr double kTargetError = 0.02;
+
+double worstError(const std::vector<ProbeCapture>& caps) {
+  double w = 0;
+  for (const ProbeCapture& c : caps) w = std::max(w, c.relativeError);
+  return w;
+}
+
+struct ErrorSetup {
+  CaptureSettings adaptive, fixed;
+  double adaptiveWorst = 0, fixedWorst = 0;
+};
+
+/// Adaptive at kTargetError, and the smallest fixed spp (a multiple of 64, found by doubling
+/// then bisection) whose worst probe error is at most the adaptive run's worst.
+const ErrorSetup* errorSetup(Fixture* f) {
+  static std::map<Fixture*, std::unique_ptr<ErrorSetup>> cache;
+  auto it = cache.find(f);
+  if (it != cache.end()) return it->second.get();
+  auto e = std::make_unique<ErrorSetup>();
+  e->adaptive.targetRelativeError = kTargetError;
+  e->adaptiveWorst = worstError(captureProbes(*f->tracer, f->rig, f->points, e->adaptive));
+  auto worstAt = [&](int spp) {
+    CaptureSettings cs;
+    cs.samplesPerProbe = spp;
+    return worstError(captureProbes(*f->tracer, f->rig, f->points, cs));
+  };
+  int hi = 64;
+  while (worstAt(hi) > e->adaptiveWorst && hi < (1 << 20)) hi *= 2;
+  int lo = hi / 2;  // fails (or is below 64)
+  while (hi - lo > 64) {
+    const int mid = (lo + hi) / 2 / 64 * 64;
+    if (mid <= lo) break;
+    (worstAt(mid) <= e->adaptiveWorst ? hi : lo) = mid;
+  }
+  e->fixed.samplesPerProbe = hi;
+  e->fixedWorst = worstAt(hi);
+  ErrorSetup* raw = e.get();
+  cache[f] = std::move(e);
+  return raw;
+}
+
+void BM_TimeToError(benchmark::State& state, const std::string& name, bool adaptive) {
+  Fixture* f = load(name);
+  if (!f) {
+    state.SkipWithError(("scene not found: " + name).c_str());
+    return;
+  }
+  const ErrorSetup* e = errorSetup(f);
+  const CaptureSettings& cs = adaptive ? e->adaptive : e->fixed;
+  int64_t samples = 0;
+  for (auto _ : state) {
+    const auto caps = captureProbes(*f->tracer, f->rig, f->points, cs);
+    samples = 0;
+    for (const ProbeCapture& c : caps) samples += c.samples;
+    benchmark::DoNotOptimize(samples);
+  }
+  state.counters["worst_rel_error"] = adaptive ? e->adaptiveWorst : e->fixedWorst;
+  state.counters["samples"] = double(samples);
+  state.counters["fixed_spp"] = adaptive ? 0.0 : double(e->fixed.samplesPerProbe);
+}
+
 /// Rates (rays/s) per benchmark name, for the ratios printed after the runs.
 class RateReporter : public benchmark::ConsoleReporter {
  public:
   void ReportRuns(const std::vector<Run>& runs) override {
     for (const Run& run : runs) {
       auto it = run.counters.find("items_per_second");
-      if (it == run.counters.end() || run.error_occurred) continue;
+      if (run.error_occurred) continue;
       std::string name = run.benchmark_name();  // without the "/min_time:..." part
       const size_t cut = name.find("/min_time:");
       if (cut != std::string::npos) name.erase(cut, name.find('/', cut + 1) - cut);
-      rates()[name] = it->second.value;
+      if (it != run.counters.end()) rates()[name] = it->second.value;
+      seconds()[name] = run.GetAdjustedRealTime() / benchmark::GetTimeUnitMultiplier(run.time_unit);
     }
     ConsoleReporter::ReportRuns(runs);
   }
@@ -207,6 +279,13 @@ int main(int argc, char** argv) {
         ->MinTime(1.0)
         ->UseRealTime();
   }
+  for (const bool adaptive : {true, false})
+    benchmark::RegisterBenchmark(
+        (std::string("BM_TimeToError/two-rooms/") + (adaptive ? "adaptive" : "fixed")).c_str(),
+        BM_TimeToError, std::string("two-rooms"), adaptive)
+        ->Unit(benchmark::kMillisecond)
+        ->MinTime(1.0)
+        ->UseRealTime();
   benchmark::Initialize(&argc, argv);
   RateReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
@@ -221,6 +300,11 @@ int main(int argc, char** argv) {
     if (one > 0 && two > 0) std::printf("   capture 2 threads / 1 thread: %.3f", two / one);
     if (bare > 0 || one > 0) std::printf("\n");
   }
+  const double ta = seconds()["BM_TimeToError/two-rooms/adaptive/real_time"];
+  const double tf = seconds()["BM_TimeToError/two-rooms/fixed/real_time"];
+  if (ta > 0 && tf > 0)
+    std::printf("  two-rooms time to %.0f %% worst error: fixed spp / adaptive = %.3f\n",
+                100 * kTargetError, tf / ta);
   benchmark::Shutdown();
   return 0;
 }
