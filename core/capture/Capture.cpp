@@ -9,8 +9,20 @@
 //
 // Radiance along a ray: a Lambertian path tracer with next-event estimation (NEE) to the delta
 // lights (sun, point, spot), cosine-weighted bounces, Russian roulette by throughput after
-// kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces and the
-// constant sky are reached by sampled rays only (no NEE for them), so nothing is counted twice.
+// kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces, the
+// constant sky and the environment map are reached by sampled rays only (no NEE for them: the
+// probe's uniform directions and the cosine-weighted bounces sample them without bias), so
+// nothing is counted twice. Albedo and emission are the material's factors times its textures
+// at the hit's TEXCOORD_0 (Scene::albedoAt, emissionAt); cut-out (alphaMode MASK) points are
+// never hit (the tracer's Embree filter).
+//
+// Adaptive sampling (CaptureSettings::targetRelativeError): after every kAdaptiveBatchSamples
+// rays the standard error of each axis irradiance's luminance is estimated from the per-ray
+// estimates L(w) sum_l A_l (2l+1) P_l(n . w) (the SH L2 projection of one ray folded with the
+// Ramamoorthi-Hanrahan convolution, so it is exactly the variance of the irradiance the probe
+// reports); the probe stops when the largest, relative to its brightest axis, is at most the
+// target. The decision uses only the probe's own samples: deterministic for any thread count.
+// The same rays feed the luminance and hue histograms (Capture.h gives the layout).
 // A single-sided surface seen from behind ends the path with zero radiance (the inside of a
 // solid is black); the first hit from the probe counts towards backfaceFraction.
 //
