@@ -18,6 +18,7 @@
 
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
+#include "core/io/SceneHash.h"
 #include "core/scene/Scene.h"
 #include "core/scene/Texture.h"
 #include "core/trace/Tracer.h"
@@ -393,6 +394,23 @@ TEST(GltfTextures, UnreadableTextureWarnsAndFallsBackToTheFactor) {
   EXPECT_NE(b.warnings[0].find("images[0]"), std::string::npos) << b.warnings[0];
   const Tracer tb(b);
   expectRgbNear(albedoUnder(b, tb, 0.3, 0.3), {0.3, 0.6, 0.9}, 1e-12, "fallback");
+}
+
+TEST(GltfTextures, MissingTextureIsHashedNotAnError) {
+  // place and bake hash the scene's files: a missing texture must stay a warning there too,
+  // and the hash changes when the file appears.
+  QuadGltf q;
+  q.material = {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}};
+  q.textures = {{{"source", 0}}};
+  q.images = {{{"uri", "late.png"}}};
+  const fs::path file = q.write("late.gltf");
+  fs::remove(tempDir() / "late.png");
+  const uint64_t before = sceneContentHash(file);
+  EXPECT_EQ(loadScene(file).warnings.size(), 1u);
+  pngBytes(2, 2, 4, kTexels, "late.png");
+  const uint64_t after = sceneContentHash(file);
+  EXPECT_NE(before, after);
+  EXPECT_TRUE(loadScene(file).warnings.empty());
 }
 
 TEST(GltfTextures, MalformedMaterialFieldsNameTheGltfPath) {
