@@ -7,6 +7,7 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -105,7 +106,8 @@ struct QuadGltf {
   json samplers = json::array();
   std::vector<uint8_t> imageBytes;
   double uvScale = 1, uvOffset = 0;
-  double height = 0;  ///< the quad's y (a node translation)
+  double height = 0;           ///< the quad's y (a node translation)
+  int uvComponentType = 5126;  ///< float; 5121 / 5123: normalized unsigned byte / short
 
   fs::path write(const std::string& name) const {
     std::vector<uint8_t> bin;
@@ -121,10 +123,26 @@ struct QuadGltf {
     }
     const uint16_t up[6] = {0, 1, 2, 0, 2, 3};
     put(pos, sizeof pos);
-    put(uv, sizeof uv);
+    // TEXCOORD_0 in 32 bytes whatever its type (unsigned byte and short are padded: spec
+    // 3.6.2.4 aligns each element to 4 bytes).
+    uint8_t uvBytes[32] = {};
+    for (int i = 0; i < 8; ++i) {
+      if (uvComponentType == 5126) {
+        std::memcpy(uvBytes + 4 * i, &uv[i], 4);
+      } else if (uvComponentType == 5123) {
+        const auto v = uint16_t(std::lround(std::clamp(uv[i], 0.0f, 1.0f) * 65535));
+        std::memcpy(uvBytes + 8 * (i / 2) + 2 * (i % 2), &v, 2);
+      } else {
+        uvBytes[4 * (i / 2) + i % 2] = uint8_t(std::lround(std::clamp(uv[i], 0.0f, 1.0f) * 255));
+      }
+    }
+    put(uvBytes, sizeof uvBytes);
     put(up, 12);
+    const int uvStride = uvComponentType == 5126 ? 8 : (uvComponentType == 5123 ? 8 : 4);
+    json uvView = {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 32}};
+    if (uvComponentType != 5126) uvView["byteStride"] = uvStride;
     json views = json::array({{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 48}},
-                              {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 32}},
+                              uvView,
                               {{"buffer", 0}, {"byteOffset", 80}, {"byteLength", 12}}});
     if (!imageBytes.empty()) {
       views.push_back(
@@ -142,7 +160,11 @@ struct QuadGltf {
                       {"material", 0}}}}}}},
                 {"accessors",
                  {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"}},
-                  {{"bufferView", 1}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
+                  {{"bufferView", 1},
+                   {"componentType", uvComponentType},
+                   {"normalized", uvComponentType != 5126},
+                   {"count", 4},
+                   {"type", "VEC2"}},
                   {{"bufferView", 2}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}},
                 {"bufferViews", views},
                 {"buffers",
@@ -313,6 +335,24 @@ TEST(GltfTextures, BaseColorFromFileBufferViewAndDataUriAreTheSameTexels) {
       for (int x = 0; x < 2; ++x)
         expectRgbNear(albedoUnder(scene, tracer, 0.25 + 0.5 * x, 0.25 + 0.5 * y),
                       factor * linearTexel(x, y), 1e-6, std::string(name) + " texel");
+  }
+}
+
+TEST(GltfTextures, NormalizedIntegerTexcoordsSampleTheSameTexels) {
+  const std::vector<uint8_t> png = pngBytes(2, 2, 4, kTexels, "int.png");
+  for (int type : {5121, 5123}) {
+    QuadGltf q;
+    q.uvComponentType = type;
+    q.material = {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}};
+    q.textures = {{{"source", 0}, {"sampler", 0}}};
+    q.samplers = {nearestSampler()};
+    q.images = {{{"uri", "int.png"}}};
+    const Scene scene = loadScene(q.write("int" + std::to_string(type) + ".gltf"));
+    const Tracer tracer(scene);
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 2; ++x)
+        expectRgbNear(albedoUnder(scene, tracer, 0.25 + 0.5 * x, 0.25 + 0.5 * y), linearTexel(x, y),
+                      1e-6, "componentType " + std::to_string(type));
   }
 }
 
