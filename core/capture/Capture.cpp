@@ -249,24 +249,34 @@ class PathTracer {
   double eps_;
 };
 
-/// Running mean and variance (Welford) of the 27 per-sample estimators 4 pi L Y_i.
+/// Sums and sums of squares of the 27 per-sample estimators 4 pi L Y_i (in double: the
+/// cancellation in sumSq - sum^2 / n loses ~1e-16 of the second moment, far below any standard
+/// error we report; a negative difference is clamped to 0).
 struct ShAccumulator {
-  std::array<Rgb, kShCoeffCount> mean{};
-  std::array<Rgb, kShCoeffCount> m2{};
+  std::array<Rgb, kShCoeffCount> sum{};
+  std::array<Rgb, kShCoeffCount> sumSq{};
   int n = 0;
 
   void add(Vec3 d, Rgb radiance) {
     ++n;
     const auto y = shBasis(d);
-    const double inv = 1.0 / n;
+    const Rgb l = radiance * (4.0 * kPi);
     for (int i = 0; i < kShCoeffCount; ++i) {
-      const Rgb x = radiance * (4.0 * kPi * y[i]);
-      for (int ch = 0; ch < 3; ++ch) {
-        const double delta = x[ch] - mean[i][ch];
-        mean[i][ch] += delta * inv;
-        m2[i][ch] += delta * (x[ch] - mean[i][ch]);
-      }
+      const Rgb x = l * y[i];
+      sum[i] += x;
+      sumSq[i] += x * x;
     }
+  }
+  Rgb mean(int i) const { return n > 0 ? sum[i] / n : Rgb{}; }
+  /// The standard error of mean(i) per channel: sample standard deviation / sqrt(n).
+  Rgb standardError(int i) const {
+    Rgb se;
+    if (n < 2) return se;
+    for (int ch = 0; ch < 3; ++ch) {
+      const double var = (sumSq[i][ch] - sum[i][ch] * sum[i][ch] / n) / (n - 1);
+      se[ch] = std::sqrt(std::max(0.0, var) / n);
+    }
+    return se;
   }
 };
 
@@ -316,7 +326,8 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
 int luminanceBin(Rgb radiance) {
   const double y = luminance(radiance);
   if (!(y >= std::ldexp(1.0, kLuminanceLog2Min))) return 0;  // black and NaN too
-  const int k = static_cast<int>(std::floor(std::log2(y))) - kLuminanceLog2Min + 1;
+  if (!std::isfinite(y)) return kLuminanceBins - 1;
+  const int k = std::ilogb(y) - kLuminanceLog2Min + 1;  // ilogb: floor(log2 y), exactly
   return std::clamp(k, 1, kLuminanceBins - 1);
 }
 
@@ -327,9 +338,10 @@ int hueBin(Rgb c) {
   // HSV hue in degrees (Smith 1978).
   const double d = mx - mn;
   double h;
-  if (mx == c.r)
-    h = 60.0 * std::fmod((c.g - c.b) / d + 6.0, 6.0);
-  else if (mx == c.g)
+  if (mx == c.r) {
+    h = 60.0 * ((c.g - c.b) / d);
+    if (h < 0) h += 360.0;
+  } else if (mx == c.g)
     h = 60.0 * ((c.b - c.r) / d + 2.0);
   else
     h = 60.0 * ((c.r - c.g) / d + 4.0);
@@ -419,12 +431,8 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
     for (size_t k = 0; k < hue.size(); ++k)
       c.hueHistogram[k] = hueTotal > 0 ? hue[k] / hueTotal : 0;
     for (int i = 0; i < kShCoeffCount; ++i) {
-      c.sh.c[i] = acc.mean[i];
-      for (int ch = 0; ch < 3; ++ch) {
-        // Standard error of the mean: sample standard deviation / sqrt(N).
-        const double var = n > 1 ? acc.m2[i][ch] / (n - 1) : 0.0;
-        c.shStdError.c[i][ch] = std::sqrt(std::max(0.0, var) / n);
-      }
+      c.sh.c[i] = acc.mean(i);
+      c.shStdError.c[i] = acc.standardError(i);
     }
     c.sh += direct;
     c.relativeError = irr.relativeError(directLum);
