@@ -271,6 +271,7 @@ void registerPlace(CLI::App& app) {
       throw ParameterError("--spacing and --budget: give one, not both");
     const auto t0 = std::chrono::steady_clock::now();
     const Scene scene = loadScene(o->scene);
+    for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
     const Tracer tracer(scene);
     ProbeSet set;
     set.scenePath = fs::absolute(o->scene).string();
