@@ -6,6 +6,8 @@
 #include "core/bake/CaptureCache.h"
 #include "core/common/Error.h"
 #include "core/io/JsonFields.h"
+#include "core/io/SceneHash.h"
+#include "core/scene/EnvironmentMap.h"
 #include "core/tessellation/Tetrahedralization.h"
 
 namespace ps {
@@ -43,9 +45,15 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
   if (settings.cacheDir && settings.sceneHash != 0) cache.emplace(*settings.cacheDir);
   std::vector<uint64_t> keys(n, 0);
   std::vector<size_t> missing;
+  // The rig's JSON in the key names the environment map by path only: its texels decide the
+  // capture too, so a map edited in place must miss the cache.
+  uint64_t keyBase = settings.sceneHash;
+  if (cache)
+    if (const auto map = environmentOf(rig))
+      keyBase = fnv1a64(map->rgb.data(), map->rgb.size() * sizeof(float), keyBase);
   for (size_t i = 0; i < n; ++i) {
     if (cache) {
-      keys[i] = CaptureCache::key(settings.sceneHash, rig, settings.capture, probes.positions[i]);
+      keys[i] = CaptureCache::key(keyBase, rig, settings.capture, probes.positions[i]);
       if (auto sh = cache->find(keys[i])) {
         probes.sh[i] = *sh;
         ++r.cacheHits;

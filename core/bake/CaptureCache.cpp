@@ -38,6 +38,11 @@ uint64_t CaptureCache::key(uint64_t sceneHash, const LightingRig& rig,
   h = fnv1a64(&spp, sizeof spp, h);
   h = fnv1a64(&settings.seed, sizeof settings.seed, h);
   h = fnv1a64(&mode, sizeof mode, h);
+  // Adaptive sampling decides how many rays each probe gets.
+  const double target = settings.targetRelativeError;
+  const int32_t minMax[2] = {settings.minSamplesPerProbe, settings.maxSamplesPerProbe};
+  h = fnv1a64(&target, sizeof target, h);
+  h = fnv1a64(minMax, sizeof minMax, h);
   const double xyz[3] = {position.x, position.y, position.z};
   return fnv1a64(xyz, sizeof xyz, h);
 }

@@ -19,8 +19,9 @@ class CaptureCache {
   explicit CaptureCache(std::filesystem::path dir);
 
   /// The key of one capture. Changes with any bit of the scene hash, rig, settings (samples,
-  /// seed, mode; not the thread count, which does not change results) or position, and with
-  /// kAlgorithmVersion.
+  /// seed, mode, adaptive target and bounds; not the thread count, which does not change
+  /// results) or position, and with kAlgorithmVersion. The bake folds the environment map's
+  /// texels into `sceneHash` (the rig names the map by path only).
   static uint64_t key(uint64_t sceneHash, const LightingRig& rig, const CaptureSettings& settings,
                       Vec3 position);
 
@@ -33,7 +34,7 @@ class CaptureCache {
   const std::filesystem::path& dir() const { return dir_; }
 
   /// Bump when the capture integrator changes its results, to invalidate every old entry.
-  static constexpr uint32_t kAlgorithmVersion = 1;
+  static constexpr uint32_t kAlgorithmVersion = 2;  ///< 2: textures, environment maps, adaptive
 
  private:
   std::filesystem::path entryPath(uint64_t key) const;
