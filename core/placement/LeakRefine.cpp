@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <unordered_map>
 
 #include "core/capture/Capture.h"
@@ -38,9 +39,9 @@ std::vector<std::pair<int32_t, int32_t>> meshEdges(const Tetrahedralization& t) 
 }
 
 struct EdgeTrace {
-  double fromA = -1;  ///< distance from a to the first front-facing hit towards b; -1: none
-  double fromB = -1;  ///< the same from b towards a
-  bool leaks() const { return fromA >= 0 || fromB >= 0; }
+  std::optional<Hit> fromA;  ///< first front-facing hit from a towards b (t in metres)
+  std::optional<Hit> fromB;  ///< the same from b towards a
+  bool leaks() const { return fromA || fromB; }
 };
 
 std::vector<EdgeTrace> traceEdges(const Tracer& tracer, const std::vector<Vec3>& v,
@@ -48,11 +49,11 @@ std::vector<EdgeTrace> traceEdges(const Tracer& tracer, const std::vector<Vec3>&
   std::vector<EdgeTrace> out(edges.size());
   tbb::parallel_for(size_t(0), edges.size(), [&](size_t e) {
     const Vec3 a = v[edges[e].first], b = v[edges[e].second];
-    double d = 0;
+    Hit h;
     // Sukys 3.2.2: "a ray is cast from one vertex to another and vice versa" (thick walls have
     // a front face on each side).
-    if (segmentEntersGeometry(tracer, a, b, &d)) out[e].fromA = d;
-    if (segmentEntersGeometry(tracer, b, a, &d)) out[e].fromB = d;
+    if (segmentEntersGeometry(tracer, a, b, &h)) out[e].fromA = h;
+    if (segmentEntersGeometry(tracer, b, a, &h)) out[e].fromB = h;
   });
   return out;
 }
@@ -124,7 +125,7 @@ double leakingVolumeFraction(const Tetrahedralization& t,
 
 }  // namespace
 
-bool segmentEntersGeometry(const Tracer& tracer, Vec3 a, Vec3 b, double* hitDistance) {
+bool segmentEntersGeometry(const Tracer& tracer, Vec3 a, Vec3 b, Hit* hitOut) {
   const Vec3 d = b - a;
   const double len = length(d);
   if (!(len > 2 * tracer.rayEpsilon())) return false;
@@ -136,7 +137,7 @@ bool segmentEntersGeometry(const Tracer& tracer, Vec3 a, Vec3 b, double* hitDist
     const std::optional<Hit> hit = tracer.intersect(ray);
     if (!hit) return false;
     if (hit->frontFace && std::abs(dot(u, hit->geometricNormal)) > tol::kLeakGrazingCos) {
-      if (hitDistance) *hitDistance = hit->t;
+      if (hitOut) *hitOut = *hit;
       return true;
     }
     ray.tMin = hit->t + tracer.rayEpsilon();
@@ -207,11 +208,21 @@ LeakRefineResult refineLeaks(const Tracer& tracer, std::span<const Vec3> probes,
     };
     std::vector<Candidate> cand;
     double maxSpacing = 0;
-    auto consider = [&](int32_t from, int32_t to, double dist) {
-      if (dist < 0 || dist <= s.minHitDistanceRelative * scale[from]) return;
-      const double offset = std::min(s.offsetRelative * scale[from], 0.5 * dist);
+    auto consider = [&](int32_t from, int32_t to, const std::optional<Hit>& hit) {
+      if (!hit || hit->t <= s.minHitDistanceRelative * scale[from]) return;
+      const double offset = std::min(s.offsetRelative * scale[from], 0.5 * hit->t);
       const Vec3 u = normalize(v[to] - v[from]);
-      cand.push_back({v[from] + u * (dist - offset), s.minSpacingRelative * scale[from]});
+      const Vec3 hitPoint = v[from] + u * hit->t;
+      Vec3 p = hitPoint - u * offset;
+      if (s.offsetAlongNormal) {
+        // Off the surface along its normal (towards `from`, the front side), stopping half-way
+        // to anything in the way.
+        const Vec3 n = hit->geometricNormal;
+        const Ray up{hitPoint, n, tracer.rayEpsilon(), 2 * offset};
+        const std::optional<Hit> block = tracer.intersect(up);
+        p = hitPoint + n * (block ? 0.5 * block->t : offset);
+      }
+      cand.push_back({p, s.minSpacingRelative * scale[from]});
       maxSpacing = std::max(maxSpacing, cand.back().spacing);
     };
     for (size_t e = 0; e < edges.size(); ++e) {

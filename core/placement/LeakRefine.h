@@ -15,7 +15,7 @@ namespace ps {
 
 struct LeakRefineSettings {
   /// Tetrahedralize -> trace -> add rounds at most; each round traces the new mesh's edges.
-  int maxIterations = 4;
+  int maxIterations = 6;
   /// Cap on the probes added over all rounds (a round that would exceed it adds the first ones).
   size_t maxAdded = 100000;
   /// A vertex asks for a probe on its side only when the hit is farther from it than this
@@ -24,9 +24,12 @@ struct LeakRefineSettings {
   /// lengths as the paper asks, here those around the vertex, so that the probes added in one
   /// round do not ask for more between themselves in the next: no dense cluster forms).
   double minHitDistanceRelative = 0.2;
-  /// The new probe is this fraction of the vertex's local scale before the hit, along the edge
-  /// (at most half-way between the vertex and the hit).
+  /// The new probe is this fraction of the vertex's local scale off the hit (at most half the
+  /// distance from the vertex to the hit; along the normal, at most half-way to what is there).
   double offsetRelative = 0.1;
+  /// Offset the new probe from the hit along the surface's normal instead of back along the
+  /// edge: the probes made for one wall then form a layer parallel to it.
+  bool offsetAlongNormal = true;
   /// A new probe is dropped when an existing or already added probe lies closer than this
   /// fraction of the vertex's local scale (several edges from one vertex hitting one wall make
   /// one probe, not six).
@@ -58,8 +61,8 @@ struct LeakRefineResult {
 
 /// True when the segment a -> b enters front-facing geometry (a ray from a towards b arrives at
 /// a surface against its normal, grazing hits within tol::kLeakGrazingCos excepted), i.e. there
-/// is the outside of a solid between a and b. Sets `hitDistance` (metres from a) when given.
-bool segmentEntersGeometry(const Tracer& tracer, Vec3 a, Vec3 b, double* hitDistance = nullptr);
+/// is the outside of a solid between a and b. Sets `hit` (its t in metres from a) when given.
+bool segmentEntersGeometry(const Tracer& tracer, Vec3 a, Vec3 b, Hit* hit = nullptr);
 
 /// Number of edges of the Delaunay tetrahedralization of `probes` that enter front-facing
 /// geometry in either direction. Throws ps::ParameterError when the probes span less than 3D.
