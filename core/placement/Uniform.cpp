@@ -14,6 +14,7 @@ namespace ps {
 namespace {
 
 constexpr double kMaxGridPoints = 50e6;
+constexpr int kMaxBudget = 1'000'000;
 
 int axisCount(double extent, double spacing) {
   return std::max(1, static_cast<int>(std::floor(extent / spacing)));
@@ -77,6 +78,10 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
                                        const ProgressFn& progress) {
   if (budget < 4)
     throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(budget));
+  // Each bisection step places a whole grid: a budget in the millions would run for hours.
+  if (budget > kMaxBudget)
+    throw ParameterError("budget: expected at most " + std::to_string(kMaxBudget) +
+                         " probes (the limit), got " + std::to_string(budget));
   const Bounds3& b = tracer.scene().bounds;
   const Vec3 e = b.extent();
   // Start from the spacing that gives `budget` grid points if every point were valid, then

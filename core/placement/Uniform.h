@@ -28,7 +28,7 @@ struct UniformBudgetResult {
 
 /// The grid spacing whose valid points number `budget` within 10 % (the closest count found when
 /// no spacing gets that close), so that methods are compared at equal probe count.
-/// Throws ps::ParameterError for a budget below 4.
+/// Throws ps::ParameterError for a budget below 4 or above 1 million.
 UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, UniformSettings settings,
                                        const ProgressFn& progress = {});
 

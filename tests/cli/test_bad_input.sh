@@ -48,7 +48,7 @@ expect_error "$m/vol-bad-magic.psv: magic: not a ProbeStudio volume" "$cli" info
 expect_error "$m/vol-huge-probe-count.psv: header: counts" "$cli" query "$m/vol-huge-probe-count.psv" --at 0,0,0
 expect_error "--spp: 100000000 samples per probe is above the limit" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --spp 100000000
 expect_error "--queries: 2000000000 is above the limit" "$cli" eval "$m/ps-empty.json" --queries 2000000000
-expect_error "limit 50 million" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2000000000 -o "$tmp/s.json"
+expect_error "budget: expected at most 1000000 probes (the limit), got 2000000000" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2000000000 -o "$tmp/s.json"
 
 # Volumes and parameters
 printf 'PSVOLUM1\001\000' >"$tmp/trunc.psv"
