@@ -16,6 +16,7 @@
 #include "core/io/ProbeSetFile.h"
 #include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
+#include "core/placement/LeakRefine.h"
 #include "core/placement/Uniform.h"
 #include "core/tessellation/Tetrahedralization.h"
 
@@ -30,6 +31,7 @@ void registerPlace(CLI::App& app) {
     double spacing = 0;
     int budget = 0;
     bool accept = false;
+    bool noLeakRefine = false;
     uint64_t seed = 1;
     RigOptions rig;
   };
@@ -42,6 +44,8 @@ void registerPlace(CLI::App& app) {
                   "Target probe count (uniform: the spacing giving it within 10 %)");
   cmd->add_flag("--accept", o->accept, "Mark the proposals accepted instead of candidates");
   cmd->add_option("--seed", o->seed, "Random seed");
+  cmd->add_flag("--no-leak-refine", o->noLeakRefine,
+                "Do not add probes (method \"leak\") where the mesh's edges cross geometry");
   cmd->add_option("-o,--output", o->out, "Probe set to write (.json)")->required();
   o->rig.add(*cmd);
   cmd->callback([o] {
@@ -78,7 +82,25 @@ void registerPlace(CLI::App& app) {
       pr.method = o->method;
       set.add(pr);
     }
+    // Leak refinement (Sukys 3.2.2) of the proposals: probes with provenance "leak", score =
+    // the edge crossings that asked for them.
+    size_t leakAdded = 0;
+    if (!o->noLeakRefine && points.size() >= 4) {
+      LeakRefineSettings ls;
+      ls.seed = o->seed;
+      const LeakRefineResult leak = refineLeaks(tracer, points, ls);
+      for (size_t i = 0; i < leak.added.size(); ++i) {
+        Probe pr;
+        pr.position = leak.added[i];
+        pr.state = o->accept ? ProbeState::Accepted : ProbeState::Candidate;
+        pr.method = "leak";
+        pr.score = leak.addedScore[i];
+        set.add(pr);
+      }
+      leakAdded = leak.added.size();
+    }
     saveProbeSet(set, o->out);
+    if (!o->noLeakRefine) std::printf("leak refinement added %zu probes\n", leakAdded);
     std::printf("placed %zu probes (method %s, spacing %.3f m) in %.2f s -> %s\n", points.size(),
                 o->method.c_str(), us.spacingMeters, secondsSince(t0), o->out.c_str());
   });
