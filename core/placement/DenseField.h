@@ -26,6 +26,7 @@ struct FieldSample {
   double backfaceFraction = 0;  ///< validity (Kontkanen & Laine sec. 5); invalid ones are dropped
   int depth = 0;                ///< octree level the sample was made at (0 = base grid)
   double cellSize = 0;          ///< edge of the octree cell the sample is the centre of, metres
+  bool refined = false;         ///< the cell was split: samples of the next level cover it
 };
 
 struct DenseFieldSettings {
@@ -37,15 +38,37 @@ struct DenseFieldSettings {
   double invalidBackfaceFraction = 0.25;
   std::vector<ImportanceVolume> importanceVolumes;  ///< empty: the scene bounds
   uint64_t seed = 1;
+  /// A cell splits when a face neighbour differs: the L2 distance between the luminances of
+  /// their 9 SH coefficients exceeds this fraction of the larger sample's norm...
+  double refineRelativeDifference = 0.3;
+  /// ... and exceeds this many standard errors of the difference (the cheap capture is noisy:
+  /// noise alone must not refine).
+  double refineSignificance = 3.0;
+  int validityRays = 32;  ///< rays per point for the validity test before capture
 };
 
 struct DenseField {
   std::vector<FieldSample> samples;
   Bounds3 domain;
   double seconds = 0;
+  double baseSpacingMeters = 0;  ///< the base grid spacing used
+  /// Cells made per level (valid or not; index = depth) and how many of them split.
+  std::vector<size_t> cellsPerLevel, splitsPerLevel;
+  /// True when a refinement level was skipped because it would have exceeded maxSamples.
+  bool refinementTruncated = false;
 };
 
-/// Builds the dense field. Deterministic for a given seed.
+/// Builds the dense field: a cell-centred base grid of cubic cells over the domain (the scene
+/// bounds, or the bounding box of the importance volumes keeping cells whose centre is in one),
+/// each centre tested for validity and the valid ones captured at samplesPerProbe; then, level by
+/// level up to maxDepth, a cell splits into 8 when a surface crosses it or when a face neighbour
+/// (at its level, or the coarser cell covering that place) differs by more than
+/// differs (samplesDiffer in the .cpp: relative SH-luminance distance above
+/// refineRelativeDifference, significant against the standard errors). Every valid sample of every
+/// level is kept (a split cell's own sample too). Deterministic for a given seed. Throws
+/// ps::ParameterError for a negative spacing, maxDepth outside [0, 8], samplesPerProbe < 1, or when
+/// the base grid alone would exceed maxSamples (a refinement level that would exceed it is skipped
+/// and refinementTruncated set); ps::Cancelled through `progress`.
 DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
                            const DenseFieldSettings& settings, const ProgressFn& progress = {});
 

@@ -1,0 +1,283 @@
+#include "core/placement/DenseField.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <string>
+#include <unordered_map>
+
+#include "core/common/Check.h"
+#include "core/common/Error.h"
+#include "core/math/Random.h"
+
+namespace ps {
+
+namespace {
+
+constexpr int kMaxDepthLimit = 8;
+constexpr int kCoordBits = 21;  ///< bits per axis of a packed cell coordinate
+
+/// A cell of the octree: integer coordinates at its depth (cell size base / 2^depth).
+struct Cell {
+  int64_t i = 0, j = 0, k = 0;
+  int depth = 0;
+};
+
+uint64_t packCell(int64_t i, int64_t j, int64_t k) {
+  return (uint64_t(i) << (2 * kCoordBits)) | (uint64_t(j) << kCoordBits) | uint64_t(k);
+}
+
+/// The 26 directions to the neighbours of a cube cell (components in {-1, 0, 1}).
+std::array<Vec3, 26> cubeDirections() {
+  std::array<Vec3, 26> d{};
+  int n = 0;
+  for (int x = -1; x <= 1; ++x)
+    for (int y = -1; y <= 1; ++y)
+      for (int z = -1; z <= 1; ++z)
+        if (x != 0 || y != 0 || z != 0) d[n++] = Vec3(x, y, z);
+  return d;
+}
+
+/// Whether two neighbouring samples differ enough to refine between them: the luminance of their
+/// SH coefficients (all 9: the mean and the directional bands, so that a shadow edge, which
+/// mostly turns the l = 1 band, counts) differs by more than `refineRelativeDifference` of the
+/// larger one (plus a floor of 1 % of the base level's mean), and by more than
+/// `refineSignificance` standard errors of the difference (noise alone must not refine).
+bool samplesDiffer(const FieldSample& a, const FieldSample& b, const DenseFieldSettings& s,
+                   double floorLum) {
+  double diffSq = 0, aSq = 0, bSq = 0, varSum = 0;
+  for (int i = 0; i < kShCoeffCount; ++i) {
+    const double la = luminance(a.sh.c[size_t(i)]), lb = luminance(b.sh.c[size_t(i)]);
+    const double sa = luminance(a.shStdError.c[size_t(i)]);
+    const double sb = luminance(b.shStdError.c[size_t(i)]);
+    diffSq += (la - lb) * (la - lb);
+    aSq += la * la;
+    bSq += lb * lb;
+    varSum += sa * sa + sb * sb;
+  }
+  const double diff = std::sqrt(diffSq);
+  const double scale = std::max(std::sqrt(aSq), std::sqrt(bSq)) + floorLum;
+  return diff > s.refineRelativeDifference * scale &&
+         diffSq > s.refineSignificance * s.refineSignificance * varSum;
+}
+
+}  // namespace
+
+DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
+                           const DenseFieldSettings& s, const ProgressFn& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!(s.baseSpacingMeters >= 0) || !std::isfinite(s.baseSpacingMeters))
+    throw ParameterError("field spacing: expected a non-negative number of metres, got " +
+                         std::to_string(s.baseSpacingMeters));
+  if (s.maxDepth < 0 || s.maxDepth > kMaxDepthLimit)
+    throw ParameterError("field depth: expected 0 to 8 refinement levels, got " +
+                         std::to_string(s.maxDepth));
+  if (s.samplesPerProbe < 1)
+    throw ParameterError("field spp: expected at least 1 sample per probe, got " +
+                         std::to_string(s.samplesPerProbe));
+  if (s.validityRays < 1)
+    throw ParameterError("field validity rays: expected at least 1, got " +
+                         std::to_string(s.validityRays));
+
+  DenseField field;
+  // The domain of interest: the importance volumes' bounding box, or the scene bounds.
+  if (s.importanceVolumes.empty()) {
+    field.domain = tracer.scene().bounds;
+  } else {
+    for (const ImportanceVolume& v : s.importanceVolumes) {
+      field.domain.extend(v.lo);
+      field.domain.extend(v.hi);
+    }
+  }
+  const Bounds3& dom = field.domain;
+  const double h0 = s.baseSpacingMeters > 0 ? s.baseSpacingMeters : dom.diagonal() / 12.0;
+  if (!(h0 > 0)) throw ParameterError("field spacing: the domain of interest is empty");
+  field.baseSpacingMeters = h0;
+  const Vec3 e = dom.extent();
+  double n[3];
+  for (int a = 0; a < 3; ++a) n[a] = std::max(1.0, std::ceil(e[a] / h0 - 1e-9));
+  const double baseCount = n[0] * n[1] * n[2];
+  if (baseCount > double(s.maxSamples) || std::max({n[0], n[1], n[2]}) >= double(1 << 12))
+    throw ParameterError("field spacing " + std::to_string(h0) + " m would make " +
+                         std::to_string(static_cast<long long>(baseCount)) +
+                         " base samples (limit " + std::to_string(s.maxSamples) +
+                         "); use a larger spacing");
+  // Cell-centred grid of cubes of edge h0, centred on the domain.
+  Vec3 gridLo;
+  for (int a = 0; a < 3; ++a) gridLo[a] = dom.center()[a] - 0.5 * n[a] * h0;
+
+  auto cellSize = [&](int depth) { return h0 / double(int64_t(1) << depth); };
+  auto cellCentre = [&](const Cell& c) {
+    const double h = cellSize(c.depth);
+    return gridLo + Vec3(c.i + 0.5, c.j + 0.5, c.k + 0.5) * h;
+  };
+  // The grid overhangs the domain by up to a cell: cells whose centre is outside it are not made
+  // (outside a closed scene's outer walls a point sees front faces only and would pass validity).
+  auto inDomain = [&](Vec3 p) {
+    if (!dom.contains(p)) return false;
+    if (s.importanceVolumes.empty()) return true;
+    for (const ImportanceVolume& v : s.importanceVolumes)
+      if (p.x >= v.lo.x && p.x <= v.hi.x && p.y >= v.lo.y && p.y <= v.hi.y && p.z >= v.lo.z &&
+          p.z <= v.hi.z)
+        return true;
+    return false;
+  };
+
+  std::vector<Cell> level;
+  for (int64_t k = 0; k < int64_t(n[2]); ++k)
+    for (int64_t j = 0; j < int64_t(n[1]); ++j)
+      for (int64_t i = 0; i < int64_t(n[0]); ++i) {
+        const Cell c{i, j, k, 0};
+        if (inDomain(cellCentre(c))) level.push_back(c);
+      }
+
+  // Per level: packed cell coordinates -> sample index (or -1 for an invalid cell).
+  std::vector<std::unordered_map<uint64_t, int64_t>> cellsAt(size_t(s.maxDepth) + 1);
+  const std::array<Vec3, 26> dirs = cubeDirections();
+  double luminanceFloor = 0;
+  const double levels = s.maxDepth + 1;
+
+  for (int depth = 0; depth <= s.maxDepth && !level.empty(); ++depth) {
+    const double h = cellSize(depth);
+    const size_t m = level.size();
+    // maxSamples guard, before any capture of this level: every cell may become a sample.
+    if (field.samples.size() + m > s.maxSamples) {
+      PS_CHECK_LT(0, depth);  // the base level was checked above
+      field.refinementTruncated = true;
+      for (FieldSample& fs : field.samples)
+        if (fs.depth == depth - 1) fs.refined = false;  // its children were not made
+      break;
+    }
+    // Validity (Kontkanen & Laine sec. 5: a point whose rays mostly see back faces is inside
+    // geometry) and whether a surface crosses the cell: rays from the centre towards the 26
+    // neighbours, each stopped at the cell's boundary (t = h / 2 for the unnormalized direction).
+    std::vector<Vec3> centres(m);
+    std::vector<char> valid(m, 0), crossed(m, 0);
+    tbb::parallel_for(size_t(0), m, [&](size_t c) {
+      const Cell& cell = level[c];
+      centres[c] = cellCentre(cell);
+      const uint64_t key = packCell(cell.i, cell.j, cell.k);
+      const uint64_t seed = streamSeed(s.seed ^ (uint64_t(depth + 1) * 0x9E3779B97F4A7C15ull), key);
+      valid[c] =
+          backfaceFraction(tracer, centres[c], s.validityRays, seed) <= s.invalidBackfaceFraction;
+      for (const Vec3& d : dirs) {
+        Ray r;
+        r.origin = centres[c];
+        r.direction = d;
+        r.tMax = 0.5 * h;
+        if (tracer.occluded(r)) {
+          crossed[c] = 1;
+          break;
+        }
+      }
+    });
+    if (progress && !progress((depth + 0.2) / levels)) throw Cancelled();
+
+    std::vector<Vec3> points;
+    std::vector<size_t> cellOfPoint;
+    for (size_t c = 0; c < m; ++c)
+      if (valid[c]) {
+        points.push_back(centres[c]);
+        cellOfPoint.push_back(c);
+      }
+    CaptureSettings cs;
+    cs.samplesPerProbe = s.samplesPerProbe;
+    cs.seed = streamSeed(s.seed, 0xF1E1Dull + uint64_t(depth));
+    cs.mode = s.mode;
+    ProgressFn captureProgress;
+    if (progress)
+      captureProgress = [&](double f) { return progress((depth + 0.2 + 0.8 * f) / levels); };
+    const std::vector<ProbeCapture> caps =
+        points.empty() ? std::vector<ProbeCapture>{}
+                       : captureProbes(tracer, rig, points, cs, captureProgress);
+
+    auto& map = cellsAt[size_t(depth)];
+    std::vector<int64_t> sampleOfCell(m, -1);
+    for (size_t q = 0; q < caps.size(); ++q) {
+      // The capture's own rays are a second, larger validity test.
+      if (caps[q].backfaceFraction > s.invalidBackfaceFraction) continue;
+      FieldSample fs;
+      fs.position = points[q];
+      fs.sh = caps[q].sh;
+      fs.shStdError = caps[q].shStdError;
+      fs.f = luminanceDirection(fs.sh);  // Chajdas sec. 2.1, eq. 1
+      fs.backfaceFraction = caps[q].backfaceFraction;
+      fs.depth = depth;
+      fs.cellSize = h;
+      sampleOfCell[cellOfPoint[q]] = int64_t(field.samples.size());
+      field.samples.push_back(fs);
+    }
+    for (size_t c = 0; c < m; ++c)
+      map[packCell(level[c].i, level[c].j, level[c].k)] = sampleOfCell[c];
+    field.cellsPerLevel.push_back(m);
+    if (depth == 0) {
+      double sum = 0;
+      size_t count = 0;
+      for (const FieldSample& fs : field.samples) {
+        sum += std::abs(luminance(fs.sh.c[0]));
+        ++count;
+      }
+      luminanceFloor = count > 0 ? 0.01 * sum / double(count) : 0.0;
+      luminanceFloor = std::max(luminanceFloor, 1e-12);
+    }
+    if (depth == s.maxDepth) {
+      field.splitsPerLevel.push_back(0);
+      break;
+    }
+
+    // The sample covering the place of cell (i, j, k) at `depth`: that cell's, or that of the
+    // coarser cell containing it when the finer level was not made there; -1 when none is valid.
+    auto coveringSample = [&](int64_t i, int64_t j, int64_t k) -> int64_t {
+      for (int d = depth; d >= 0; --d) {
+        const auto it = cellsAt[size_t(d)].find(packCell(i, j, k));
+        if (it != cellsAt[size_t(d)].end()) return it->second;
+        i >>= 1;
+        j >>= 1;
+        k >>= 1;
+      }
+      return -1;
+    };
+    const int64_t limit[3] = {int64_t(n[0]) << depth, int64_t(n[1]) << depth,
+                              int64_t(n[2]) << depth};
+    std::vector<Cell> next;
+    size_t splits = 0;
+    for (size_t c = 0; c < m; ++c) {
+      const Cell& cell = level[c];
+      bool split = crossed[c] != 0;
+      // Neighbouring samples differ (the "where neighbouring probes differ"): compare
+      // mean luminance in stops with the six face neighbours.
+      const int64_t self = sampleOfCell[c];
+      if (!split && self >= 0) {
+        const FieldSample& mine = field.samples[size_t(self)];
+        for (int axis = 0; axis < 3 && !split; ++axis)
+          for (int sign = -1; sign <= 1 && !split; sign += 2) {
+            int64_t q[3] = {cell.i, cell.j, cell.k};
+            q[axis] += sign;
+            if (q[axis] < 0 || q[axis] >= limit[axis]) continue;
+            const int64_t other = coveringSample(q[0], q[1], q[2]);
+            if (other >= 0 && samplesDiffer(mine, field.samples[size_t(other)], s, luminanceFloor))
+              split = true;
+          }
+      }
+      if (!split) continue;
+      ++splits;
+      if (self >= 0) field.samples[size_t(self)].refined = true;
+      for (int dz = 0; dz < 2; ++dz)
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) {
+            const Cell child{2 * cell.i + dx, 2 * cell.j + dy, 2 * cell.k + dz, depth + 1};
+            if (inDomain(cellCentre(child))) next.push_back(child);
+          }
+    }
+    field.splitsPerLevel.push_back(splits);
+    level = std::move(next);
+  }
+  if (progress && !progress(1.0)) throw Cancelled();
+  field.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return field;
+}
+
+}  // namespace ps

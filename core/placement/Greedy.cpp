@@ -1,0 +1,380 @@
+#include "core/placement/Greedy.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "core/common/Check.h"
+#include "core/common/Error.h"
+#include "core/tessellation/Tetrahedralization.h"
+#include "core/traversal/ProbeVolume.h"
+
+namespace ps {
+
+namespace {
+
+constexpr int kNormals = 14;
+using IrrVec = std::array<double, kNormals>;
+
+std::array<Vec3, kNormals> errorNormals() {
+  const double d = 1.0 / std::sqrt(3.0);
+  return {Vec3(1, 0, 0),  Vec3(-1, 0, 0),  Vec3(0, 1, 0),   Vec3(0, -1, 0),  Vec3(0, 0, 1),
+          Vec3(0, 0, -1), Vec3(d, d, d),   Vec3(d, d, -d),  Vec3(d, -d, d),  Vec3(d, -d, -d),
+          Vec3(-d, d, d), Vec3(-d, d, -d), Vec3(-d, -d, d), Vec3(-d, -d, -d)};
+}
+
+/// A tetrahedron's vertex set as one key (vertex indices sorted, 16 bits each).
+uint64_t tetKey(std::array<int32_t, 4> v) {
+  std::sort(v.begin(), v.end());
+  return (uint64_t(v[0]) << 48) | (uint64_t(v[1]) << 32) | (uint64_t(v[2]) << 16) | uint64_t(v[3]);
+}
+
+constexpr size_t kMaxProbes = 65535;  ///< tetKey packs vertex indices in 16 bits
+
+}  // namespace
+
+std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh) {
+  static const std::array<Vec3, kNormals> normals = errorNormals();
+  IrrVec r{};
+  for (int k = 0; k < kNormals; ++k) r[k] = luminance(sh.irradiance(normals[k]));
+  return r;
+}
+
+void checkGreedySettings(const GreedySettings& s, size_t keptCount) {
+  if (s.budget == 0 && !(s.maxError > 0))
+    throw ParameterError("greedy: give --budget N or --max-error E (or both)");
+  if (s.budget != 0 && s.budget < 4)
+    throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(s.budget));
+  if (s.budget != 0 && size_t(s.budget) < keptCount + 4)
+    throw ParameterError("budget: " + std::to_string(s.budget) + " probes leave room for fewer " +
+                         "than 4 new ones beside the " + std::to_string(keptCount) +
+                         " kept probes; expected at least " + std::to_string(keptCount + 4));
+  if (!(s.maxError >= 0) || !std::isfinite(s.maxError))
+    throw ParameterError("max-error: expected a non-negative relative error");
+  if (s.budget > int(kMaxProbes))
+    throw ParameterError("budget: at most 65535 probes for greedy, got " +
+                         std::to_string(s.budget));
+}
+
+GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,
+                         const GreedySettings& s, const ProgressFn& progress) {
+  checkGreedySettings(s, kept.size());
+  const size_t S = field.samples.size();
+  if (S < 4)
+    throw ParameterError("greedy: the dense field has " + std::to_string(S) +
+                         " valid samples; at least 4 are needed (use a smaller field spacing)");
+  const size_t budget = s.budget != 0 ? size_t(s.budget) : std::min(kMaxProbes, kept.size() + S);
+  if (budget > kMaxProbes)
+    throw ParameterError("budget: at most 65535 probes, got " + std::to_string(budget));
+
+  // Reference irradiance of every sample for the fixed normals, and the field's RMS scale.
+  std::vector<IrrVec> ref(S);
+  tbb::parallel_for(size_t(0), S,
+                    [&](size_t i) { ref[i] = greedyErrorNormalsIrradiance(field.samples[i].sh); });
+  // The variance of each sample's irradiance from its capture noise (the coefficients' standard
+  // errors, taken as independent, through E(n) = sum A_l c_lm Y_lm(n)), averaged over the
+  // normals: a sample's squared error less this estimates its true squared error, so that
+  // greedy does not chase the cheap capture's noise. (The probes' own noise, carried into the
+  // interpolation, is not subtracted: next to a light it is so large that it would hide the
+  // harm a bright probe does to its whole fan of tetrahedra.)
+  static const std::array<Vec3, kNormals> normals = errorNormals();
+  std::vector<double> noiseVar(S, 0.0);
+  tbb::parallel_for(size_t(0), S, [&](size_t i) {
+    double v = 0;
+    for (const Vec3& nrm : normals) {
+      const auto y = shBasis(nrm);
+      for (int c = 0; c < kShCoeffCount; ++c) {
+        const double t =
+            shCosineLobe(c) * y[size_t(c)] * luminance(field.samples[i].shStdError.c[size_t(c)]);
+        v += t * t;
+      }
+    }
+    noiseVar[i] = v / kNormals;
+  });
+  double refSq = 0;
+  for (const IrrVec& r : ref)
+    for (double x : r) refSq += x * x;
+  const double refScale = std::sqrt(refSq / double(S * kNormals));  // RMS sample irradiance
+  if (!(refScale > 0))
+    throw ParameterError("greedy: the dense field is black everywhere (no light reaches it)");
+
+  // The probes: kept ones first, then field samples. vals[p] = irradiance vector of probe p.
+  std::vector<Vec3> pos;
+  std::vector<IrrVec> vals;
+  std::vector<ShRgb> zeroSh;
+  for (const KeptProbe& k : kept) {
+    pos.push_back(k.position);
+    vals.push_back(greedyErrorNormalsIrradiance(k.sh));
+  }
+  GreedyResult result;
+  std::vector<char> isProbe(S, 0);
+  auto addSample = [&](size_t i, double score) {
+    isProbe[i] = 1;
+    pos.push_back(field.samples[i].position);
+    vals.push_back(ref[i]);
+    result.positions.push_back(field.samples[i].position);
+    result.sampleIndex.push_back(i);
+    result.scores.push_back(score);
+  };
+
+  // Initial samples spanning the domain: the nearest sample to each corner of the samples'
+  // bounding box (ties to the lower index); the 4 alternate corners (000, 110, 101, 011) are
+  // affinely independent and come first.
+  Bounds3 box;
+  for (const FieldSample& f : field.samples) box.extend(f.position);
+  const int cornerOrder[8] = {0, 3, 5, 6, 1, 2, 4, 7};
+  const int corners = budget >= kept.size() + 8 ? 8 : 4;
+  for (int c = 0; c < corners; ++c) {
+    const int bits = cornerOrder[c];
+    const Vec3 corner((bits & 1) ? box.hi.x : box.lo.x, (bits & 2) ? box.hi.y : box.lo.y,
+                      (bits & 4) ? box.hi.z : box.lo.z);
+    size_t best = S;
+    double bestD = std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < S; ++i) {
+      if (isProbe[i]) continue;
+      const Vec3 dv = field.samples[i].position - corner;
+      const double d = dot(dv, dv);
+      if (d < bestD) {
+        bestD = d;
+        best = i;
+      }
+    }
+    if (best == S) break;
+    bool atKept = false;
+    for (const KeptProbe& k : kept) atKept = atKept || k.position == field.samples[best].position;
+    if (atKept) {
+      isProbe[best] = 1;
+      continue;
+    }
+    addSample(best, 0.0);
+  }
+  result.initialCount = result.positions.size();
+
+  // Interpolation state of every sample. Weights: a sample stands for its octree cell's volume
+  // (0 for a split cell, whose children cover it), so that the field error is a volume average
+  // like eval's; uniform weights when the field does not record cell sizes.
+  std::vector<double> weight(S, 1.0);
+  bool sized = true;
+  for (const FieldSample& f : field.samples) sized = sized && f.cellSize > 0;
+  if (sized)
+    for (size_t i = 0; i < S; ++i) {
+      const double h = field.samples[i].cellSize;
+      weight[i] = field.samples[i].refined ? 0.0 : h * h * h;
+    }
+  double weightedRefSq = 0;
+  for (size_t i = 0; i < S; ++i)
+    for (double x : ref[i]) weightedRefSq += weight[i] * x * x / kNormals;
+  if (!(weightedRefSq > 0)) {
+    std::fill(weight.begin(), weight.end(), 1.0);
+    weightedRefSq = refSq / kNormals;
+  }
+  double weightSum = 0;
+  for (double w : weight) weightSum += w;
+  const double refRms = std::sqrt(weightedRefSq / weightSum);  // of the samples' irradiance
+  // A sample's error counts at most errorCapRelative times refRms: next to a light the
+  // irradiance (and any interpolation's error) grows without bound, over a volume so small that
+  // it would otherwise draw probe after probe while the rest of the domain stays wrong.
+  const double errSqCap = s.errorCapRelative > 0
+                              ? (s.errorCapRelative * refRms) * (s.errorCapRelative * refRms)
+                              : std::numeric_limits<double>::infinity();
+
+  struct SampleState {
+    double errSq = 0;     // mean over the normals of the squared difference
+    uint64_t tet = 0;     // tetKey of the sample's tet
+    bool outside = true;  // outside the hull (clamped), or never evaluated
+  };
+  std::vector<SampleState> state(S);
+
+  /// The mesh of a probe set and the samples whose interpolation it changes.
+  struct Trial {
+    std::vector<size_t> changed;
+    std::vector<SampleState> changedState;
+    double weightedErrSq = 0;  // sum of weight * errSq over all samples after the change
+  };
+  double currentWeightedErrSq = 0;
+  bool first = true;
+
+  // Tetrahedralizes the probes `pos` (Delaunay, Sukys 3.2.1) and interpolates the samples whose
+  // tetrahedron disappeared or that were outside the hull (whose clamping face may now be covered
+  // by a new tetrahedron); every sample on the first call. `extraProbe` (a sample index or S) is
+  // counted as a probe (error 0).
+  auto evaluate = [&](size_t extraProbe) {
+    Tetrahedralization t;
+    try {
+      t = tetrahedralize(pos);
+    } catch (const ParameterError&) {
+      throw ParameterError(
+          "greedy: the initial probes span less than 3D (the domain of interest "
+          "or the dense field is flat); use a smaller field spacing");
+    }
+    std::vector<int32_t> probeOfVertex(t.vertices.size(), -1);
+    for (size_t p = 0; p < pos.size(); ++p)
+      if (probeOfVertex[size_t(t.vertexOfInput[p])] < 0)
+        probeOfVertex[size_t(t.vertexOfInput[p])] = int32_t(p);
+    zeroSh.assign(t.vertices.size(), ShRgb{});
+    const ProbeVolume volume = buildProbeVolume(t, zeroSh);
+    Trial trial;
+    if (first) {
+      trial.changed.resize(S);
+      for (size_t i = 0; i < S; ++i) trial.changed[i] = i;
+    } else {
+      std::unordered_set<uint64_t> tets;
+      tets.reserve(volume.tets.size() * 2);
+      for (const auto& v : volume.tets) tets.insert(tetKey(v));
+      for (size_t i = 0; i < S; ++i)
+        if (state[i].outside || !tets.count(state[i].tet) || i == extraProbe)
+          trial.changed.push_back(i);
+    }
+    trial.changedState.resize(trial.changed.size());
+    tbb::parallel_for(size_t(0), trial.changed.size(), [&](size_t q) {
+      const size_t i = trial.changed[q];
+      const VolumeLocation loc = locate(volume, field.samples[i].position, -1);
+      PS_CHECK_LE(0, loc.tet);
+      const auto& tv = volume.tets[size_t(loc.tet)];
+      // Barycentric blend of the probes' irradiance (linear in SH, so equal to the irradiance of
+      // the interpolated SH: core/traversal interpolate).
+      IrrVec interp{};
+      for (int c = 0; c < 4; ++c) {
+        const size_t p = size_t(probeOfVertex[size_t(tv[size_t(c)])]);
+        const double w = double(loc.weights[size_t(c)]);
+        for (int k = 0; k < kNormals; ++k) interp[k] += w * vals[p][k];
+      }
+      double e = 0;
+      for (int k = 0; k < kNormals; ++k) e += (interp[k] - ref[i][k]) * (interp[k] - ref[i][k]);
+      SampleState& st = trial.changedState[q];
+      st.errSq = (isProbe[i] || i == extraProbe)
+                     ? 0.0
+                     : std::clamp(e / kNormals - noiseVar[i], 0.0, errSqCap);
+      st.tet = tetKey(tv);
+      st.outside = loc.outside;
+    });
+    double sum = first ? 0.0 : currentWeightedErrSq;
+    for (size_t q = 0; q < trial.changed.size(); ++q) {
+      const size_t i = trial.changed[q];
+      if (!first) sum -= weight[i] * state[i].errSq;
+      sum += weight[i] * trial.changedState[q].errSq;
+    }
+    trial.weightedErrSq = std::max(0.0, sum);
+    return trial;
+  };
+  auto commit = [&](const Trial& trial) {
+    for (size_t q = 0; q < trial.changed.size(); ++q)
+      state[trial.changed[q]] = trial.changedState[q];
+    double sum = 0;  // recomputed in full so that no rounding accumulates
+    for (size_t i = 0; i < S; ++i) sum += weight[i] * state[i].errSq;
+    currentWeightedErrSq = sum;
+    first = false;
+    result.fieldError = std::sqrt(sum / weightedRefSq);
+    result.errorHistory.push_back(result.fieldError);
+  };
+
+  commit(evaluate(S));
+  constexpr size_t kCandidateTets = 8;  // tetrahedra whose candidates are tried per addition
+  constexpr size_t kMaxCandidateTets = 32;
+  while (pos.size() < budget && !(s.maxError > 0 && result.fieldError <= s.maxError)) {
+    if (progress && !progress(s.budget != 0 ? double(pos.size()) / double(budget) : 0.0))
+      throw Cancelled();
+    // Candidates, from the tetrahedra holding the most weighted error: in each, the sample worst
+    // interpolated, and the sample nearest to the centroid of its samples (a bright or dark spot
+    // is the worst sample but spreads its value over the whole fan of tetrahedra around it; the
+    // central sample splits the tetrahedron's region instead). Ties go to the lower index.
+    struct TetGroup {
+      double weightedErrSq = 0;
+      Vec3 positionSum;
+      size_t count = 0, worst = 0;
+      size_t first = 0;
+    };
+    std::unordered_map<uint64_t, TetGroup> groups;
+    for (size_t i = 0; i < S; ++i) {
+      if (isProbe[i]) continue;
+      auto [it, inserted] = groups.try_emplace(state[i].tet);
+      TetGroup& g = it->second;
+      if (inserted) {
+        g.worst = i;
+        g.first = i;
+      }
+      g.weightedErrSq += weight[i] * state[i].errSq;
+      g.positionSum = g.positionSum + field.samples[i].position;
+      ++g.count;
+      if (state[i].errSq > state[g.worst].errSq) g.worst = i;
+    }
+    std::vector<std::pair<uint64_t, const TetGroup*>> ranked;
+    for (const auto& [key, g] : groups)
+      if (g.weightedErrSq > 0) ranked.emplace_back(key, &g);
+    if (ranked.empty()) break;  // every sample is reproduced exactly
+    std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
+      return x.second->weightedErrSq > y.second->weightedErrSq ||
+             (x.second->weightedErrSq == y.second->weightedErrSq &&
+              x.second->first < y.second->first);
+    });
+    // Each candidate is tried (the Delaunay mesh rebuilt with it); the one leaving the smallest
+    // field error is added, provided that error is not larger than before: an addition never
+    // makes the field worse (a new vertex can raise the error of its neighbours). When no
+    // candidate of the worst kCandidateTets tetrahedra helps, the next ones are tried, up to
+    // kMaxCandidateTets (once only: afterwards the first kCandidateTets).
+    size_t best = S;
+    Trial bestTrial;
+    std::vector<size_t> tried;
+    // Past the noise floor the wider search is not repeated at every addition.
+    const size_t searchTets = result.noImprovement ? kCandidateTets : kMaxCandidateTets;
+    for (size_t from = 0; from < std::min(ranked.size(), searchTets); from += kCandidateTets) {
+      std::vector<size_t> candidates;
+      auto addCandidate = [&](size_t c) {
+        if (std::find(tried.begin(), tried.end(), c) != tried.end()) return;
+        tried.push_back(c);
+        candidates.push_back(c);
+      };
+      for (size_t r = from; r < std::min(ranked.size(), from + kCandidateTets); ++r) {
+        const uint64_t key = ranked[r].first;
+        const TetGroup& g = *ranked[r].second;
+        addCandidate(g.worst);
+        const Vec3 centroid = g.positionSum * (1.0 / double(g.count));
+        size_t central = g.first;
+        double bestD = std::numeric_limits<double>::infinity();
+        for (size_t i = g.first; i < S; ++i) {
+          if (isProbe[i] || state[i].tet != key) continue;
+          const Vec3 d = field.samples[i].position - centroid;
+          if (dot(d, d) < bestD) {
+            bestD = dot(d, d);
+            central = i;
+          }
+        }
+        addCandidate(central);
+      }
+      for (size_t c : candidates) {
+        pos.push_back(field.samples[c].position);
+        vals.push_back(ref[c]);
+        Trial trial = evaluate(c);
+        pos.pop_back();
+        vals.pop_back();
+        result.reevaluations += trial.changed.size();
+        ++result.trials;
+        if (best == S || trial.weightedErrSq < bestTrial.weightedErrSq) {
+          best = c;
+          bestTrial = std::move(trial);
+        }
+      }
+      if (best != S && bestTrial.weightedErrSq <= currentWeightedErrSq) break;
+    }
+    if (best == S) break;
+    if (bestTrial.weightedErrSq > currentWeightedErrSq) {
+      // The field's noise floor: no candidate lowers the error any more. Without a budget there
+      // is nothing more to gain; with one, the least harmful candidate is added so that methods
+      // stay comparable at equal probe count.
+      if (!result.noImprovement) result.probesAtNoImprovement = pos.size();
+      result.noImprovement = true;
+      if (s.budget == 0) break;
+    }
+    addSample(best, std::sqrt(state[best].errSq) / refRms);
+    commit(bestTrial);
+  }
+  return result;
+}
+
+}  // namespace ps

@@ -1,0 +1,83 @@
+#pragma once
+// `greedy` placement (ours, error-driven; issue 5 "Methods"): start from a few field samples
+// spanning the domain, tetrahedralize, and repeatedly add the dense-field sample where the
+// tetrahedral interpolation of the current probes is worst, until a probe budget or an error
+// target is reached. Answers "with N probes, how wrong is the lighting, and where?".
+#include <array>
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "core/common/Progress.h"
+#include "core/math/Sh.h"
+#include "core/placement/DenseField.h"
+
+namespace ps {
+
+struct GreedySettings {
+  /// Total probes in the result, kept probes included; 0 = no budget (maxError must be set).
+  int budget = 0;
+  /// Stop once the field error (GreedyResult::fieldError) is at or below this; 0 = off.
+  double maxError = 0;
+  /// When > 0, a sample's error counts at most this many times the field's RMS irradiance (next
+  /// to a light the irradiance, and any interpolation's error, grows without bound over a tiny
+  /// volume). Off by default: eval's rel_rmse is dominated by exactly those places.
+  double errorCapRelative = 0;
+};
+
+/// A probe that placement keeps where it is (locked by the artist), with its captured SH.
+struct KeptProbe {
+  Vec3 position;
+  ShRgb sh;
+};
+
+struct GreedyResult {
+  /// The new probes (field samples), in the order they were added; the first ones are the
+  /// initial samples spanning the domain.
+  std::vector<Vec3> positions;
+  std::vector<size_t> sampleIndex;  ///< index into DenseField::samples of each new probe
+  /// Per new probe: its error (as in fieldError, for that one sample) when it was added; 0 for
+  /// the initial samples, added before any interpolation existed.
+  std::vector<double> scores;
+  size_t initialCount = 0;  ///< how many of `positions` are initial samples
+  /// fieldError after the initial set (index 0) and after each greedy addition (index i).
+  std::vector<double> errorHistory;
+  double fieldError = 0;  ///< at the end
+  /// True when, at some point, no candidate lowered the field error (the field's noise floor):
+  /// without a budget placement stops there; with one it goes on adding the least harmful
+  /// candidate, so errorHistory is non-increasing only up to probesAtNoImprovement.
+  bool noImprovement = false;
+  size_t probesAtNoImprovement = 0;  ///< probe count (kept included) when that first happened
+  size_t trials = 0;                 ///< meshes tried (candidates evaluated)
+  size_t reevaluations = 0;          ///< samples re-interpolated after additions (locality measure)
+};
+
+/// The irradiance luminance of `sh` for the 14 fixed normals the error is measured with (the 6
+/// axes and the 8 cube diagonals).
+std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh);
+
+/// The parameter checks of placeGreedy, to run before building a dense field for it.
+void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
+
+/// Greedy placement over `field`. The squared error of a sample is the mean over the 14 fixed
+/// normals of the squared difference between the irradiance luminance interpolated from the
+/// probes (Delaunay tetrahedra, barycentric weights, clamped to the hull outside it:
+/// core/traversal) and the sample's own, less the variance of the sample's capture noise
+/// (from shStdError), floored at 0 and capped by errorCapRelative when set. Samples are
+/// weighted by their octree cell's volume (0 for a refined cell; uniform weights when the field
+/// records no cell sizes), and fieldError = sqrt(sum w err^2 / sum w |E|^2): eval's rel_rmse
+/// on the field, as a volume average.
+/// The initial probes: the kept ones, plus the field samples nearest to the 8 corners of the
+/// field's bounding box (only the 4 alternate corners when the budget is smaller than
+/// kept + 8). Each addition tries candidates from the tetrahedra holding the most weighted
+/// error (in each, the worst sample and the sample nearest the centroid of its samples),
+/// re-tetrahedralizing with each, and keeps the one leaving the lowest field error; only the
+/// samples whose tetrahedron disappeared, or that were outside the hull, are re-interpolated.
+/// An addition never raises the field error until none can lower it (noImprovement).
+/// Throws ps::ParameterError when neither budget nor maxError is set, a budget is below 4 or
+/// below kept + 4, the field has fewer than 4 samples or is black, or the initial probes span
+/// less than 3D; ps::Cancelled through `progress`.
+GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,
+                         const GreedySettings& settings, const ProgressFn& progress = {});
+
+}  // namespace ps

@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# probestudio place: the greedy, ascent and spawn-merge methods end to end (budget, max error, provenance, stored rig),
+# locked probes of an existing set kept with --keep, and bad option combinations.
+# Usage: test_place.sh PROBESTUDIO REPO_ROOT
+set -euo pipefail
+cli="$1"; root="$2"
+tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
+scene="$root/resources/scenes/pillar-room.gltf"
+field=(--field-depth 1 --field-spp 32 --no-leak-refine)
+
+"$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g.json"
+"$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g2.json"
+cmp "$tmp/g.json" "$tmp/g2.json"  # deterministic for a seed
+"$cli" place "$scene" --method greedy --max-error 0.3 "${field[@]}" -o "$tmp/e.json"
+"$cli" place "$scene" --method ascent --budget 32 --field-spp 32 --no-leak-refine -o "$tmp/a.json"
+"$cli" place "$scene" --method spawn-merge --budget 40 --field-spp 32 --no-leak-refine -o "$tmp/sm.json"
+# Lock two probes, then place around them.
+python3 - "$tmp" <<'PY'
+import json, sys
+tmp = sys.argv[1]
+s = json.load(open(f"{tmp}/g.json"))
+assert len(s["probes"]) == 24, len(s["probes"])
+assert s["placement"]["method"] == "greedy" and s["placement"]["budget"] == 24
+assert s["rig"]["sky_radiance"] == [0.1, 0.1, 0.1], s["rig"]
+assert all(p["method"] == "greedy" for p in s["probes"])
+assert sum(p["score"] > 0 for p in s["probes"]) >= 16, "greedy additions carry their error"
+for p in s["probes"]:  # inside the room, outside the pillar (scripts/make_scenes.py)
+    x, y, z = p["position"]
+    assert -4 < x < 4 and 0 < y < 3 and -4 < z < 4, p
+    assert not (-0.6 < x < 0.6 and -0.6 < z < 0.6), p
+s["probes"][2]["locked"] = True
+s["probes"][7]["locked"] = True
+s["probes"][7]["state"] = "accepted"
+json.dump(s, open(f"{tmp}/locked.json", "w"))
+PY
+"$cli" place "$scene" --method greedy --budget 20 "${field[@]}" --keep "$tmp/locked.json" -o "$tmp/k.json"
+"$cli" place "$scene" --method uniform --budget 20 --no-leak-refine --keep "$tmp/locked.json" -o "$tmp/ku.json"
+python3 - "$tmp" <<'PY'
+import json, sys
+tmp = sys.argv[1]
+old = json.load(open(f"{tmp}/locked.json"))
+locked = [p for p in old["probes"] if p["locked"]]
+for name in ("k", "ku"):
+    s = json.load(open(f"{tmp}/{name}.json"))
+    kept = [p for p in s["probes"] if p["locked"]]
+    assert [(p["id"], p["position"], p["state"]) for p in kept] == \
+           [(p["id"], p["position"], p["state"]) for p in locked], name
+    ids = [p["id"] for p in s["probes"]]
+    assert len(set(ids)) == len(ids), name
+    new = [p for p in s["probes"] if not p["locked"]]
+    assert all(p["id"] > max(q["id"] for q in old["probes"]) for p in new), name
+k = json.load(open(f"{tmp}/k.json"))
+assert len(k["probes"]) == 20, len(k["probes"])
+assert k["rig"]["sky_radiance"] == [0.1, 0.1, 0.1], "--keep without rig options keeps the rig"
+a = json.load(open(f"{tmp}/a.json"))
+assert 28 <= len(a["probes"]) <= 36 and all(p["method"] == "ascent" for p in a["probes"])
+for p in a["probes"]:
+    x, y, z = p["position"]
+    assert -4 < x < 4 and 0 < y < 3 and -4 < z < 4 and not (-0.6 < x < 0.6 and -0.6 < z < 0.6), p
+assert any(p["score"] > 0 for p in a["probes"]), "ascent moved no probe"
+sm = json.load(open(f"{tmp}/sm.json"))
+assert 4 <= len(sm["probes"]) <= 40 and all(p["method"] == "spawn-merge" for p in sm["probes"])
+assert any(p["score"] > 0 for p in sm["probes"]), "spawn-merge spawned nothing"
+e = json.load(open(f"{tmp}/e.json"))
+assert 4 <= len(e["probes"]) < 200 and e["placement"]["method"] == "greedy"
+print("place ok")
+PY
+
+fail=0
+expect_error() {  # expect_error "expected text" cmd...
+  local expected="$1"; shift
+  if "$@" >"$tmp/out" 2>"$tmp/err"; then echo "FAIL: $* succeeded"; fail=1; return; fi
+  grep -qF -- "$expected" "$tmp/err" || { echo "FAIL: $*: $(cat "$tmp/err")"; fail=1; }
+}
+expect_error "give --budget N or --max-error E" "$cli" place "$scene" --method greedy -o "$tmp/x.json"
+expect_error "--spacing: only for --method uniform" "$cli" place "$scene" --method greedy --spacing 1 --max-error 0.2 -o "$tmp/x.json"
+expect_error "--max-error: only for --method greedy" "$cli" place "$scene" --max-error 0.1 -o "$tmp/x.json"
+expect_error "budget: expected at least 4 probes, got 3" "$cli" place "$scene" --method greedy --budget 3 -o "$tmp/x.json"
+expect_error "beside the 2 kept probes" "$cli" place "$scene" --method greedy --budget 5 --keep "$tmp/locked.json" -o "$tmp/x.json"
+expect_error "base samples (limit 200000)" "$cli" place "$scene" --method greedy --budget 8 --field-spacing 0.01 -o "$tmp/x.json"
+expect_error "field depth: expected 0 to 8" "$cli" place "$scene" --method greedy --budget 8 --field-depth 9 -o "$tmp/x.json"
+expect_error "available: ascent, chajdas, greedy, spawn-merge, uniform" "$cli" place "$scene" --method magic -o "$tmp/x.json"
+expect_error "spawn-merge needs at least 8 new probes" "$cli" place "$scene" --method spawn-merge --budget 6 -o "$tmp/x.json"
+test ! -e "$tmp/x.json" || { echo "FAIL: a failed place wrote its output"; fail=1; }
+exit $fail
