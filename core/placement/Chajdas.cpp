@@ -235,30 +235,25 @@ ChajdasResult placeChajdas(std::span<const FieldSample> samples, const ChajdasSe
         Vec3 p = samples[lit[k]].position;
         int32_t hint = -1;
         std::vector<size_t> path;  // nearest samples, consecutive repeats collapsed
-        // f's direction at q. For the step's start (nearest != null), a q outside the hull of
-        // the lit samples is moved onto it (the particle stays where the field is known).
-        auto direction = [&](Vec3& q, size_t* nearest) {
+        // f's direction at q (zero where f vanishes); sets the nearest sample (the vertex with
+        // the largest weight) and whether q lies outside the hull of the lit samples.
+        auto direction = [&](Vec3 q, size_t& nearest, bool& outside) {
           const VolumeLocation loc = locate(field, q, hint);
           hint = loc.tet;
           const auto& tet = field.tets[size_t(loc.tet)];
-          if (nearest) {
-            const int w =
-                int(std::max_element(loc.weights.begin(), loc.weights.end()) - loc.weights.begin());
-            *nearest = sampleOfVertex[size_t(tet[w])];
-            if (loc.outside) {
-              Vec3 onHull;
-              for (int j = 0; j < 4; ++j) onHull += field.position(tet[j]) * loc.weights[j];
-              q = onHull;
-            }
-          }
+          const int w =
+              int(std::max_element(loc.weights.begin(), loc.weights.end()) - loc.weights.begin());
+          nearest = sampleOfVertex[size_t(tet[w])];
+          outside = loc.outside;
           const Vec3 f = luminanceDirection(interpolate(field, loc));
           const double len = length(f);
           return len > 0 ? f / len : Vec3{};
         };
         size_t sink = lit[k];
+        size_t nearest = n;
+        bool outside = false;
+        Vec3 d1 = direction(p, nearest, outside);
         for (int step = 0; step < s.maxSteps; ++step) {
-          size_t nearest = n;
-          const Vec3 d1 = direction(p, &nearest);
           if (path.empty() || path.back() != nearest) {
             const auto seen = std::find(path.begin(), path.end(), nearest);
             if (seen != path.end()) {  // a closed loop: the sink
@@ -274,20 +269,23 @@ ChajdasResult placeChajdas(std::span<const FieldSample> samples, const ChajdasSe
             path.clear();
             break;
           }
-          Vec3 mid = p + d1 * (0.5 * h);
-          const Vec3 d2 = direction(mid, nullptr);  // RK2 (midpoint)
-          const Vec3 next = max(box.lo, min(box.hi, p + (d2 == Vec3{} ? d1 : d2) * h));
-          // Pushed against the hull (f points out of the sampled space): the particle has
-          // stopped, at a sink on the boundary.
-          Vec3 probe = next;
-          size_t unused = n;
-          direction(probe, &unused);
-          if (length(probe - p) < 0.1 * h) {
+          size_t midNearest = n;
+          bool midOutside = false;
+          Vec3 d2 = direction(p + d1 * (0.5 * h), midNearest, midOutside);  // RK2 (midpoint)
+          if (midOutside || d2 == Vec3{}) d2 = d1;
+          const Vec3 next = p + d2 * h;
+          size_t nextNearest = n;
+          bool nextOutside = false;
+          const Vec3 nextD1 = direction(next, nextNearest, nextOutside);
+          if (nextOutside) {
+            // f leads out of the sampled space: the particle stops at a sink on its boundary.
             sink = nearest;
             path.clear();
             break;
           }
-          p = probe;
+          p = next;
+          d1 = nextD1;
+          nearest = nextNearest;
         }
         if (!path.empty())  // step cap: the brightest of the last samples visited
           sink = *std::max_element(path.end() - std::min<ptrdiff_t>(8, ptrdiff_t(path.size())),
