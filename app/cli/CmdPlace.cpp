@@ -222,10 +222,16 @@ std::vector<Proposal> placeWithSpawnMerge(PlaceContext& c) {
 /// by probe matching, one representative each; k-means over unlit samples (Chajdas.h).
 std::vector<Proposal> placeWithChajdas(PlaceContext& c) {
   const PlaceOpts& o = c.opts;
-  if (o.spacing != 0 || o.budget != 0 || o.maxError != 0)
+  if (o.spacing != 0 || o.maxError != 0)
     throw ParameterError(
-        "--spacing, --budget, --max-error: not for --method chajdas (its probe count follows "
-        "from --aggressiveness)");
+        "--spacing, --max-error: not for --method chajdas (its probe count follows from "
+        "--aggressiveness, or --budget)");
+  const int budget = o.budget - int(c.kept.size());
+  if (o.budget != 0 && c.kept.empty() && budget < 4)
+    throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(budget));
+  if (o.budget != 0 && budget < 4)
+    throw ParameterError("--budget: " + std::to_string(o.budget) + " leaves fewer than 4 new " +
+                         "probes beside the " + std::to_string(c.kept.size()) + " kept ones");
   DenseFieldSettings fs;
   fs.baseSpacingMeters = o.fieldSpacing;
   fs.maxDepth = o.fieldDepth;
@@ -241,7 +247,15 @@ std::vector<Proposal> placeWithChajdas(PlaceContext& c) {
     throw ParameterError("--aggressiveness: expected a positive number, got " +
                          std::to_string(cs.aggressiveness));
   const DenseField field = buildDenseField(c.tracer, c.set.rig, fs, terminalProgress("field"));
-  const ChajdasResult r = placeChajdas(field.samples, cs);
+  ChajdasResult r;
+  if (o.budget != 0) {
+    ChajdasBudgetResult b = placeChajdasBudget(field.samples, budget, cs);
+    std::printf("chajdas: --budget %d gives aggressiveness %.3f\n", o.budget, b.aggressiveness);
+    r = std::move(b.result);
+    c.set.placement.budget = o.budget;
+  } else {
+    r = placeChajdas(field.samples, cs);
+  }
   std::printf(
       "chajdas: %zu field samples (%zu unlit), %zu sinks, %zu candidate clusters, %zu probes "
       "(%.2f s)\n",

@@ -475,4 +475,31 @@ ChajdasResult placeChajdas(std::span<const FieldSample> samples, const ChajdasSe
   return r;
 }
 
+ChajdasBudgetResult placeChajdasBudget(std::span<const FieldSample> samples, int budget,
+                                       ChajdasSettings s) {
+  if (budget < 4)
+    throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(budget));
+  // More aggressiveness, fewer probes (not strictly: the clusters change discretely).
+  double lo = std::log(0.02), hi = std::log(50.0);
+  ChajdasBudgetResult best;
+  double bestMiss = std::numeric_limits<double>::infinity();
+  for (int iter = 0; iter < 24; ++iter) {
+    s.aggressiveness = std::exp(0.5 * (lo + hi));
+    ChajdasResult r = placeChajdas(samples, s);
+    const double count = double(r.probes.size());
+    const double miss = std::abs(count - budget) / budget;
+    if (miss < bestMiss) {
+      bestMiss = miss;
+      best.result = std::move(r);
+      best.aggressiveness = s.aggressiveness;
+    }
+    if (bestMiss <= 0.1 || hi - lo < 1e-3) break;
+    if (count > budget)
+      lo = std::log(s.aggressiveness);
+    else
+      hi = std::log(s.aggressiveness);
+  }
+  return best;
+}
+
 }  // namespace ps

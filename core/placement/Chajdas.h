@@ -59,4 +59,15 @@ double probeMatchDistance(const ShRgb& a, const ShRgb& b, double log2LumLo, doub
 ChajdasResult placeChajdas(std::span<const FieldSample> samples,
                            const ChajdasSettings& settings = {});
 
+struct ChajdasBudgetResult {
+  ChajdasResult result;
+  double aggressiveness = 0;  ///< the value that gave it
+};
+
+/// placeChajdas at the aggressiveness whose probe count is `budget` within 10 % (bisection on
+/// log A in [0.02, 50]; the closest count found when none gets that close), so that methods are
+/// compared at equal probe count. Throws ps::ParameterError for a budget below 4.
+ChajdasBudgetResult placeChajdasBudget(std::span<const FieldSample> samples, int budget,
+                                       ChajdasSettings settings = {});
+
 }  // namespace ps

@@ -14,6 +14,7 @@ grep -q "candidate clusters" "$tmp/out.txt"
 cmp "$tmp/c1.json" "$tmp/c1b.json"  # deterministic for a seed
 "$cli" place "$scene" --method chajdas --aggressiveness 2 "${field[@]}" --no-leak-refine -o "$tmp/c2.json"
 "$cli" place "$scene" --method chajdas --aggressiveness 0.5 "${field[@]}" --no-leak-refine -o "$tmp/c05.json"
+"$cli" place "$scene" --method chajdas --budget 30 "${field[@]}" --no-leak-refine -o "$tmp/cb.json"
 python3 - "$tmp" <<'PY'
 import json, sys
 tmp = sys.argv[1]
@@ -28,6 +29,8 @@ for p in c1["probes"]:  # inside the room, outside the pillar
 n2 = len(json.load(open(f"{tmp}/c2.json"))["probes"])
 n05 = len(json.load(open(f"{tmp}/c05.json"))["probes"])
 assert 1 <= n2 < n05, (n2, n05)
+nb = len(json.load(open(f"{tmp}/cb.json"))["probes"])
+assert 24 <= nb <= 36, f"--budget 30 gave {nb}"
 print("chajdas ok:", len(c1["probes"]), "probes;", n05, "at aggressiveness 0.5,", n2, "at 2")
 PY
 
@@ -38,6 +41,7 @@ expect_error() {  # expect_error "expected text" cmd...
   grep -qF -- "$expected" "$tmp/err" || { echo "FAIL: $*: $(cat "$tmp/err")"; fail=1; }
 }
 expect_error "--aggressiveness: expected a positive number" "$cli" place "$scene" --method chajdas --aggressiveness 0 -o "$tmp/x.json"
-expect_error "not for --method chajdas" "$cli" place "$scene" --method chajdas --budget 20 -o "$tmp/x.json"
+expect_error "not for --method chajdas" "$cli" place "$scene" --method chajdas --spacing 1 -o "$tmp/x.json"
+expect_error "budget: expected at least 4 probes, got 3" "$cli" place "$scene" --method chajdas --budget 3 -o "$tmp/x.json"
 test ! -e "$tmp/x.json" || { echo "FAIL: a failed place wrote its output"; fail=1; }
 exit $fail

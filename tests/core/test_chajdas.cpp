@@ -202,6 +202,12 @@ TEST(Chajdas, PillarRoomFromACapturedField) {
     EXPECT_LE(backfaceFraction(tracer, p.position, 128, 3), 0.25);
   }
   EXPECT_LT(nearest, 2 * us.spacingMeters);
+  // --budget: the aggressiveness giving 40 probes within 10 % (or the closest count found).
+  const ChajdasBudgetResult b = placeChajdasBudget(field, 40);
+  std::printf("pillar-room budget 40: %zu probes at aggressiveness %.3f\n", b.result.probes.size(),
+              b.aggressiveness);
+  EXPECT_NEAR(double(b.result.probes.size()), 40.0, 8.0);
+  EXPECT_THROW(placeChajdasBudget(field, 3), ParameterError);
   // Both sides of the pillar (x in [-0.6, 0.6], z in [-0.6, 0.6]) get probes.
   bool east = false, west = false;
   for (const ChajdasProbe& p : r.probes) {
