@@ -143,6 +143,9 @@ LightingRig LightingPanel::rigFromWidgets() const {
   rig.lights.insert(rig.lights.end(), pointLights_.begin(), pointLights_.end());
   if (skyBox_->isChecked())
     rig.skyRadiance = Rgb(sky_[0]->value(), sky_[1]->value(), sky_[2]->value());
+  // The panel does not edit the environment map (--env-map): keep the set's.
+  rig.envMapPath = doc_->probeSet().rig.envMapPath;
+  rig.envMap = doc_->probeSet().rig.envMap;
   return rig;
 }
 

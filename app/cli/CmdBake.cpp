@@ -57,6 +57,7 @@ void registerBake(CLI::App& app) {
     const ProbeSet set = loadProbeSet(o->set);
     if (set.scenePath.empty()) throw FileError(o->set, "scene", "the probe set names no scene");
     const Scene scene = loadScene(set.scenePath);
+    for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
     const Tracer tracer(scene);
     BakeSettings bs;
     bs.capture.samplesPerProbe = o->spp;

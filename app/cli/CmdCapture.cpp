@@ -10,6 +10,7 @@
 #include "app/cli/Common.h"
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
+#include "core/capture/VirtualOffset.h"
 #include "core/common/Error.h"
 #include "core/eval/Evaluate.h"
 #include "core/io/JsonFields.h"
@@ -26,9 +27,10 @@ using ojson = nlohmann::ordered_json;
 void registerCapture(CLI::App& app) {
   struct Opts {
     std::string scene, at, pointsFile, mode = "full";
-    int spp = 256;
+    int spp = 256, maxSpp = 65536;
+    double targetError = 0;
     uint64_t seed = 1;
-    bool json = false;
+    bool json = false, histograms = false, virtualOffset = false;
     RigOptions rig;
   };
   auto o = std::make_shared<Opts>();
@@ -38,21 +40,43 @@ void registerCapture(CLI::App& app) {
   auto* at = cmd->add_option("--at", o->at, "One point X,Y,Z");
   auto* pf = cmd->add_option("--points", o->pointsFile, "File with one \"x y z\" per line");
   at->excludes(pf);
-  cmd->add_option("--spp", o->spp, "Samples per probe")->check(CLI::PositiveNumber);
+  auto* spp = cmd->add_option("--spp", o->spp, "Samples per probe")->check(CLI::PositiveNumber);
+  auto* target =
+      cmd->add_option("--target-error", o->targetError,
+                      "Adaptive: stop each probe when the relative standard error of its "
+                      "irradiance is at most E (e.g. 0.02), or at --max-spp")
+          ->check(CLI::Range(1e-6, 1.0));
+  target->excludes(spp);
+  cmd->add_option("--max-spp", o->maxSpp, "Adaptive: most samples per probe (default 65536)")
+      ->check(CLI::Range(64, 1 << 24))
+      ->needs(target);
   cmd->add_option("--mode", o->mode, "full or indirect")
       ->check(CLI::IsMember({"full", "indirect"}));
   cmd->add_option("--seed", o->seed, "Random seed");
   cmd->add_flag("--json", o->json, "Print a JSON array (the only output format for now)");
+  cmd->add_flag("--virtual-offset", o->virtualOffset,
+                "Move points inside geometry (more than 25 % of 64 rays hit back faces) to the "
+                "nearest valid point outside before capturing; \"position\" is where it was "
+                "captured");
+  cmd->add_flag("--histograms", o->histograms,
+                "Add luminance_histogram and hue_histogram (layout in core/capture/Capture.h) "
+                "to each object");
   o->rig.add(*cmd);
   cmd->callback([o] {
     if (o->at.empty() && o->pointsFile.empty())
       throw ParameterError("capture: give --at X,Y,Z or --points FILE");
-    const std::vector<Vec3> pts =
+    std::vector<Vec3> pts =
         o->at.empty() ? readPointsFile(o->pointsFile) : std::vector<Vec3>{parseVec3(o->at, "--at")};
     const Scene scene = loadScene(o->scene);
+    for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
     const Tracer tracer(scene);
+    if (o->virtualOffset)
+      for (Vec3& p : pts)
+        if (const auto q = ps::virtualOffset(tracer, p, VirtualOffsetSettings{})) p = *q;
     CaptureSettings cs;
     cs.samplesPerProbe = o->spp;
+    cs.targetRelativeError = o->targetError;
+    cs.maxSamplesPerProbe = o->maxSpp;
     cs.seed = o->seed;
     cs.mode = o->mode == "indirect" ? CaptureMode::IndirectOnly : CaptureMode::Full;
     const auto caps = captureProbes(tracer, o->rig.build(), pts, cs);
@@ -75,9 +99,12 @@ void registerCapture(CLI::App& app) {
       for (const auto& [name, n] : axes) irr[name] = rgbJson(c.sh.irradiance(n));
       o2["irradiance"] = irr;
       o2["validity"] = 1.0 - c.backfaceFraction;
-      o2["backface_fraction"] = c.backfaceFraction;
       o2["samples"] = c.samples;
       o2["seconds"] = c.seconds;
+      if (o->histograms) {
+        o2["luminance_histogram"] = c.luminanceHistogram;
+        o2["hue_histogram"] = c.hueHistogram;
+      }
       out.push_back(o2);
     }
     std::cout << out.dump(2) << "\n";

@@ -64,6 +64,7 @@ void registerEval(CLI::App& app) {
       rig = set->rig;
     }
     const Scene scene = loadScene(scenePath);
+    for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
     const Tracer tracer(scene);
     if (set) {
       BakeSettings bs;

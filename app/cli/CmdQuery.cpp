@@ -59,7 +59,13 @@ void registerQuery(CLI::App& app) {
     ojson out = ojson::array();
     int32_t hint = -1;
     for (size_t i = 0; i < pts.size(); ++i) {
-      if (length(normals[i]) == 0) throw ParameterError("normal " + std::to_string(i) + " is zero");
+      if (length(normals[i]) == 0) {
+        if (o->normalsFile.empty())
+          throw ParameterError("--normal: " + o->normal +
+                               " has zero length; expected a non-zero normal");
+        throw FileError(o->normalsFile, "normal " + std::to_string(i),
+                        "has zero length; expected a non-zero normal");
+      }
       const VolumeLocation loc = locate(vf.volume, pts[i], hint);
       hint = loc.tet;
       ojson q;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include "core/common/Error.h"
@@ -71,6 +72,9 @@ void RigOptions::add(CLI::App& cmd) {
                  "Sun: DX,DY,DZ,E[,R,G,B] — direction from the scene towards the sun, irradiance "
                  "(W/m^2) on a surface facing it, optional colour; repeatable");
   cmd.add_option("--env", env, "Sky: constant radiance R,G,B (W/m^2/sr)");
+  cmd.add_option("--env-map", envMap,
+                 "Sky: equirectangular .hdr/.exr radiance map (W/m^2/sr, +Y up, centre column "
+                 "towards -Z), added to --env");
   cmd.add_option("--point", points,
                  "Point light: X,Y,Z,I[,R,G,B] — position (m), radiant intensity (W/sr), optional "
                  "colour; repeatable");
@@ -112,6 +116,11 @@ LightingRig RigOptions::build() const {
     if (v[0] < 0 || v[1] < 0 || v[2] < 0)
       throw ParameterError("--env: the radiance must not be negative");
     rig.skyRadiance = {v[0], v[1], v[2]};
+  }
+  if (!envMap.empty()) {
+    rig.envMapPath = envMap;
+    rig.envMap = loadEnvironmentMap(envMap);  // a bad file fails here, naming it
+    for (const std::string& w : rig.envMap->warnings) std::cerr << "warning: " << w << "\n";
   }
   return rig;
 }

@@ -15,10 +15,10 @@
 
 namespace ps::cli {
 
-/// Lighting-rig options shared by capture and place: --sun, --env, --point.
+/// Lighting-rig options shared by capture and place: --sun, --env, --env-map, --point.
 struct RigOptions {
   std::vector<std::string> suns, points;
-  std::string env;
+  std::string env, envMap;
   void add(CLI::App& cmd);
   /// Throws ps::ParameterError naming the option and what was expected.
   LightingRig build() const;

@@ -9,8 +9,20 @@
 //
 // Radiance along a ray: a Lambertian path tracer with next-event estimation (NEE) to the delta
 // lights (sun, point, spot), cosine-weighted bounces, Russian roulette by throughput after
-// kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces and the
-// constant sky are reached by sampled rays only (no NEE for them), so nothing is counted twice.
+// kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces, the
+// constant sky and the environment map are reached by sampled rays only (no NEE for them: the
+// probe's uniform directions and the cosine-weighted bounces sample them without bias), so
+// nothing is counted twice. Albedo and emission are the material's factors times its textures
+// at the hit's TEXCOORD_0 (Scene::albedoAt, emissionAt); cut-out (alphaMode MASK) points are
+// never hit (the tracer's Embree filter).
+//
+// Adaptive sampling (CaptureSettings::targetRelativeError): after every kAdaptiveBatchSamples
+// rays the standard error of each axis irradiance's luminance is estimated from the per-ray
+// estimates L(w) sum_l A_l (2l+1) P_l(n . w) (the SH L2 projection of one ray folded with the
+// Ramamoorthi-Hanrahan convolution, so it is exactly the variance of the irradiance the probe
+// reports); the probe stops when the largest, relative to its brightest axis, is at most the
+// target. The decision uses only the probe's own samples: deterministic for any thread count.
+// The same rays feed the luminance and hue histograms (Capture.h gives the layout).
 // A single-sided surface seen from behind ends the path with zero radiance (the inside of a
 // solid is black); the first hit from the probe counts towards backfaceFraction.
 //
@@ -120,6 +132,7 @@ class PathTracer {
         scene_(tracer.scene()),
         lights_(allLights(tracer.scene(), rig)),
         sky_(rig.skyRadiance),
+        env_(environmentOf(rig)),
         eps_(tracer.rayEpsilon()) {
     // O(1) here: traceRadiance builds one per ray. Material indices are checked per hit.
     PS_CHECK_EQ(scene_.triangleMaterial.size(), scene_.triangleCount());
@@ -127,6 +140,14 @@ class PathTracer {
 
   const std::vector<Light>& lights() const { return lights_; }
   Rgb sky() const { return sky_; }
+  /// True when rays that leave the scene can bring light (constant sky or a non-black map).
+  bool hasSky() const {
+    if (!sky_.isBlack()) return true;
+    if (!env_) return false;
+    for (float v : env_->rgb)
+      if (v > 0) return true;
+    return false;
+  }
 
   /// Also checks every triangle's material index (once per capture).
   bool hasEmissiveSurface() const {
@@ -159,7 +180,9 @@ class PathTracer {
     for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
       const auto hit = tracer_.intersect(Ray{o, d});
       if (!hit) {
-        L += beta * sky_;  // escaped: the constant sky
+        // Escaped: the constant sky plus the environment map (sampled by the cosine-weighted
+        // bounce directions and, from the probe, the uniform sphere directions: unbiased).
+        L += beta * (env_ ? sky_ + env_->radiance(d) : sky_);
         break;
       }
       const uint32_t materialIndex = scene_.triangleMaterial[hit->triangle];
@@ -170,8 +193,12 @@ class PathTracer {
         if (bounce == 0 && firstHitBackface) *firstHitBackface = true;
         break;
       }
-      L += beta * m.emission;  // emission, reached by sampled rays only
-      if (m.albedo.isBlack()) break;
+      // Emission, reached by sampled rays only; factor times texture at the hit's UV0.
+      if (!m.emission.isBlack())
+        L +=
+            beta * (m.isTextured() ? scene_.emissionAt(hit->triangle, hit->u, hit->v) : m.emission);
+      const Rgb albedo = m.isTextured() ? scene_.albedoAt(hit->triangle, hit->u, hit->v) : m.albedo;
+      if (albedo.isBlack()) break;
 
       // Shade on the side the ray arrived from.
       const Vec3 n = hit->frontFace ? hit->geometricNormal : -hit->geometricNormal;
@@ -184,14 +211,14 @@ class PathTracer {
         const double cosTheta = dot(n, a->directionToLight);
         if (cosTheta > 0) e += a->irradiance * cosTheta;
       }
-      const Rgb brdfPi = m.albedo * (1.0 / kPi);
+      const Rgb brdfPi = albedo * (1.0 / kPi);
       L += beta * brdfPi * e;
 
       // Lambertian bounce, cosine-weighted: f cos / pdf = albedo.
       const double u1 = uniform01(rng), u2 = uniform01(rng);
       d = cosineHemisphere(n, u1, u2);
       o = p;
-      beta = beta * m.albedo;
+      beta = beta * albedo;
       if (bounce + 1 >= kRussianRouletteStartBounce) {
         const double q = std::min(1.0, beta.maxComponent());  // survival by throughput
         if (!(q > 0) || uniform01(rng) >= q) break;
@@ -218,27 +245,75 @@ class PathTracer {
   const Scene& scene_;
   std::vector<Light> lights_;
   Rgb sky_;
+  std::shared_ptr<const EnvironmentMap> env_;
   double eps_;
 };
 
-/// Running mean and variance (Welford) of the 27 per-sample estimators 4 pi L Y_i.
+/// Sums and sums of squares of the 27 per-sample estimators 4 pi L Y_i (in double: the
+/// cancellation in sumSq - sum^2 / n loses ~1e-16 of the second moment, far below any standard
+/// error we report; a negative difference is clamped to 0).
 struct ShAccumulator {
-  std::array<Rgb, kShCoeffCount> mean{};
-  std::array<Rgb, kShCoeffCount> m2{};
+  std::array<Rgb, kShCoeffCount> sum{};
+  std::array<Rgb, kShCoeffCount> sumSq{};
   int n = 0;
 
   void add(Vec3 d, Rgb radiance) {
     ++n;
     const auto y = shBasis(d);
-    const double inv = 1.0 / n;
+    const Rgb l = radiance * (4.0 * kPi);
     for (int i = 0; i < kShCoeffCount; ++i) {
-      const Rgb x = radiance * (4.0 * kPi * y[i]);
-      for (int ch = 0; ch < 3; ++ch) {
-        const double delta = x[ch] - mean[i][ch];
-        mean[i][ch] += delta * inv;
-        m2[i][ch] += delta * (x[ch] - mean[i][ch]);
-      }
+      const Rgb x = l * y[i];
+      sum[i] += x;
+      sumSq[i] += x * x;
     }
+  }
+  Rgb mean(int i) const { return n > 0 ? sum[i] / n : Rgb{}; }
+  /// The standard error of mean(i) per channel: sample standard deviation / sqrt(n).
+  Rgb standardError(int i) const {
+    Rgb se;
+    if (n < 2) return se;
+    for (int ch = 0; ch < 3; ++ch) {
+      const double var = (sumSq[i][ch] - sum[i][ch] * sum[i][ch] / n) / (n - 1);
+      se[ch] = std::sqrt(std::max(0.0, var) / n);
+    }
+    return se;
+  }
+};
+
+/// Running mean and variance (Welford) of the per-ray estimates of the luminance of the L2
+/// irradiance for the six axis normals (+x, -x, +y, -y, +z, -z).
+struct AxisIrradianceAccumulator {
+  std::array<double, 6> mean{};
+  std::array<double, 6> m2{};
+  int n = 0;
+
+  void add(Vec3 d, double lum) {
+    ++n;
+    const double inv = 1.0 / n;
+    const double cs[3] = {d.x, d.y, d.z};
+    for (int k = 0; k < 6; ++k) {
+      const double c = (k % 2 == 0 ? 1.0 : -1.0) * cs[k / 2];
+      // sum_l A_l (2l + 1) P_l(c), A = (pi, 2pi/3, pi/4) (Ramamoorthi & Hanrahan 2001, eq. 8)
+      const double x = lum * kPi * (1.0 + 2.0 * c + 0.625 * (3.0 * c * c - 1.0));
+      const double delta = x - mean[size_t(k)];
+      mean[size_t(k)] += delta * inv;
+      m2[size_t(k)] += delta * (x - mean[size_t(k)]);
+    }
+  }
+
+  /// CaptureSettings' relative error, with `direct` the delta lights' irradiance per axis.
+  double relativeError(const std::array<double, 6>& direct) const {
+    if (n < 2) return std::numeric_limits<double>::infinity();
+    double brightest = 0;
+    for (int k = 0; k < 6; ++k)
+      brightest = std::max(brightest, mean[size_t(k)] + direct[size_t(k)]);
+    double worst = 0;
+    for (int k = 0; k < 6; ++k) {
+      const double se = std::sqrt(std::max(0.0, m2[size_t(k)] / (n - 1)) / n);
+      worst = std::max(worst, se);
+    }
+    if (worst == 0) return 0;
+    return brightest > 0 ? worst / brightest : std::numeric_limits<double>::infinity();
   }
 };
 
@@ -248,6 +323,32 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+int luminanceBin(Rgb radiance) {
+  const double y = luminance(radiance);
+  if (!(y >= std::ldexp(1.0, kLuminanceLog2Min))) return 0;  // black and NaN too
+  if (!std::isfinite(y)) return kLuminanceBins - 1;
+  const int k = std::ilogb(y) - kLuminanceLog2Min + 1;  // ilogb: floor(log2 y), exactly
+  return std::clamp(k, 1, kLuminanceBins - 1);
+}
+
+int hueBin(Rgb c) {
+  const double mx = c.maxComponent();
+  const double mn = std::min(c.r, std::min(c.g, c.b));
+  if (!(mx > 0) || mx - mn <= 1e-6 * mx) return -1;
+  // HSV hue in degrees (Smith 1978).
+  const double d = mx - mn;
+  double h;
+  if (mx == c.r) {
+    h = 60.0 * ((c.g - c.b) / d);
+    if (h < 0) h += 360.0;
+  } else if (mx == c.g)
+    h = 60.0 * ((c.b - c.r) / d + 2.0);
+  else
+    h = 60.0 * ((c.r - c.g) / d + 4.0);
+  const int k = static_cast<int>(h / (360.0 / kHueBins));
+  return std::clamp(k, 0, kHueBins - 1);
+}
+
 std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig& rig,
                                         std::span<const Vec3> points,
                                         const CaptureSettings& settings,
@@ -255,21 +356,34 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
   if (settings.samplesPerProbe < 1)
     throw ParameterError("capture: samplesPerProbe is " + std::to_string(settings.samplesPerProbe) +
                          ", expected at least 1");
+  const bool adaptive = settings.targetRelativeError > 0;
+  if (!(settings.targetRelativeError >= 0) || !std::isfinite(settings.targetRelativeError))
+    throw ParameterError("capture: targetRelativeError is " +
+                         std::to_string(settings.targetRelativeError) +
+                         ", expected 0 (fixed samples) or a positive fraction");
+  if (adaptive && (settings.minSamplesPerProbe < 2 ||
+                   settings.maxSamplesPerProbe < settings.minSamplesPerProbe))
+    throw ParameterError("capture: adaptive sampling needs 2 <= minSamplesPerProbe (" +
+                         std::to_string(settings.minSamplesPerProbe) + ") <= maxSamplesPerProbe (" +
+                         std::to_string(settings.maxSamplesPerProbe) + ")");
   if (settings.threads < 0)
     throw ParameterError("capture: threads is " + std::to_string(settings.threads) +
                          ", expected 0 (all) or a positive count");
   const PathTracer pt(tracer, rig);
-  if (pt.lights().empty() && pt.sky().isBlack() && !pt.hasEmissiveSurface())
+  if (pt.lights().empty() && !pt.hasSky() && !pt.hasEmissiveSurface())
     throw ParameterError(
         "the scene has no light: it brings no punctual light and no emissive surface, and the "
-        "rig is empty; add a sun (--sun DX,DY,DZ,E) or a sky (--env R,G,B)");
+        "rig is empty (or its environment map is black); add a sun (--sun DX,DY,DZ,E), a sky "
+        "(--env R,G,B) or an environment map (--env-map FILE.hdr)");
   for (size_t i = 0; i < points.size(); ++i)
     if (!isFinite(points[i]))
       throw ParameterError("capture: probe " + std::to_string(i) +
                            " has a non-finite position, expected finite coordinates");
 
   std::vector<ProbeCapture> out(points.size());
-  const int n = settings.samplesPerProbe;
+  const int maxSamples = adaptive ? settings.maxSamplesPerProbe : settings.samplesPerProbe;
+  const std::array<Vec3, 6> axes = {Vec3{1, 0, 0},  Vec3{-1, 0, 0}, Vec3{0, 1, 0},
+                                    Vec3{0, -1, 0}, Vec3{0, 0, 1},  Vec3{0, 0, -1}};
   std::atomic<bool> cancelled{false};
   size_t done = 0;  // guarded by progressMutex
   std::mutex progressMutex;
@@ -279,10 +393,22 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
     const Vec3 p = points[probe];
     uint64_t rng = streamState(settings.seed, probe);
     const double offset[2] = {uniform01(rng), uniform01(rng)};
+    // The delta lights' direct light: added to the SH in Full mode, and part of the irradiance
+    // the relative error is measured against.
+    const ShRgb direct = settings.mode == CaptureMode::Full ? pt.directDeltaSh(p) : ShRgb{};
+    std::array<double, 6> directLum{};
+    for (size_t k = 0; k < 6; ++k) directLum[k] = luminance(direct.irradiance(axes[k]));
     ShAccumulator acc;
+    AxisIrradianceAccumulator irr;
+    ProbeCapture& c = out[probe];
+    std::array<double, kHueBins> hue{};
     int backfaces = 0;
-    for (int j = 0; j < n; ++j) {
+    int j = 0;
+    for (; j < maxSamples; ++j) {
       if (j % kCancelPollSamples == kCancelPollSamples - 1 && cancelled.load()) return;
+      if (adaptive && j >= settings.minSamplesPerProbe && j % kAdaptiveBatchSamples == 0 &&
+          irr.relativeError(directLum) <= settings.targetRelativeError)
+        break;
       double u, v;
       r2Point(static_cast<uint64_t>(j), offset, u, v);
       const Vec3 dir = uniformSphere(u, v);
@@ -290,19 +416,26 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
       const Rgb L = pt.radiance(p, dir, rng, &backface);
       backfaces += backface ? 1 : 0;
       acc.add(dir, L);
+      const double lum = luminance(L);
+      irr.add(dir, lum);
+      c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;
+      const int h = hueBin(L);
+      if (h >= 0) hue[size_t(h)] += lum;
     }
-    ProbeCapture& c = out[probe];
+    const int n = j;
     c.samples = n;
     c.backfaceFraction = static_cast<double>(backfaces) / n;
+    for (double& b : c.luminanceHistogram) b /= n;
+    double hueTotal = 0;
+    for (double b : hue) hueTotal += b;
+    for (size_t k = 0; k < hue.size(); ++k)
+      c.hueHistogram[k] = hueTotal > 0 ? hue[k] / hueTotal : 0;
     for (int i = 0; i < kShCoeffCount; ++i) {
-      c.sh.c[i] = acc.mean[i];
-      for (int ch = 0; ch < 3; ++ch) {
-        // Standard error of the mean: sample standard deviation / sqrt(N).
-        const double var = n > 1 ? acc.m2[i][ch] / (n - 1) : 0.0;
-        c.shStdError.c[i][ch] = std::sqrt(std::max(0.0, var) / n);
-      }
+      c.sh.c[i] = acc.mean(i);
+      c.shStdError.c[i] = acc.standardError(i);
     }
-    if (settings.mode == CaptureMode::Full) c.sh += pt.directDeltaSh(p);
+    c.sh += direct;
+    c.relativeError = irr.relativeError(directLum);
     for (int i = 0; i < kShCoeffCount; ++i) {
       PS_CHECK(isFinite(c.sh.c[i]));
       PS_CHECK(isFinite(c.shStdError.c[i]));

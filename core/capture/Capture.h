@@ -1,6 +1,7 @@
 #pragma once
 // Probe capture: path-traced incident radiance at points, projected to SH L2 (Sh.h), with the
 // standard error of every coefficient and the validity of the point (Kontkanen & Laine sec. 5).
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -20,10 +21,41 @@ enum class CaptureMode {
 
 struct CaptureSettings {
   int samplesPerProbe = 256;  ///< rays per probe (fixed-count mode)
-  uint64_t seed = 1;          ///< per-probe streams derive from (seed, probe index)
+  /// Adaptive mode when > 0: each probe traces batches of kAdaptiveBatchSamples rays and stops
+  /// once the relative standard error of its irradiance (captureRelativeError) is at most this,
+  /// or at maxSamplesPerProbe; samplesPerProbe is then ignored. Deterministic: the decision
+  /// depends only on the probe's own samples.
+  double targetRelativeError = 0;
+  int minSamplesPerProbe = 64;     ///< adaptive mode: never fewer rays than this
+  int maxSamplesPerProbe = 65536;  ///< adaptive mode: never more rays than this
+  uint64_t seed = 1;               ///< per-probe streams derive from (seed, probe index)
   CaptureMode mode = CaptureMode::Full;
   int threads = 0;  ///< 0 = all hardware threads; results do not depend on it
 };
+
+/// Adaptive sampling checks its error after every this many rays.
+inline constexpr int kAdaptiveBatchSamples = 64;
+
+/// Histograms of the incident radiance over the probe's rays (the same rays as the SH; light
+/// arriving straight from delta lights is not in them), for placement's probe matching
+/// (Chajdas et al. sec. 4.3). Fixed layout:
+///  * luminance (Rec. 709 Y of the ray's radiance): kLuminanceBins bins, each ray weighing
+///    1 / samples (rays are uniform on the sphere, so a bin is the fraction of the sphere):
+///    bin 0 holds Y < 2^kLuminanceLog2Min (black included), bin k in 1..kLuminanceBins-2 holds
+///    2^(kLuminanceLog2Min + k - 1) <= Y < 2^(kLuminanceLog2Min + k), the last bin Y at or
+///    above 2^(kLuminanceLog2Min + kLuminanceBins - 2);
+///  * hue (HSV hue of the radiance): kHueBins bins of 360 / kHueBins degrees starting at red
+///    (bin 0 holds hues in [0, 30) degrees), each ray weighing its luminance; achromatic rays
+///    (max - min <= 1e-6 max) count in no bin; normalized to sum 1 (all 0 when no ray has a
+///    hue).
+inline constexpr int kLuminanceBins = 16;
+inline constexpr int kLuminanceLog2Min = -10;
+inline constexpr int kHueBins = 12;
+
+/// The luminance bin of a radiance (the layout above).
+int luminanceBin(Rgb radiance);
+/// The hue bin of a radiance, or -1 when it is achromatic (the layout above).
+int hueBin(Rgb radiance);
 
 struct ProbeCapture {
   ShRgb sh;                     ///< incident radiance
@@ -32,10 +64,21 @@ struct ProbeCapture {
   double backfaceFraction = 0;  ///< fraction of probe rays that hit back faces of single-sided
                                 ///< geometry; above the threshold the probe is inside geometry
   double seconds = 0;           ///< wall time spent on this probe
+  /// The relative standard error of the irradiance reached: for each of the six axis normals,
+  /// the standard error of the luminance of the L2 irradiance estimate E(n) (each ray's estimate
+  /// is L(w) pi (1 + 2 c + 5/8 (3 c^2 - 1)), c = n . w: the ray's SH L2 projection folded with
+  /// the Ramamoorthi-Hanrahan convolution), divided by the largest of the six irradiances
+  /// (direct delta light included), so that a probe's dark sides are measured against its
+  /// bright side and cannot demand unbounded samples; the largest of the six ratios, 0 when the
+  /// probe receives no light. Adaptive sampling stops on it.
+  double relativeError = 0;
+  std::array<double, kLuminanceBins> luminanceHistogram{};  ///< layout above; sums to 1
+  std::array<double, kHueBins> hueHistogram{};              ///< layout above; sums to 1 or 0
 };
 
 /// Captures one probe per point. Deterministic for a given seed whatever the thread count.
-/// Throws ps::ParameterError when the scene plus rig has no light at all.
+/// Throws ps::ParameterError when the scene plus rig has no light at all, or a setting is out
+/// of range.
 std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig& rig,
                                         std::span<const Vec3> points,
                                         const CaptureSettings& settings,

@@ -113,6 +113,8 @@ inline const char* lightTypeName(LightType t) {
 inline nlohmann::ordered_json rigToJson(const LightingRig& rig) {
   nlohmann::ordered_json r;
   r["sky_radiance"] = rgbToJson(rig.skyRadiance);
+  // Written only when set, so rigs without a map keep their JSON (and capture-cache keys).
+  if (!rig.envMapPath.empty()) r["env_map"] = rig.envMapPath;
   auto lights = nlohmann::ordered_json::array();
   for (const Light& l : rig.lights) {
     nlohmann::ordered_json o;
@@ -135,6 +137,11 @@ inline nlohmann::ordered_json rigToJson(const LightingRig& rig) {
 inline LightingRig rigFromJson(const JsonField& f) {
   LightingRig rig;
   if (f.has("sky_radiance")) rig.skyRadiance = f.at("sky_radiance").rgb();
+  // The path only: the map is read when a capture first needs it (environmentOf).
+  if (f.has("env_map")) {
+    rig.envMapPath = f.at("env_map").string();
+    if (rig.envMapPath.empty()) f.at("env_map").fail("expected a file path, got an empty string");
+  }
   if (f.has("lights")) {
     const JsonField ls = f.at("lights");
     for (size_t i = 0; i < ls.arraySize(); ++i) {

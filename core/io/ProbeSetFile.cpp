@@ -79,7 +79,15 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
   }
   j["scene"] = scene;
   j["scene_hash"] = hashToHex(set.sceneHash);
-  j["rig"] = rigToJson(set.rig);
+  // The environment map's path, like the scene's, is stored relative to the set's folder.
+  LightingRig rig = set.rig;
+  if (!rig.envMapPath.empty()) {
+    const fs::path base = fs::absolute(path).parent_path();
+    std::error_code ec;
+    const fs::path rel = fs::relative(fs::absolute(rig.envMapPath), base, ec);
+    if (!ec && !rel.empty()) rig.envMapPath = rel.generic_string();
+  }
+  j["rig"] = rigToJson(rig);
   j["placement"] = {{"method", set.placement.method},
                     {"spacing_m", set.placement.spacingMeters},
                     {"budget", set.placement.budget}};
@@ -157,6 +165,11 @@ ProbeSet parseProbeSet(const std::string& text, const fs::path& path) {
   }
   set.sceneHash = hashFromHex(root.at("scene_hash"));
   if (root.has("rig")) set.rig = rigFromJson(root.at("rig"));
+  if (!set.rig.envMapPath.empty()) {
+    fs::path ep(set.rig.envMapPath);
+    if (ep.is_relative()) ep = fs::absolute(path).parent_path() / ep;
+    set.rig.envMapPath = ep.lexically_normal().string();
+  }
   if (root.has("placement")) {
     const JsonField pl = root.at("placement");
     set.placement.method = pl.at("method").string();

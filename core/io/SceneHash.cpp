@@ -57,7 +57,18 @@ uint64_t sceneContentHash(const fs::path& scene) {
           if (!item.is_object() || !item.contains("uri") || !item["uri"].is_string()) continue;
           const std::string uri = item["uri"].get<std::string>();
           if (uri.rfind("data:", 0) == 0) continue;
-          const std::string ext = readWholeFile(scene.parent_path() / percentDecode(uri));
+          std::string ext;
+          if (std::string(key) == "images") {
+            // A missing or unreadable texture is a warning for loadScene (the material keeps its
+            // factor), not an error: hash its absence, so that adding the file changes the hash.
+            try {
+              ext = readWholeFile(scene.parent_path() / percentDecode(uri));
+            } catch (const FileError&) {
+              ext = "\x01missing image";
+            }
+          } else {
+            ext = readWholeFile(scene.parent_path() / percentDecode(uri));
+          }
           h = fnv1a64(uri.data(), uri.size(), h);
           h = fnv1a64(ext.data(), ext.size(), h);
         }

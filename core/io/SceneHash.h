@@ -15,7 +15,8 @@ uint64_t fnv1a64(const void* data, size_t size, uint64_t h = 0xcbf29ce484222325u
 /// The hash of a scene's content: FNV-1a 64 of the file's bytes and, for a .gltf, of each
 /// external buffer and image it references (in document order; data: URIs are inside the file
 /// already). Never 0 (0 means "unknown" in a probe set). Throws ps::FileError when the scene or
-/// a referenced file cannot be read.
+/// a referenced buffer cannot be read; a missing or unreadable image is hashed as missing (the
+/// loader falls back to the material's factor with a warning).
 uint64_t sceneContentHash(const std::filesystem::path& scene);
 
 /// 16 lowercase hex digits, or "unknown" for 0.

@@ -8,7 +8,8 @@
 //   bounds, 3.7.2.1 primitive modes (strip / fan vertex order), 3.7.2.1 "flat normals when
 //   NORMAL is absent", 3.7.4 "a negative determinant reverses the winding order".
 // Extensions: KHR_lights_punctual (lights point along the node's local -Z),
-// KHR_materials_emissive_strength.
+// KHR_materials_emissive_strength, KHR_materials_pbrSpecularGlossiness (diffuseFactor and
+// diffuseTexture as the albedo; specular and glossiness are not Lambertian and are ignored).
 //
 // Choices documented here:
 //   * Missing normals: flat normals (the spec asks for them); every triangle of such a primitive
@@ -29,6 +30,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "core/common/Error.h"
@@ -141,10 +143,25 @@ struct AccessorView {
   int components = 0;
 };
 
-/// Image loader that keeps nothing: we use material factors only, so textures are not decoded.
-bool skipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int,
-               const unsigned char*, int, void*) {
+/// Image loader that keeps the encoded bytes: only the images a material uses as a colour are
+/// decoded (by OpenImageIO, in Flattener::sceneImage), and a bad image is a warning, not a
+/// failed load (returning true keeps tinygltf going).
+bool keepEncodedImage(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                      const unsigned char* bytes, int size, void*) {
+  if (bytes && size > 0) image->image.assign(bytes, bytes + size);
+  image->as_is = true;
   return true;
+}
+
+TextureWrap toWrap(int glWrap) {
+  switch (glWrap) {
+    case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE:
+      return TextureWrap::ClampToEdge;
+    case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT:
+      return TextureWrap::MirroredRepeat;
+    default:
+      return TextureWrap::Repeat;
+  }
 }
 
 class Flattener {
@@ -185,27 +202,144 @@ class Flattener {
   void convertMaterials() {
     for (size_t i = 0; i < model_.materials.size(); ++i) {
       const tinygltf::Material& src = model_.materials[i];
+      const std::string where = indexed("materials", i);
       Material m;
-      m.name = src.name.empty() ? indexed("materials", i) : src.name;
-      const std::vector<double>& base = src.pbrMetallicRoughness.baseColorFactor;
+      m.name = src.name.empty() ? where : src.name;
+      std::vector<double> base = src.pbrMetallicRoughness.baseColorFactor;
+      int albedoTexture = src.pbrMetallicRoughness.baseColorTexture.index;
+      int albedoTexCoord = src.pbrMetallicRoughness.baseColorTexture.texCoord;
+      std::string albedoWhere = where + ".pbrMetallicRoughness.baseColorTexture";
+      // KHR_materials_pbrSpecularGlossiness: the diffuse colour is the Lambertian albedo.
+      auto sg = src.extensions.find("KHR_materials_pbrSpecularGlossiness");
+      if (sg != src.extensions.end() && sg->second.IsObject()) {
+        const std::string sgWhere = where + ".extensions.KHR_materials_pbrSpecularGlossiness";
+        base = {1, 1, 1, 1};
+        albedoTexture = -1;
+        if (sg->second.Has("diffuseFactor")) {
+          const tinygltf::Value& f = sg->second.Get("diffuseFactor");
+          if (!f.IsArray() || f.ArrayLen() != 4)
+            fail(sgWhere + ".diffuseFactor", "expected an array of 4 numbers");
+          for (int k = 0; k < 4; ++k) {
+            if (!f.Get(k).IsNumber())
+              fail(sgWhere + ".diffuseFactor", "expected an array of 4 numbers");
+            base[size_t(k)] = f.Get(k).GetNumberAsDouble();
+          }
+        }
+        if (sg->second.Has("diffuseTexture")) {
+          const tinygltf::Value& t = sg->second.Get("diffuseTexture");
+          if (!t.IsObject() || !t.Has("index") || !t.Get("index").IsNumber())
+            fail(sgWhere + ".diffuseTexture", "expected an object with an integer index");
+          albedoTexture = t.Get("index").GetNumberAsInt();
+          albedoTexCoord = t.Has("texCoord") && t.Get("texCoord").IsNumber()
+                               ? t.Get("texCoord").GetNumberAsInt()
+                               : 0;
+          albedoWhere = sgWhere + ".diffuseTexture";
+        }
+      }
       if (base.size() >= 3)
         m.albedo = Rgb(std::clamp(base[0], 0.0, 1.0), std::clamp(base[1], 0.0, 1.0),
                        std::clamp(base[2], 0.0, 1.0));
+      if (base.size() >= 4) m.alpha = base[3];
       double strength = 1.0;
       auto ext = src.extensions.find("KHR_materials_emissive_strength");
       if (ext != src.extensions.end() && ext->second.Has("emissiveStrength")) {
         const tinygltf::Value& v = ext->second.Get("emissiveStrength");
         if (v.IsNumber()) strength = v.GetNumberAsDouble();
+        if (!(strength >= 0) || !std::isfinite(strength))
+          fail(where + ".extensions.KHR_materials_emissive_strength.emissiveStrength",
+               "expected a finite number >= 0");
       }
       if (src.emissiveFactor.size() >= 3)
         m.emission =
             Rgb(src.emissiveFactor[0], src.emissiveFactor[1], src.emissiveFactor[2]) * strength;
       if (!std::isfinite(m.albedo.maxComponent()) || !std::isfinite(m.emission.maxComponent()) ||
-          m.emission.r < 0 || m.emission.g < 0 || m.emission.b < 0)
-        fail(indexed("materials", i), "colour factors must be finite and non-negative");
+          m.emission.r < 0 || m.emission.g < 0 || m.emission.b < 0 || !std::isfinite(m.alpha))
+        fail(where, "colour factors must be finite and non-negative");
       m.doubleSided = src.doubleSided;
+      if (src.alphaMode == "MASK") {
+        m.alphaMode = AlphaMode::Mask;
+        m.alphaCutoff = src.alphaCutoff;
+        if (!std::isfinite(m.alphaCutoff) || m.alphaCutoff < 0)
+          fail(where + ".alphaCutoff", "expected a finite number >= 0");
+      } else if (src.alphaMode == "BLEND") {
+        m.alphaMode = AlphaMode::Blend;
+      } else if (src.alphaMode != "OPAQUE" && !src.alphaMode.empty()) {
+        fail(where + ".alphaMode", "\"" + src.alphaMode + "\", expected OPAQUE, MASK or BLEND");
+      }
+      m.albedoTexture = textureRef(albedoTexture, albedoTexCoord, albedoWhere);
+      if (!m.emission.isBlack())
+        m.emissionTexture = textureRef(src.emissiveTexture.index, src.emissiveTexture.texCoord,
+                                       where + ".emissiveTexture");
       scene_.materials.push_back(std::move(m));
     }
+  }
+
+  void warn(const std::string& field, const std::string& problem) {
+    scene_.warnings.push_back(FileError(file_, field, problem).what());
+  }
+
+  /// The TextureRef for glTF texture `index` used at `where` (none when index < 0 or the image
+  /// cannot be decoded, with a warning: the material keeps its factor).
+  TextureRef textureRef(int index, int texCoord, const std::string& where) {
+    TextureRef ref;
+    if (index < 0) return ref;
+    if (size_t(index) >= model_.textures.size())
+      fail(where + ".index", "texture " + std::to_string(index) + " does not exist (" +
+                                 std::to_string(model_.textures.size()) + " textures)");
+    const tinygltf::Texture& tex = model_.textures[size_t(index)];
+    const std::string texWhere = indexed("textures", size_t(index));
+    if (tex.sampler >= 0) {
+      if (size_t(tex.sampler) >= model_.samplers.size())
+        fail(texWhere + ".sampler", "sampler " + std::to_string(tex.sampler) + " does not exist (" +
+                                        std::to_string(model_.samplers.size()) + " samplers)");
+      const tinygltf::Sampler& smp = model_.samplers[size_t(tex.sampler)];
+      ref.wrapS = toWrap(smp.wrapS);
+      ref.wrapT = toWrap(smp.wrapT);
+      ref.nearest = smp.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+    }
+    if (tex.source < 0) {
+      warn(texWhere, "has no image source; " + where + " falls back to its factor");
+      return ref;
+    }
+    if (size_t(tex.source) >= model_.images.size())
+      fail(texWhere + ".source", "image " + std::to_string(tex.source) + " does not exist (" +
+                                     std::to_string(model_.images.size()) + " images)");
+    if (texCoord != 0)
+      warn(where + ".texCoord", "is " + std::to_string(texCoord) +
+                                    "; only TEXCOORD_0 is read, the texture is sampled there");
+    ref.image = sceneImage(size_t(tex.source), where);
+    return ref;
+  }
+
+  /// The Scene::images index of glTF image `index`, decoded on first use (colour, sRGB), or -1
+  /// with a warning when it cannot be read or decoded.
+  int sceneImage(size_t index, const std::string& usedBy) {
+    auto it = imageMap_.find(index);
+    if (it != imageMap_.end()) return it->second;
+    const tinygltf::Image& src = model_.images[index];
+    const std::string where = indexed("images", index);
+    const bool external = !src.uri.empty() && src.uri.rfind("data:", 0) != 0;
+    const std::string named = external ? "\"" + src.uri + "\" " : std::string();
+    const std::string fallback = "; " + usedBy + " falls back to its factor";
+    int result = -1;
+    if (src.image.empty() && src.bufferView >= 0) {
+      warn(where, "bufferView " + std::to_string(src.bufferView) + " cannot be read" + fallback);
+    } else if (src.image.empty()) {
+      warn(where, (external ? named + "cannot be read" : std::string("has no data")) + fallback);
+    } else {
+      std::string why;
+      auto img = decodeImage(src.image.data(), src.image.size(),
+                             src.mimeType.empty() ? src.uri : src.mimeType, /*srgb=*/true, why);
+      if (!img) {
+        warn(where, named + why + fallback);
+      } else {
+        img->name = where + (external ? " (" + src.uri + ")" : std::string());
+        result = int(scene_.images.size());
+        scene_.images.push_back(std::move(*img));
+      }
+    }
+    imageMap_[index] = result;
+    return result;
   }
 
   uint32_t defaultMaterialIndex() {
@@ -338,6 +472,28 @@ class Flattener {
     return {f[0], f[1], f[2]};
   }
 
+  /// A TEXCOORD element: float, or normalized unsigned byte / short (spec 3.7.2.1).
+  static void readTexcoord(const AccessorView& v, size_t i, float out[2]) {
+    const unsigned char* p = v.data + i * v.stride;
+    switch (v.componentType) {
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        out[0] = p[0] / 255.0f;
+        out[1] = p[1] / 255.0f;
+        return;
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t u[2];
+        std::memcpy(u, p, sizeof u);
+        out[0] = u[0] / 65535.0f;
+        out[1] = u[1] / 65535.0f;
+        return;
+      }
+      default:
+        std::memcpy(out, p, 2 * sizeof(float));
+        if (!std::isfinite(out[0])) out[0] = 0;
+        if (!std::isfinite(out[1])) out[1] = 0;
+    }
+  }
+
   static uint32_t readIndex(const AccessorView& v, size_t i) {
     const unsigned char* p = v.data + i * v.stride;
     switch (v.componentType) {
@@ -410,6 +566,25 @@ class Flattener {
       }
     }
 
+    // TEXCOORD_0: float, or normalized unsigned byte / short VEC2, one per vertex; (0, 0) when
+    // absent.
+    std::vector<std::array<float, 2>> localUv(vertexCount, {0.0f, 0.0f});
+    auto uvIt = prim.attributes.find("TEXCOORD_0");
+    if (uvIt != prim.attributes.end()) {
+      const AccessorView uv = view(uvIt->second, where + ".attributes.TEXCOORD_0");
+      if (uv.count != vertexCount)
+        fail(where, "TEXCOORD_0 has " + std::to_string(uv.count) + " elements, POSITION has " +
+                        std::to_string(vertexCount));
+      if (uv.components != 2 || (uv.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT &&
+                                 uv.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+                                 uv.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT))
+        fail(where + ".attributes.TEXCOORD_0",
+             "expected VEC2 of float, unsigned byte or unsigned short, got " +
+                 std::to_string(uv.components) + " components of componentType " +
+                 std::to_string(uv.componentType));
+      for (size_t i = 0; i < vertexCount; ++i) readTexcoord(uv, i, localUv[i].data());
+    }
+
     // Vertex list in glTF order (indices or 0..count-1), validated.
     std::vector<uint32_t> order;
     if (prim.indices >= 0) {
@@ -459,9 +634,10 @@ class Flattener {
         std::numeric_limits<uint32_t>::max())
       fail(where, "the scene has more than 2^32 vertices");
 
-    auto push = [&](Vec3 p, Vec3 nrm) {
+    auto push = [&](Vec3 p, Vec3 nrm, const std::array<float, 2>& uv) {
       scene_.positions.insert(scene_.positions.end(), {float(p.x), float(p.y), float(p.z)});
       scene_.normals.insert(scene_.normals.end(), {float(nrm.x), float(nrm.y), float(nrm.z)});
+      scene_.texcoords.insert(scene_.texcoords.end(), {uv[0], uv[1]});
       scene_.bounds.extend(Vec3(float(p.x), float(p.y), float(p.z)));
     };
     std::vector<Vec3> worldPos(vertexCount);
@@ -498,7 +674,7 @@ class Flattener {
         for (uint32_t k : t)
           if (bad[k]) worldNormal[k] = faceNormal(t), bad[k] = 0;
       for (size_t i = 0; i < vertexCount; ++i)
-        push(worldPos[i], bad[i] ? Vec3(0, 1, 0) : worldNormal[i]);
+        push(worldPos[i], bad[i] ? Vec3(0, 1, 0) : worldNormal[i], localUv[i]);
       for (const auto& t : tris) {
         scene_.indices.insert(scene_.indices.end(), {uint32_t(base + t[0]), uint32_t(base + t[1]),
                                                      uint32_t(base + t[2])});
@@ -509,7 +685,7 @@ class Flattener {
       for (const auto& t : tris) {
         const Vec3 nrm = faceNormal(t);
         const uint32_t first = uint32_t(scene_.vertexCount());
-        for (uint32_t k : t) push(worldPos[k], nrm);
+        for (uint32_t k : t) push(worldPos[k], nrm, localUv[k]);
         scene_.indices.insert(scene_.indices.end(), {first, first + 1, first + 2});
         scene_.triangleMaterial.push_back(material);
       }
@@ -567,6 +743,7 @@ class Flattener {
   std::string file_;
   Scene& scene_;
   std::vector<char> onStack_;
+  std::map<size_t, int> imageMap_;  ///< glTF image -> Scene::images index (-1: unreadable)
   bool usesDefaultMaterial_ = false;
   uint32_t defaultMaterial_ = 0;
 };
@@ -634,7 +811,7 @@ Scene loadScene(const std::filesystem::path& path) {
 
   tinygltf::Model model;
   tinygltf::TinyGLTF gltf;
-  gltf.SetImageLoader(&skipImage, nullptr);
+  gltf.SetImageLoader(&keepEncodedImage, nullptr);
   std::string err, warn;
   std::string baseDir = path.parent_path().string();
   if (baseDir.empty()) baseDir = ".";

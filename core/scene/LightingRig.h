@@ -1,9 +1,11 @@
 #pragma once
 // Light added by the user on top of the scene's own (most real scenes bring none): a sun, a
 // sky and extra lights. Stored in the probe set so that eval and bake see the same light.
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "core/scene/EnvironmentMap.h"
 #include "core/scene/Scene.h"
 
 namespace ps {
@@ -14,11 +16,23 @@ struct LightingRig {
   std::vector<Light> lights;
   /// Constant sky radiance, W/(m^2 sr) per channel, seen by rays that leave the scene.
   Rgb skyRadiance{0, 0, 0};
+  /// An equirectangular sky (`--env-map FILE`), added to skyRadiance for rays that leave the
+  /// scene. The path is what the probe set stores; `envMap` is the loaded map, or null when
+  /// only the path is known (a rig read from JSON): environmentOf() then loads it.
+  std::string envMapPath;
+  std::shared_ptr<const EnvironmentMap> envMap;
 
-  bool empty() const { return lights.empty() && skyRadiance.isBlack(); }
+  bool empty() const {
+    return lights.empty() && skyRadiance.isBlack() && envMapPath.empty() && !envMap;
+  }
 };
 
 /// The scene's lights followed by the rig's.
 std::vector<Light> allLights(const Scene& scene, const LightingRig& rig);
+
+/// The rig's environment map: rig.envMap when loaded, else the map at rig.envMapPath read once
+/// per process and path (a thread-safe cache), else null. Throws ps::FileError when the file
+/// cannot be read.
+std::shared_ptr<const EnvironmentMap> environmentOf(const LightingRig& rig);
 
 }  // namespace ps

@@ -8,14 +8,31 @@
 #include <vector>
 
 #include "core/math/Vec3.h"
+#include "core/scene/Texture.h"
 
 namespace ps {
 
+/// glTF alphaMode (spec 3.9.4). Blend is treated as Opaque (a Lambertian capture has no
+/// partial transparency); Mask cuts out where alpha < alphaCutoff.
+enum class AlphaMode { Opaque, Mask, Blend };
+
 struct Material {
   std::string name;
-  Rgb albedo{1, 1, 1};       ///< baseColorFactor (linear), the Lambertian reflectance
-  Rgb emission{0, 0, 0};     ///< emitted radiance, W/(m^2 sr) per channel
+  /// The Lambertian reflectance: baseColorFactor (linear), or KHR_materials_pbrSpecularGlossiness
+  /// diffuseFactor; multiplied by `albedoTexture` (sRGB decoded) where there is one.
+  Rgb albedo{1, 1, 1};
+  /// Emitted radiance, W/(m^2 sr) per channel: emissiveFactor times
+  /// KHR_materials_emissive_strength; multiplied by `emissionTexture` where there is one.
+  Rgb emission{0, 0, 0};
   bool doubleSided = false;  ///< glTF doubleSided: back faces are surfaces too (never "inside")
+  double alpha = 1;          ///< baseColorFactor[3] (diffuseFactor[3]), times the texture's alpha
+  AlphaMode alphaMode = AlphaMode::Opaque;
+  double alphaCutoff = 0.5;  ///< Mask: a point whose alpha is below this is not there
+  TextureRef albedoTexture;  ///< baseColorTexture (diffuseTexture); its alpha is coverage
+  TextureRef emissionTexture;
+
+  bool isTextured() const { return albedoTexture.valid() || emissionTexture.valid(); }
+  bool isCutOut() const { return alphaMode == AlphaMode::Mask; }
 };
 
 enum class LightType { Directional, Point, Spot };
@@ -38,11 +55,16 @@ struct Scene {
   std::string sourcePath;                  ///< the file it was loaded from, as given
   std::vector<float> positions;            ///< 3 per vertex, world space
   std::vector<float> normals;              ///< 3 per vertex, world space, unit (same count)
+  std::vector<float> texcoords;            ///< 2 per vertex: TEXCOORD_0 (0, 0 when absent)
   std::vector<uint32_t> indices;           ///< 3 per triangle, counter-clockwise front faces
   std::vector<uint32_t> triangleMaterial;  ///< 1 per triangle, index into materials
   std::vector<Material> materials;         ///< never empty once loaded (a default is added)
   std::vector<Light> lights;               ///< lights the scene brings (KHR_lights_punctual)
-  Bounds3 bounds;                          ///< of all vertices
+  std::vector<Image> images;               ///< decoded textures, indexed by TextureRef::image
+  /// What was read but not used as written (an unreadable texture falls back to its factor),
+  /// one line each naming the file and the glTF path. The CLI prints them to stderr.
+  std::vector<std::string> warnings;
+  Bounds3 bounds;  ///< of all vertices
 
   size_t vertexCount() const { return positions.size() / 3; }
   size_t triangleCount() const { return indices.size() / 3; }
@@ -51,6 +73,18 @@ struct Scene {
   }
   /// True when some triangle emits light (an emissive material is in use).
   bool hasEmissiveSurfaces() const;
+
+  /// TEXCOORD_0 at barycentrics (u, v) of vertices 1 and 2 of `triangle` (a Hit's u, v).
+  void texcoordAt(uint32_t triangle, double u, double v, double& s, double& t) const;
+  /// The material's albedo at a point of the triangle: factor times texture.
+  Rgb albedoAt(uint32_t triangle, double u, double v) const;
+  /// The material's emitted radiance at a point of the triangle: factor times texture.
+  Rgb emissionAt(uint32_t triangle, double u, double v) const;
+  /// The material's alpha (coverage) at a point of the triangle: factor times texture alpha.
+  double alphaAt(uint32_t triangle, double u, double v) const;
+  /// True when the triangle's material is alphaMode MASK and the point is cut out
+  /// (alpha < alphaCutoff): rays pass through it (glTF 3.9.4).
+  bool isCutOutAt(uint32_t triangle, double u, double v) const;
 };
 
 /// Loads a .gltf or .glb file and flattens its default scene (or every root node when the file

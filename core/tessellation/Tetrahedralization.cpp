@@ -48,11 +48,27 @@ Tetrahedralization tetrahedralize(std::span<const Vec3> points) {
     }
   }
 
-  // Merge exact duplicates ourselves (CGAL would merge them too, but silently): vertices are the
-  // distinct points in order of first appearance, so the numbering is deterministic.
+  // Insertion of a range of (point, info) pairs spatially sorts it first (Hilbert order).
+  // Common case first: no exact duplicates, so vertex i is input i and no sort is needed. CGAL
+  // merges duplicates silently (keeping one of the infos), so when the vertex count shows some,
+  // we merge them ourselves and insert again: vertices are then the distinct points in order of
+  // first appearance, a deterministic numbering.
   Tetrahedralization out;
-  out.vertexOfInput.assign(points.size(), -1);
-  {
+  auto insertAll = [](Delaunay& dt, std::span<const Vec3> pts) {
+    std::vector<std::pair<Point, int32_t>> input;
+    input.reserve(pts.size());
+    for (size_t i = 0; i < pts.size(); ++i)
+      input.emplace_back(Point(pts[i].x, pts[i].y, pts[i].z), static_cast<int32_t>(i));
+    dt.insert(input.begin(), input.end());
+  };
+  Delaunay dt;
+  insertAll(dt, points);
+  if (dt.number_of_vertices() == points.size()) {
+    out.vertices.assign(points.begin(), points.end());
+    out.vertexOfInput.resize(points.size());
+    std::iota(out.vertexOfInput.begin(), out.vertexOfInput.end(), 0);
+  } else {
+    out.vertexOfInput.assign(points.size(), -1);
     std::vector<int32_t> order(points.size());
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(),
@@ -73,16 +89,9 @@ Tetrahedralization tetrahedralize(std::span<const Vec3> points) {
         out.vertexOfInput[i] = out.vertexOfInput[firstOf[i]];
       }
     }
+    dt.clear();
+    insertAll(dt, out.vertices);
   }
-
-  // Insertion of a range of (point, info) pairs spatially sorts it first (Hilbert order).
-  std::vector<std::pair<Point, int32_t>> input;
-  input.reserve(out.vertices.size());
-  for (size_t i = 0; i < out.vertices.size(); ++i) {
-    const Vec3 p = out.vertices[i];
-    input.emplace_back(Point(p.x, p.y, p.z), static_cast<int32_t>(i));
-  }
-  Delaunay dt(input.begin(), input.end());
 
   if (dt.dimension() < 3) {
     std::ostringstream s;
@@ -92,21 +101,22 @@ Tetrahedralization tetrahedralize(std::span<const Vec3> points) {
   }
   PS_CHECK_EQ(dt.number_of_vertices(), out.vertices.size());
 
+  // Number the finite cells in iteration order and mark the infinite ones -1, so that the
+  // second pass reads a neighbour's index (or -1 on the hull) without an infinity test.
   int32_t next = 0;
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) c->info() = next++;
-  out.tets.reserve(next);
-  out.neighbors.reserve(next);
+  for (auto c = dt.all_cells_begin(); c != dt.all_cells_end(); ++c)
+    c->info() = dt.is_infinite(c) ? -1 : next++;
+  out.tets.resize(next);
+  out.neighbors.resize(next);
   // CGAL stores every finite cell positively oriented (CGAL::orientation of its vertices 0..3 is
   // POSITIVE) and neighbour i opposite vertex i; we keep both conventions as they are.
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-    std::array<int32_t, 4> tet{}, nb{};
+  for (auto c = dt.all_cells_begin(); c != dt.all_cells_end(); ++c) {
+    const int32_t k = c->info();
+    if (k < 0) continue;
     for (int i = 0; i < 4; ++i) {
-      tet[i] = c->vertex(i)->info();
-      const auto n = c->neighbor(i);
-      nb[i] = dt.is_infinite(n) ? -1 : n->info();
+      out.tets[k][i] = c->vertex(i)->info();
+      out.neighbors[k][i] = c->neighbor(i)->info();
     }
-    out.tets.push_back(tet);
-    out.neighbors.push_back(nb);
   }
   return out;
 }

@@ -57,6 +57,20 @@ void fillRay(const Ray& ray, RTCRay& r) {
   r.flags = 0;
 }
 
+/// Embree intersection and occlusion filter for alphaMode MASK (glTF 3.9.4): a candidate hit on
+/// a cut-out point (alpha < alphaCutoff) is rejected, so the ray passes through it. Installed
+/// only when some material is a mask; called by Embree for every candidate hit.
+void alphaMaskFilter(const RTCFilterFunctionNArguments* args) {
+  const auto* scene = static_cast<const Scene*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    const float u = RTCHitN_u(args->hit, args->N, i);
+    const float v = RTCHitN_v(args->hit, args->N, i);
+    if (scene->isCutOutAt(prim, u, v)) args->valid[i] = 0;
+  }
+}
+
 }  // namespace
 
 struct Tracer::Impl {
@@ -109,6 +123,15 @@ Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>
       PS_CHECK_LT(static_cast<size_t>(scene.indices[i]), vertexCount);
       indices[i] = scene.indices[i];
     }
+    bool anyMask = false;
+    for (const Material& m : scene.materials) anyMask = anyMask || m.isCutOut();
+    if (anyMask) {
+      PS_CHECK_EQ(scene.triangleMaterial.size(), triangleCount);
+      for (uint32_t m : scene.triangleMaterial) PS_CHECK_LT(size_t{m}, scene.materials.size());
+      rtcSetGeometryUserData(geom, const_cast<Scene*>(&scene));
+      rtcSetGeometryIntersectFilterFunction(geom, &alphaMaskFilter);
+      rtcSetGeometryOccludedFilterFunction(geom, &alphaMaskFilter);
+    }
     rtcCommitGeometry(geom);
     rtcAttachGeometry(impl_->scene, geom);
     rtcReleaseGeometry(geom);
@@ -122,6 +145,7 @@ Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>
 Tracer::~Tracer() = default;
 
 std::optional<Hit> Tracer::intersect(const Ray& ray) const {
+  if (rayLog_) rayLog_->push_back({ray, false});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
@@ -150,6 +174,7 @@ std::optional<Hit> Tracer::intersect(const Ray& ray) const {
 }
 
 bool Tracer::occluded(const Ray& ray) const {
+  if (rayLog_) rayLog_->push_back({ray, true});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay r;

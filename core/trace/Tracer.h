@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "core/math/Vec3.h"
 #include "core/scene/Scene.h"
@@ -25,6 +26,12 @@ struct Hit {
   bool frontFace = true;  ///< the ray arrived against geometricNormal
 };
 
+/// A ray as traced, for benchmarks that replay a stage's rays through bare Embree.
+struct LoggedRay {
+  Ray ray;
+  bool occlusion = false;  ///< traced by occluded() (a shadow ray), else by intersect()
+};
+
 class Tracer {
  public:
   /// Builds the BVH. The scene must outlive the tracer.
@@ -33,7 +40,8 @@ class Tracer {
   Tracer(const Tracer&) = delete;
   Tracer& operator=(const Tracer&) = delete;
 
-  /// Closest hit in (tMin, tMax), or nothing.
+  /// Closest hit in (tMin, tMax), or nothing. Points cut out by an alphaMode MASK material
+  /// (Scene::isCutOutAt) are not hit: rays pass through them (here and in occluded()).
   std::optional<Hit> intersect(const Ray& ray) const;
   /// True when anything lies in (tMin, tMax).
   bool occluded(const Ray& ray) const;
@@ -41,6 +49,10 @@ class Tracer {
   /// Distance by which ray origins are offset from surfaces (scaled to the scene,
   /// tol::kRayOffsetRelative of the bounds diagonal).
   double rayEpsilon() const { return rayEpsilon_; }
+
+  /// Benchmarks only: while set, every ray traced is appended to `log` (not thread-safe: trace
+  /// from one thread while it is set). Null (off) by default.
+  void setRayLog(std::vector<LoggedRay>* log) { rayLog_ = log; }
   const Scene& scene() const { return scene_; }
 
  private:
@@ -48,6 +60,7 @@ class Tracer {
   const Scene& scene_;
   std::unique_ptr<Impl> impl_;
   double rayEpsilon_ = 0;
+  std::vector<LoggedRay>* rayLog_ = nullptr;
 };
 
 }  // namespace ps

@@ -374,10 +374,19 @@ VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet) {
 void locateBatch(const ProbeVolume& v, std::span<const Vec3> points,
                  std::span<VolumeLocation> out) {
   PS_CHECK_EQ(points.size(), out.size());
+  // Walk from the previous point's tet when the point is within one locator cell of it (a few
+  // steps); otherwise start from the locator, so that incoherent batches cost a cold query each
+  // rather than a walk across the volume.
+  double reach2 = 0;
+  for (int a = 0; a < 3; ++a) reach2 += double(v.locatorCellSize[a]) * v.locatorCellSize[a];
   int32_t hint = -1;
+  Vec3 prev;
   for (size_t i = 0; i < points.size(); ++i) {
-    out[i] = locate(v, points[i], hint);
+    const Vec3 d = points[i] - prev;
+    const bool near = hint >= 0 && dot(d, d) <= reach2;
+    out[i] = locate(v, points[i], near ? hint : -1);
     hint = out[i].tet;
+    prev = points[i];
   }
 }
 

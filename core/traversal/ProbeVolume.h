@@ -72,8 +72,9 @@ struct VolumeLocation {
 /// equal weights and outside = true; an empty volume (no tets) gives tet = -1.
 VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet = -1);
 
-/// locate() for each point, each walk starting from the previous point's tet (coherent queries,
-/// e.g. the samples of a moving object, are then a few steps each). `out.size()` must equal
+/// locate() for each point. A point within one locator cell of the previous one walks from the
+/// previous point's tet (coherent queries, e.g. the samples of a moving object, are then a step
+/// or two each); a farther one starts from the locator (a cold query). `out.size()` must equal
 /// `points.size()`.
 void locateBatch(const ProbeVolume& v, std::span<const Vec3> points, std::span<VolumeLocation> out);
 

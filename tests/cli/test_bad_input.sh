@@ -61,4 +61,7 @@ expect_error "--method: unknown method \"magic\"" "$cli" place "$root/resources/
 expect_error "budget: expected at least 4" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2 -o "$tmp/s.json"
 expect_error "limit 50 million" "$cli" place "$root/resources/scenes/cornell.gltf" --spacing 0.0001 -o "$tmp/s.json"
 expect_error "--sun: expected" "$cli" capture "$root/resources/scenes/cornell.gltf" --at 0,1,0 --sun 1,2 --json
+expect_error "$tmp/no-sky.hdr: environment map not found" "$cli" capture "$root/resources/scenes/cornell.gltf" --at 0,1,0 --env-map "$tmp/no-sky.hdr" --json
+echo "not an image" >"$tmp/sky.exr"
+expect_error "$tmp/sky.exr: not a readable environment map" "$cli" capture "$root/resources/scenes/cornell.gltf" --at 0,1,0 --env-map "$tmp/sky.exr" --json
 exit $fail

@@ -19,6 +19,8 @@ cmp "$tmp/v.psv" "$tmp/v2.psv"
 "$cli" query "$tmp/v.psv" --at 0.1,0.5,0.1 --normal 0,1,0 --json >"$tmp/q.json"
 "$cli" query "$tmp/v.psv" --at 100,100,100 --json >"$tmp/qfar.json"
 "$cli" capture "$scene" --at 0,0.5,0 --spp 256 --json >"$tmp/cap.json"
+"$cli" capture "$root/resources/scenes/pillar-room.gltf" --at 0,1,0 --spp 64 --virtual-offset --json >"$tmp/cap-vo.json"
+"$cli" capture "$scene" --at 0,0.5,0 --target-error 0.05 --max-spp 4096 --histograms --json >"$tmp/cap-adaptive.json"
 printf '0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n0 0 0\n' >"$tmp/pts.txt"
 "$cli" tetra "$tmp/pts.txt" -o "$tmp/tets.json"
 
@@ -43,6 +45,14 @@ cap = json.load(open(f"{tmp}/cap.json"))[0]
 assert len(cap["sh"]) == 9 and len(cap["sh_std_error"]) == 9 and cap["samples"] == 256
 assert set(cap["irradiance"]) == {"+x", "-x", "+y", "-y", "+z", "-z"}
 assert cap["irradiance"]["+y"][0] > 0 and 0 <= cap["validity"] <= 1
+assert list(cap) == ["position", "sh", "sh_std_error", "irradiance", "validity", "samples",
+                     "seconds"], list(cap)
+ad = json.load(open(f"{tmp}/cap-adaptive.json"))[0]
+assert ad["samples"] % 64 == 0 and 64 <= ad["samples"] <= 4096, ad["samples"]
+assert len(ad["luminance_histogram"]) == 16 and abs(sum(ad["luminance_histogram"]) - 1) < 1e-9
+assert len(ad["hue_histogram"]) == 12
+vo = json.load(open(f"{tmp}/cap-vo.json"))[0]  # (0, 1, 0) is inside pillar-room's pillar
+assert vo["validity"] >= 0.75 and vo["position"] != [0, 1, 0], vo["position"]
 t = json.load(open(f"{tmp}/tets.json"))
 assert t["vertex_of_input"][5] == t["vertex_of_input"][0], "duplicate merged"
 assert len(t["vertices"]) == 5 and len(t["tets"]) >= 2 and len(t["neighbors"]) == len(t["tets"])

