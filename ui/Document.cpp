@@ -11,8 +11,9 @@
 #include "core/common/Error.h"
 #include "core/eval/Evaluate.h"
 #include "core/io/ProbeSetFile.h"
-#include "core/io/VolumeFile.h"
 #include "core/io/SceneHash.h"
+#include "core/io/VolumeFile.h"
+#include "core/placement/Place.h"
 #include "core/placement/Uniform.h"
 #include "core/trace/Tracer.h"
 #include "ui/ProbeCommands.h"
@@ -49,7 +50,8 @@ struct Document::JobResult {
   std::shared_ptr<const ProbeVolume> volume;
   QString volumePath;
   size_t bakedProbes = 0;
-  QString error;  ///< failure ("cancelled" when cancelled); probes may still be usable
+  QString error;      ///< failure ("cancelled" when cancelled); probes may still be usable
+  QStringList notes;  ///< what the job did, one line each (placement methods' notes)
   std::optional<EvaluationPoint> evaluation;
   std::vector<std::pair<uint64_t, Vec3>> captured;  ///< recapture: id, position captured at
 };
@@ -413,42 +415,53 @@ void Document::proposeCandidates() {
       probe.method = "uniform";
       result.probes.push_back(probe);
     }
-    captureQuickly(*tracer, rig, result.probes, settings.samplesPerProbe, report, 0.4,
-                   result.error, sceneHash);
+    captureQuickly(*tracer, rig, result.probes, settings.samplesPerProbe, report, 0.4, result.error,
+                   sceneHash);
   });
 }
 
 bool Document::runPlacement(const PlacementRequest& request) {
   if (!tracer_ || busy_) return false;
-  if (request.method != "uniform") return false;
+  PlaceRequest place;
+  place.method = request.method;
+  place.budget = request.budget;
+  // A budget sets the count; without one the spacing does (greedy needs a budget).
+  if (request.budget <= 0 && request.method == "greedy")
+    throw ParameterError("budget: greedy needs a probe budget (at least 4)");
   if (request.budget <= 0 && !(request.spacingMeters > 0))
     throw ParameterError("spacing: expected a positive number of metres");
   if (request.budget > 0 && request.budget < 4)
     throw ParameterError("budget: expected at least 4 probes (or 0 for no budget)");
+  if (request.budget <= 0) place.spacingMeters = request.spacingMeters;
+  place.field.samplesPerProbe = request.samplesPerProbe;
+  // The probes that stay (accepted, locked, and the candidates when they are not replaced) are
+  // built around; rejected ones are not part of the volume (see onJobDone for them).
+  std::vector<Probe> kept;
+  for (const Probe& p : set_.probes)
+    if (p.state != ProbeState::Rejected &&
+        !(request.replaceCandidates && p.state == ProbeState::Candidate && !p.locked))
+      kept.push_back(p);
   const LightingRig rig = set_.rig;
+  const std::vector<ImportanceVolume> volumes = set_.importanceVolumes;
   std::shared_ptr<const Tracer> tracer = tracer_;
   const uint64_t sceneHash = sceneHash_;
   startJob("place", tr("Placing probes…"), [=](JobResult& result, const auto& report) {
     result.placement = request;
-    UniformSettings us;
-    us.spacingMeters = request.spacingMeters;
-    auto placeProgress = [&](double f) { return report(tr("Placing probes…"), 0.5 * f); };
-    std::vector<Vec3> points;
-    if (request.budget > 0) {
-      UniformBudgetResult r = placeUniformBudget(*tracer, request.budget, us, placeProgress);
-      points = std::move(r.points);
-      result.spacingMeters = r.spacingMeters;
-    } else {
-      points = placeUniform(*tracer, us, placeProgress);
-      result.spacingMeters = request.spacingMeters;
-    }
-    for (const Vec3& p : points) {
+    const PlaceOutcome placed = placeProbes(
+        *tracer, rig, place, kept, volumes, [&](const std::string& stage) -> ProgressFn {
+          const QString label = tr("Placing probes (%1)…").arg(QString::fromStdString(stage));
+          return [&report, label](double f) { return report(label, 0.7 * f); };
+        });
+    result.spacingMeters = placed.spacingMeters;
+    for (const std::string& note : placed.notes) result.notes << QString::fromStdString(note);
+    for (const PlacedProbe& p : placed.probes) {
       Probe probe;
-      probe.position = p;
+      probe.position = p.position;
       probe.method = request.method;
+      probe.score = p.score;
       result.probes.push_back(probe);
     }
-    captureQuickly(*tracer, rig, result.probes, request.samplesPerProbe, report, 0.5, result.error,
+    captureQuickly(*tracer, rig, result.probes, request.samplesPerProbe, report, 0.7, result.error,
                    sceneHash);
   });
   return true;
@@ -571,24 +584,23 @@ void Document::onJobDone() {
     set_.placement.method = r->placement.method;
     set_.placement.spacingMeters = r->spacingMeters;
     set_.placement.budget = r->placement.budget;
-    // Keep accepted, rejected and locked probes; replace the unlocked candidates.
+    // Keep accepted, rejected and locked probes; replace the unlocked candidates. Placement built
+    // around the probes that stay; a new probe closer than half the spacing to a rejected one is
+    // dropped too: the artist rejected that spot.
     std::vector<uint64_t> replaced;
-    std::vector<Vec3> kept;
+    std::vector<Vec3> rejected;
     for (const Probe& p : set_.probes) {
       if (r->placement.replaceCandidates && p.state == ProbeState::Candidate && !p.locked)
         replaced.push_back(p.id);
-      else
-        kept.push_back(p.position);
+      else if (p.state == ProbeState::Rejected)
+        rejected.push_back(p.position);
     }
     const double minDist = 0.5 * r->spacingMeters;
     std::vector<Probe> added;
     for (Probe& p : r->probes) {
-      bool near = false;
-      for (const Vec3& k : kept)
-        if (length(k - p.position) < minDist) {
-          near = true;
-          break;
-        }
+      const bool near = std::any_of(rejected.begin(), rejected.end(), [&](const Vec3& k) {
+        return length(k - p.position) < minDist;
+      });
       if (!near) {
         p.id = allocateId();
         added.push_back(std::move(p));
@@ -619,6 +631,7 @@ void Document::onJobDone() {
     evaluations_.push_back(*r->evaluation);
     emit evaluationsChanged();
   }
+  jobNotes_ = r->notes;
   emit jobProgress(QString(), 1.0);
   emit jobFinished(r->error);
 }

@@ -5,13 +5,14 @@
 #include <QFutureWatcher>
 #include <QObject>
 #include <QString>
+#include <QStringList>
 #include <QUndoStack>
 #include <atomic>
 #include <functional>
 #include <memory>
 #include <optional>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/io/ProbeSet.h"
@@ -141,6 +142,8 @@ class Document : public QObject {
   bool isBusy() const { return busy_; }
   /// What the running job is ("propose", "place", "bake"), empty when idle.
   QString jobKind() const { return busy_ ? jobKind_ : QString(); }
+  /// What the last finished job reported it did (a placement method's notes), one line each.
+  QStringList lastJobNotes() const { return jobNotes_; }
   /// Asks the running job to stop at its next progress report; jobFinished("cancelled") follows.
   void requestCancel();
 
@@ -227,6 +230,7 @@ class Document : public QObject {
   quint64 changeCount_ = 0;
   int generation_ = 0;  ///< bumped by every document replacement; stale jobs are dropped
   QString jobKind_;
+  QStringList jobNotes_;
   std::shared_ptr<const ProbeVolume> volume_;
   QString volumePath_;
   quint64 volumeChange_ = 0;  ///< changeCount() when the volume was baked

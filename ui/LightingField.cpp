@@ -10,15 +10,8 @@
 namespace ps::ui {
 
 namespace {
-constexpr double kY1 = 0.488603;  // Y_1m = kY1 * (y, z, x)
 constexpr double kY00 = 0.282095;
 }  // namespace
-
-Vec3 luminanceDirectionVector(const ShRgb& sh) {
-  // Chajdas eq. 1 with the sum over environment-map pixels taken as the integral over the
-  // sphere; band 1 only (indices 1: Y1-1 ~ y, 2: Y10 ~ z, 3: Y11 ~ x).
-  return Vec3(luminance(sh.c[3]), luminance(sh.c[1]), luminance(sh.c[2])) / kY1;
-}
 
 double meanLuminance(const ShRgb& sh) {
   return luminance(sh.c[0]) * kY00;

@@ -19,13 +19,6 @@ class Tracer;
 
 namespace ps::ui {
 
-/// f = sum over directions w of w * luminance(L(w)) (Chajdas eq. 1), for radiance L given as SH
-/// L2 and the sum taken as the integral over the sphere. Only band 1 survives: with
-/// lum_lm = luminance(c_lm) and Y_1m = k (y, z, x) (k = 0.488603),
-/// integral of w_x * L = lum_11 / k, w_y -> lum_1-1 / k, w_z -> lum_10 / k (orthonormality).
-/// Points towards the light; zero for a constant environment. Units: W/m^2 (radiance x sr).
-Vec3 luminanceDirectionVector(const ShRgb& sh);
-
 /// Mean incident radiance's luminance (Y00 * luminance(c00)), the probe's "brightness".
 double meanLuminance(const ShRgb& sh);
 

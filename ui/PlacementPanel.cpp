@@ -13,7 +13,10 @@
 #include <QSpinBox>
 #include <QVBoxLayout>
 
+#include <map>
+
 #include "core/common/Error.h"
+#include "core/placement/Place.h"
 #include "ui/Document.h"
 
 namespace ps::ui {
@@ -23,8 +26,22 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   auto* placeBox = new QGroupBox(tr("Placement"));
   auto* form = new QFormLayout(placeBox);
   method_ = new QComboBox;
-  method_->addItem(QStringLiteral("uniform"));  // the core's placement methods
-  method_->setToolTip(tr("uniform: a grid minus the points inside geometry"));
+  // The core's placement methods (core/placement/Place.h), the same as `probestudio place`.
+  const std::map<std::string, QString> help = {
+      {"uniform", tr("A grid at the spacing (or the budget), minus the points inside geometry")},
+      {"greedy", tr("Error-driven: adds the dense-field sample where the interpolation is worst, "
+                    "until the budget")},
+      {"ascent", tr("A grid whose probes climb towards the light of their indirect captures "
+                    "(Sukys 3.1.2)")},
+      {"spawn-merge", tr("A grid of half the budget; similar neighbours merge, probes spawn "
+                         "between differing ones (Sukys 3.1.1)")},
+  };
+  for (const std::string& name : placementMethods()) {
+    method_->addItem(QString::fromStdString(name));
+    const auto h = help.find(name);
+    if (h != help.end()) method_->setItemData(method_->count() - 1, h->second, Qt::ToolTipRole);
+  }
+  method_->setCurrentText(QStringLiteral("uniform"));
   spacing_ = new QDoubleSpinBox;
   spacing_->setRange(0.01, 1000);
   spacing_->setDecimals(2);
@@ -85,7 +102,9 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
     updateState();
   });
   connect(doc_, &Document::jobFinished, this, [this](const QString& error) {
-    status_->setText(error == QLatin1String("cancelled") ? tr("Cancelled") : error);
+    status_->setText(error == QLatin1String("cancelled") ? tr("Cancelled")
+                     : error.isEmpty()                   ? doc_->lastJobNotes().join('\n')
+                                                         : error);
     progress_->setValue(0);
     updateState();
   });

@@ -116,7 +116,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   bool glyphsAtProbes() const { return glyphsAtProbes_; }
   struct GlyphSample {
     Vec3 centre;
-    Vec3 f;  ///< luminanceDirectionVector of the SH there
+    Vec3 f;  ///< luminanceDirection of the SH there
   };
   /// Where the glyphs are drawn and their f; `arrowMeters` (optional) receives the arrow length
   /// at full magnitude.

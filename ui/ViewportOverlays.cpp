@@ -189,13 +189,13 @@ std::vector<Viewport::GlyphSample> Viewport::glyphSamples(double* arrowMeters) {
   if (glyphsAtProbes_) {
     // Chajdas Fig. 2 over the captured probes themselves.
     for (const Probe& p : doc_->probes())
-      if (p.sh && isDrawn(p)) out.push_back({p.position, luminanceDirectionVector(*p.sh)});
+      if (p.sh && isDrawn(p)) out.push_back({p.position, luminanceDirection(*p.sh)});
     if (arrowMeters) *arrowMeters = baseRadius_ * 5.0;
     return out;
   }
   out.reserve(glyphGrid_.size());
   for (size_t i = 0; i < glyphGrid_.size(); ++i)
-    out.push_back({glyphGrid_.centre(i), luminanceDirectionVector(glyphGrid_.sh[i])});
+    out.push_back({glyphGrid_.centre(i), luminanceDirection(glyphGrid_.sh[i])});
   if (arrowMeters)
     *arrowMeters =
         std::min({glyphGrid_.cellMeters.x, glyphGrid_.cellMeters.y, glyphGrid_.cellMeters.z});

@@ -9,12 +9,13 @@
 //
 // Radiance along a ray: a Lambertian path tracer with next-event estimation (NEE) to the delta
 // lights (sun, point, spot), cosine-weighted bounces, Russian roulette by throughput after
-// kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces, the
-// constant sky and the environment map are reached by sampled rays only (no NEE for them: the
-// probe's uniform directions and the cosine-weighted bounces sample them without bias), so
-// nothing is counted twice. Albedo and emission are the material's factors times its textures
-// at the hit's TEXCOORD_0 (Scene::albedoAt, emissionAt); cut-out (alphaMode MASK) points are
-// never hit (the tracer's Embree filter).
+// kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces and the
+// constant sky are reached by sampled rays only (no NEE for them), so nothing is counted twice.
+// The environment map is reached by the probe's own rays in full and, at surface vertices, by
+// NEE (importance-sampled by texel power) and by the bounce ray, each weighted by the power
+// heuristic (Veach 1997, sec. 9.2) so that together they count it once. Albedo and emission are the
+// material's factors times its textures at the hit's TEXCOORD_0 (Scene::albedoAt, emissionAt);
+// cut-out (alphaMode MASK) points are never hit (the tracer's Embree filter).
 //
 // Adaptive sampling (CaptureSettings::targetRelativeError): after every kAdaptiveBatchSamples
 // rays the standard error of each axis irradiance's luminance is estimated from the per-ray
@@ -133,6 +134,7 @@ class PathTracer {
         lights_(allLights(tracer.scene(), rig)),
         sky_(rig.skyRadiance),
         env_(environmentOf(rig)),
+        envNee_(env_ && env_->canSample()),
         eps_(tracer.rayEpsilon()) {
     // O(1) here: traceRadiance builds one per ray. Material indices are checked per hit.
     PS_CHECK_EQ(scene_.triangleMaterial.size(), scene_.triangleCount());
@@ -177,12 +179,23 @@ class PathTracer {
     Rgb beta{1, 1, 1};
     Vec3 o = origin;
     Vec3 d = dir;
+    double bouncePdf = 0;  // pdf (per sr) of the cosine-weighted bounce that made d; 0 at the probe
     for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
       const auto hit = tracer_.intersect(Ray{o, d});
       if (!hit) {
-        // Escaped: the constant sky plus the environment map (sampled by the cosine-weighted
-        // bounce directions and, from the probe, the uniform sphere directions: unbiased).
-        L += beta * (env_ ? sky_ + env_->radiance(d) : sky_);
+        // Escaped: the constant sky plus the environment map. From the probe (uniform
+        // directions) the map counts fully; after a bounce it is weighted by the power
+        // heuristic against the map's own sampling at that vertex (Veach 1997, eq. 9.13).
+        if (!env_) {
+          L += beta * sky_;
+        } else {
+          double w = 1;
+          if (bounce > 0 && envNee_) {
+            const double pe = env_->pdf(d);
+            w = bouncePdf * bouncePdf / (bouncePdf * bouncePdf + pe * pe);
+          }
+          L += beta * (sky_ + env_->radiance(d) * w);
+        }
         break;
       }
       const uint32_t materialIndex = scene_.triangleMaterial[hit->triangle];
@@ -214,9 +227,26 @@ class PathTracer {
       const Rgb brdfPi = albedo * (1.0 / kPi);
       L += beta * brdfPi * e;
 
+      // Next-event estimation to the environment map, importance-sampled by its luminance and
+      // weighted by the power heuristic against the cosine-weighted bounce (Veach 1997, 9.2).
+      if (envNee_) {
+        double pe = 0;
+        const Vec3 wl = env_->sample(uniform01(rng), uniform01(rng), pe);
+        const double cosTheta = dot(n, wl);
+        if (cosTheta > 0 && pe > 0) {
+          const Ray shadow{p, wl, eps_, std::numeric_limits<double>::infinity()};
+          if (!tracer_.occluded(shadow)) {
+            const double pb = cosTheta / kPi;
+            const double w = pe * pe / (pe * pe + pb * pb);
+            L += beta * brdfPi * env_->radiance(wl) * (cosTheta * w / pe);
+          }
+        }
+      }
+
       // Lambertian bounce, cosine-weighted: f cos / pdf = albedo.
       const double u1 = uniform01(rng), u2 = uniform01(rng);
       d = cosineHemisphere(n, u1, u2);
+      bouncePdf = std::max(0.0, dot(n, d)) / kPi;
       o = p;
       beta = beta * albedo;
       if (bounce + 1 >= kRussianRouletteStartBounce) {
@@ -246,6 +276,7 @@ class PathTracer {
   std::vector<Light> lights_;
   Rgb sky_;
   std::shared_ptr<const EnvironmentMap> env_;
+  bool envNee_;  ///< the map can be importance-sampled (loaded through loadEnvironmentMap)
   double eps_;
 };
 

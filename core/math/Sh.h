@@ -45,4 +45,13 @@ struct ShRgb {
   Rgb irradiance(Vec3 n) const;
 };
 
+/// f = integral over the sphere of w * lum(L(w)) dw for the band-limited radiance of `sh`
+/// (Chajdas sec. 2.1, eq. 1, as an integral instead of a sum over cube-map texels). Only the
+/// l = 1 band contributes: with Y1-1 = k y, Y10 = k z, Y11 = k x (k = 0.488603) and the basis
+/// orthonormal, the integral of x * L is c11 / k, and so on.
+inline Vec3 luminanceDirection(const ShRgb& sh) {
+  constexpr double k = 0.488602511902919921;
+  return Vec3{luminance(sh.c[3]), luminance(sh.c[1]), luminance(sh.c[2])} * (1.0 / k);
+}
+
 }  // namespace ps

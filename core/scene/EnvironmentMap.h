@@ -32,6 +32,22 @@ struct EnvironmentMap {
   Vec3 directionOf(double column, double row) const;
   /// The solid angle of a texel of row `row` (sr): (2 pi / width) (cos theta0 - cos theta1).
   double texelSolidAngle(int row) const;
+
+  /// Importance sampling (Pharr, Jakob & Humphreys, PBRT 3rd ed. sec. 14.2.4, piecewise-constant
+  /// 2D distribution): texels are chosen with probability proportional to luminance times solid
+  /// angle, then a direction uniform (in solid angle) within the texel. Empty until
+  /// buildSampling(); loadEnvironmentMap builds it. False when the map is black.
+  bool canSample() const { return !marginalCdf.empty(); }
+  void buildSampling();
+  /// A direction from two uniforms in [0, 1) and its pdf (per steradian). Precondition:
+  /// canSample().
+  Vec3 sample(double u1, double u2, double& pdf) const;
+  /// The pdf (per steradian) with which sample() returns `dir`. Precondition: canSample().
+  double pdf(Vec3 dir) const;
+
+  std::vector<double> marginalCdf;       ///< height + 1 entries, 0 to 1: rows
+  std::vector<double> conditionalCdf;    ///< height * (width + 1), 0 to 1 per row: columns
+  std::vector<double> texelProbability;  ///< width * height, summing to 1
 };
 
 /// Reads an equirectangular map with OpenImageIO (any format it reads; .hdr and .exr are the

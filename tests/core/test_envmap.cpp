@@ -16,6 +16,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/math/Random.h"
 #include "core/scene/EnvironmentMap.h"
 #include "core/scene/LightingRig.h"
 
@@ -182,6 +183,87 @@ TEST(EnvironmentMap, BrightPatchLightsFromItsDirectionWithItsIntegral) {
   for (int i = 0; i < kShCoeffCount; ++i)
     for (int ch = 0; ch < 3; ++ch)
       EXPECT_NEAR(c.sh.c[i][ch], want.c[i][ch], 4.5 * c.shStdError.c[i][ch] + 1e-9)
+          << "coefficient " << i << " channel " << ch;
+}
+
+TEST(EnvironmentMap, ImportanceSamplingPdfMatchesTheSampledDirections) {
+  // The pdf sample() reports is the one pdf() gives for the direction, it integrates to 1 over
+  // the texels, and samples land in bright texels only.
+  const int w = 16, h = 8;
+  std::vector<float> rgb(size_t(w * h * 3), 0.0f);
+  for (int c = 3; c < 7; ++c)
+    for (int k = 0; k < 3; ++k) rgb[size_t(2 * w + c) * 3 + size_t(k)] = float(c);
+  rgb[size_t(6 * w + 12) * 3 + 1] = 50.0f;
+  const auto map = loadEnvironmentMap(writeMap("sampling.exr", w, h, rgb));
+  ASSERT_TRUE(map->canSample());
+  double total = 0;
+  for (int r = 0; r < h; ++r)
+    for (int c = 0; c < w; ++c) total += map->pdf(map->directionOf(c, r)) * map->texelSolidAngle(r);
+  EXPECT_NEAR(total, 1.0, 1e-12);
+  uint64_t state = 7;
+  for (int i = 0; i < 2000; ++i) {
+    double pdf = 0;
+    const Vec3 d = map->sample(uniform01(state), uniform01(state), pdf);
+    EXPECT_NEAR(length(d), 1.0, 1e-12);
+    EXPECT_GT(pdf, 0.0);
+    EXPECT_NEAR(map->pdf(d), pdf, 1e-9 * pdf);
+    EXPECT_GT(luminance(map->radiance(d)), 0.0);
+  }
+}
+
+TEST(EnvironmentMap, BrightPatchOverAWhiteFloorMatchesTheClosedForm) {
+  // An infinite Lambertian floor of albedo rho under the patch receives E = sum L cos(theta)
+  // d(omega) over the patch and reflects the uniform radiance rho E / pi; the probe 1 m above
+  // it sees the patch above and that radiance over the whole lower hemisphere. The floor's light
+  // comes from next-event estimation to the map, weighted against the bounce (MIS).
+  const int w = 64, h = 32;
+  const Rgb bright{40, 20, 10};
+  std::vector<float> rgb(size_t(w * h * 3), 0.0f);
+  EnvironmentMap ref;
+  ref.width = w;
+  ref.height = h;
+  ShRgb want;
+  Rgb floorE;
+  for (int row = 6; row <= 10; ++row)
+    for (int col = 43; col <= 52; ++col) {
+      float* t = &rgb[size_t(row * w + col) * 3];
+      t[0] = float(bright.r), t[1] = float(bright.g), t[2] = float(bright.b);
+      const double cos0 = std::cos(kPi * row / h), cos1 = std::cos(kPi * (row + 1) / h);
+      // Integral of cos(theta) over the texel: (2 pi / w) (cos0^2 - cos1^2) / 2.
+      floorE += bright * ((2 * kPi / w) * (cos0 * cos0 - cos1 * cos1) / 2);
+      const double sub = ref.texelSolidAngle(row) / 64;
+      for (int a = 0; a < 8; ++a)
+        for (int b = 0; b < 8; ++b) {
+          const double z = cos0 + (cos1 - cos0) * (a + 0.5) / 8;
+          const double theta = std::acos(z);
+          const double phi = 2 * kPi * ((col + (b + 0.5) / 8) / w - 0.5);
+          const Vec3 d{std::sin(theta) * std::sin(phi), std::cos(theta),
+                       -std::sin(theta) * std::cos(phi)};
+          want.addSample(d, bright, sub);
+        }
+    }
+  const double rho = 0.5;
+  const Rgb floorL = floorE * (rho / kPi);
+  // A constant radiance over the lower hemisphere: c00 = L 2 pi Y00, c1,-1 = L 0.488603 (-pi).
+  want.c[0] += floorL * (2 * kPi * 0.282095);
+  want.c[1] += floorL * (-kPi * 0.488603);
+  Scene scene = blackFloor();
+  scene.materials[0].albedo = {rho, rho, rho};
+  const Tracer tracer(scene);
+  LightingRig rig;
+  rig.envMap = loadEnvironmentMap(writeMap("patch-floor.exr", w, h, rgb));
+  CaptureSettings cs;
+#if defined(__SANITIZE_ADDRESS__)
+  cs.samplesPerProbe = 8192;
+#else
+  cs.samplesPerProbe = 32768;
+#endif
+  const std::vector<Vec3> at = {{0, 1, 0}};
+  const ProbeCapture c = captureProbes(tracer, rig, at, cs)[0];
+  for (int i = 0; i < kShCoeffCount; ++i)
+    for (int ch = 0; ch < 3; ++ch)
+      EXPECT_NEAR(c.sh.c[i][ch], want.c[i][ch],
+                  4.5 * c.shStdError.c[i][ch] + 0.005 * std::abs(want.c[0][ch]))
           << "coefficient " << i << " channel " << ch;
 }
 

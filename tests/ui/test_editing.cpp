@@ -421,7 +421,7 @@ class TestEditing : public QObject {
     // The glyphs point along f: towards +X here.
     const ShGrid& g = vp->glyphGrid();
     QVERIFY(g.size() > 100);
-    for (size_t i = 0; i < g.size(); i += 13) QVERIFY(luminanceDirectionVector(g.sh[i]).x > 0);
+    for (size_t i = 0; i < g.size(); i += 13) QVERIFY(luminanceDirection(g.sh[i]).x > 0);
     QVERIFY(vp->previewVolume().has_value());
     QCOMPARE(vp->glyphSamples().size(), g.size());
     // Over the probes instead: one per captured probe, f of its own SH.
@@ -430,7 +430,7 @@ class TestEditing : public QObject {
     QCOMPARE(atProbes.size(), doc->probes().size());
     for (size_t i = 0; i < atProbes.size(); ++i) {
       QCOMPARE(atProbes[i].centre, doc->probes()[i].position);
-      QCOMPARE(atProbes[i].f, luminanceDirectionVector(*doc->probes()[i].sh));
+      QCOMPARE(atProbes[i].f, luminanceDirection(*doc->probes()[i].sh));
     }
     vp->setGlyphsAtProbes(false);
 

@@ -47,14 +47,14 @@ class TestLightingField : public QObject {
         const Vec3 w(r * std::cos(phi), r * std::sin(phi), z);
         sum += w * (luminance(sh.radiance(w)) * 4 * kPi / n);
       }
-      const Vec3 f = luminanceDirectionVector(sh);
+      const Vec3 f = luminanceDirection(sh);
       QVERIFY2(length(f - sum) <= 1e-3 * std::max(length(sum), 1e-3),
                qPrintable(QString("%1 vs %2").arg(length(f)).arg(length(sum))));
     }
     // A constant environment has no direction.
     ShRgb flat;
     flat.c[0] = Rgb(2, 2, 2);
-    QCOMPARE(length(luminanceDirectionVector(flat)), 0.0);
+    QCOMPARE(length(luminanceDirection(flat)), 0.0);
   }
 
   void luminanceDistanceIsInStops() {

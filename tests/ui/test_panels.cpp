@@ -2,6 +2,7 @@
 // the background keeps accepted, rejected and locked probes and is one undo step; cancel; bake
 // writes the volume beside the probe set; the lighting panel edits the rig (undoable).
 #include <QCheckBox>
+#include <QComboBox>
 #include <QDoubleSpinBox>
 #include <QGroupBox>
 #include <QListWidget>
@@ -15,6 +16,7 @@
 #include <QtTest>
 
 #include "core/io/VolumeFile.h"
+#include "core/placement/Place.h"
 #include "core/traversal/ProbeVolume.h"
 #include "ui/Document.h"
 #include "ui/EvaluationPanel.h"
@@ -131,6 +133,54 @@ class TestPanels : public QObject {
     const double n = double(doc->probes().size());
     QVERIFY2(n >= 30 && n <= 50, qPrintable(QString::number(n)));
     QCOMPARE(doc->probeSet().placement.budget, 40);
+  }
+
+  void everyCoreMethodRunsFromThePanelAndBuildsAroundLockedProbes() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    PlacementPanel* panel = win.w.placementPanel();
+    // The panel offers exactly the core's methods, uniform first selected.
+    QStringList offered;
+    for (int i = 0; i < panel->methodBox()->count(); ++i)
+      offered << panel->methodBox()->itemText(i);
+    QStringList core;
+    for (const std::string& m : placementMethods()) core << QString::fromStdString(m);
+    QCOMPARE(offered, core);
+    QCOMPARE(panel->methodBox()->currentText(), QStringLiteral("uniform"));
+
+    const Vec3 c = doc->scene()->bounds.center();
+    Probe locked;
+    locked.position = c + Vec3(0.1, 0.2, 0.3);
+    locked.method = "manual";
+    const uint64_t lockedId = doc->addProbes({locked}, "Add").at(0);
+    doc->setLocked({lockedId}, true);
+
+    // greedy needs a budget: a clear error before anything runs.
+    panel->methodBox()->setCurrentText(QStringLiteral("greedy"));
+    panel->budgetBox()->setValue(0);
+    QVERIFY(!panel->run());
+    QVERIFY(!doc->isBusy());
+
+    panel->budgetBox()->setValue(12);
+    panel->captureSamplesBox()->setValue(16);
+    QVERIFY(panel->run());
+    QCOMPARE(waitForJob(doc), QString());
+    size_t greedy = 0, scored = 0;
+    for (const Probe& p : doc->probes()) {
+      if (p.method != "greedy") continue;
+      ++greedy;
+      QVERIFY(p.score >= 0);  // the error the probe had when added (0 for the start corners)
+      if (p.score > 0) ++scored;
+      QVERIFY(p.sh.has_value());
+      QCOMPARE(p.state, ProbeState::Candidate);
+    }
+    // The budget counts the locked probe; greedy may stop early only below its noise floor.
+    QVERIFY2(greedy >= 8 && greedy <= 11, qPrintable(QString::number(greedy)));
+    QVERIFY(scored >= 1);
+    QCOMPARE(doc->probe(lockedId)->position, locked.position);
+    QVERIFY(!doc->lastJobNotes().isEmpty());  // "dense field: ...", "greedy: field error ..."
+    QCOMPARE(doc->probeSet().placement.method, std::string("greedy"));
   }
 
   void cancelStopsTheJobAndChangesNothing() {
