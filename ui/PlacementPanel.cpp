@@ -35,6 +35,8 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
                     "(Sukys 3.1.2)")},
       {"spawn-merge", tr("A grid of half the budget; similar neighbours merge, probes spawn "
                          "between differing ones (Sukys 3.1.1)")},
+      {"chajdas", tr("Dense-field particles traced to the sinks of the light; one probe per "
+                     "cluster of matching samples (Chajdas et al.); the budget sets the merging")},
   };
   for (const std::string& name : placementMethods()) {
     method_->addItem(QString::fromStdString(name));

@@ -35,6 +35,7 @@ void registerBake(CLI::App& app) {
     uint64_t seed = 1;
     std::string cacheDir;
     bool noCache = false;
+    bool noLeakRefine = false;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -47,6 +48,8 @@ void registerBake(CLI::App& app) {
                   "Capture cache folder (default: SET.capture-cache beside the probe set)");
   cmd->add_flag("--no-cache", o->noCache,
                 "Capture every probe, neither reading nor writing a cache");
+  cmd->add_flag("--no-leak-refine", o->noLeakRefine,
+                "Do not add probes where the probe mesh's edges cross geometry (Sukys 3.2.2)");
   cmd->callback([o] {
     if (o->spp > kMaxSamplesPerProbe)
       throw ParameterError("--spp: " + std::to_string(o->spp) + " samples per probe is above the " +
@@ -60,6 +63,7 @@ void registerBake(CLI::App& app) {
     bs.capture.samplesPerProbe = o->spp;
     bs.capture.seed = o->seed;
     bs.sceneHash = sceneContentHash(set.scenePath);
+    bs.leakRefine = !o->noLeakRefine;
     if (set.sceneHash != 0 && set.sceneHash != bs.sceneHash)
       std::printf("note: the scene changed since %s was saved (hash %s, now %s)\n", o->set.c_str(),
                   sceneHashText(set.sceneHash).c_str(), sceneHashText(bs.sceneHash).c_str());
@@ -79,6 +83,12 @@ void registerBake(CLI::App& app) {
         "%d spp, tetrahedralize %.3f s) -> %s\n",
         r.probes, r.captured, r.cacheHits, r.file.volume.tets.size(), r.captureSeconds, o->spp,
         r.tetraSeconds, o->out.c_str());
+    if (bs.leakRefine)
+      std::printf(
+          "leak refinement added %zu probes (%.3f s): leaking edges %zu -> %zu, volume in "
+          "tetrahedra with a leaking edge %.2f %% -> %.2f %%\n",
+          r.leakProbesAdded, r.leakSeconds, r.leakingEdgesBefore, r.leakingEdgesAfter,
+          100 * r.leakingVolumeFractionBefore, 100 * r.leakingVolumeFractionAfter);
   });
 }
 

@@ -83,13 +83,15 @@ void registerEval(CLI::App& app) {
       j["rel_rmse"] = r.relRmse;
       j["p95_rel_error"] = r.p95RelError;
       j["max_rel_error"] = r.maxRelError;
+      j["leaking_fraction"] = r.leakingFraction;
       j["seconds"] = r.seconds;
       std::cout << j.dump(2) << "\n";
     } else {
       std::printf(
-          "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f (%.2f "
-          "s)\n",
-          r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.seconds);
+          "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
+          "leaking %.4f (%.2f s)\n",
+          r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
+          r.seconds);
     }
   });
 }

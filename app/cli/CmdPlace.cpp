@@ -9,6 +9,7 @@
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
 #include "core/io/SceneHash.h"
+#include "core/placement/LeakRefine.h"
 #include "core/placement/Place.h"
 
 namespace ps::cli {
@@ -21,6 +22,7 @@ struct PlaceOpts {
   std::string scene, out, keep;
   PlaceRequest request;
   bool accept = false;
+  bool noLeakRefine = false;
   RigOptions rig;
 };
 
@@ -62,6 +64,10 @@ void registerPlace(CLI::App& app) {
                   "ascent: first step in metres (default: half the grid spacing)");
   cmd->add_flag("--ascent-direct", o->request.ascentDirect,
                 "ascent: follow the full light instead of the indirect light only");
+  cmd->add_option("--aggressiveness", o->request.aggressiveness,
+                  "chajdas: merging strength (> 0, default 1; larger gives fewer probes)");
+  cmd->add_flag("--no-leak-refine", o->noLeakRefine,
+                "Do not add probes (method \"leak\") where the mesh's edges cross geometry");
   cmd->add_flag("--accept", o->accept, "Mark the proposals accepted instead of candidates");
   cmd->add_option("--seed", o->request.seed, "Random seed");
   cmd->add_option("-o,--output", o->out, "Probe set to write (.json)")->required();
@@ -105,9 +111,33 @@ void registerPlace(CLI::App& app) {
       pr.score = p.score;
       set.add(pr);
     }
+    // Leak refinement (Sukys 3.2.2) of kept + proposed probes: probes with provenance "leak",
+    // score = the edge crossings that asked for them.
+    size_t leakAdded = 0;
+    if (!o->noLeakRefine && set.probes.size() >= 4) {
+      std::vector<Vec3> points;
+      for (const Probe& p : set.probes) points.push_back(p.position);
+      LeakRefineSettings ls;
+      ls.seed = o->request.seed;
+      try {
+        const LeakRefineResult leak = refineLeaks(tracer, points, ls);
+        for (size_t i = 0; i < leak.added.size(); ++i) {
+          Probe pr;
+          pr.position = leak.added[i];
+          pr.state = o->accept ? ProbeState::Accepted : ProbeState::Candidate;
+          pr.method = "leak";
+          pr.score = leak.addedScore[i];
+          set.add(pr);
+        }
+        leakAdded = leak.added.size();
+      } catch (const ParameterError& e) {  // e.g. a flat set: nothing to tetrahedralize
+        std::printf("leak refinement skipped: %s\n", e.what());
+      }
+    }
     saveProbeSet(set, o->out);
     std::printf("placed %zu probes (method %s, %zu kept) in %.2f s -> %s\n", placed.probes.size(),
                 o->request.method.c_str(), keptCount, secondsSince(t0), o->out.c_str());
+    if (!o->noLeakRefine) std::printf("leak refinement added %zu probes\n", leakAdded);
   });
 }
 

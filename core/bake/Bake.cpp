@@ -37,6 +37,22 @@ BakeProbes gatherAcceptedProbes(const ProbeSet& set) {
   return b;
 }
 
+void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSettings& settings,
+                     BakeResult& r) {
+  if (!settings.leakRefine) return;
+  const LeakRefineResult leak = refineLeaks(tracer, probes.positions, settings.leakRefineSettings);
+  for (const Vec3& p : leak.added) {
+    probes.positions.push_back(p);
+    probes.ids.push_back(0);
+  }
+  r.leakProbesAdded = leak.added.size();
+  r.leakingEdgesBefore = leak.leakingEdgesBefore;
+  r.leakingEdgesAfter = leak.leakingEdgesAfter;
+  r.leakingVolumeFractionBefore = leak.leakingVolumeFractionBefore;
+  r.leakingVolumeFractionAfter = leak.leakingVolumeFractionAfter;
+  r.leakSeconds = leak.seconds;
+}
+
 void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& tracer,
                   const BakeSettings& settings, const ProgressFn& progress, BakeResult& r) {
   const size_t n = probes.positions.size();
@@ -78,6 +94,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
                         const ProgressFn& progress) {
   BakeResult r;
   BakeProbes probes = gatherAcceptedProbes(set);
+  leakRefineStage(probes, tracer, settings, r);
   r.probes = probes.positions.size();
   auto t0 = std::chrono::steady_clock::now();
   ProgressFn captureProgress;
@@ -95,6 +112,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   meta["rig"] = rigToJson(set.rig);
   meta["capture_spp"] = settings.capture.samplesPerProbe;
   meta["probe_ids"] = probes.ids;
+  meta["leak_probes_added"] = r.leakProbesAdded;
   r.file.metadataJson = meta.dump();
   if (progress && !progress(1.0)) throw Cancelled();
   return r;

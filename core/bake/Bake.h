@@ -1,8 +1,9 @@
 #pragma once
 // Bake: the accepted probes of a set captured at final quality, tetrahedralized and turned into
 // the runtime volume (DESIGN.md data flow, last stage). Stages, in order, each a function below
-// so that more can be slotted in: gather the accepted probes -> capture (through the capture
-// cache) -> [leak refinement] -> tetrahedralize -> metadata.
+// so that more can be slotted in: gather the accepted probes -> leak refinement (adds probes
+// where the mesh's edges cross geometry; geometry only, so before the capture) -> capture
+// (through the capture cache, the added probes too) -> tetrahedralize -> metadata.
 #include <filesystem>
 #include <optional>
 #include <span>
@@ -11,6 +12,7 @@
 #include "core/capture/Capture.h"
 #include "core/io/ProbeSet.h"
 #include "core/io/VolumeFile.h"
+#include "core/placement/LeakRefine.h"
 #include "core/traversal/ProbeVolume.h"
 
 namespace ps {
@@ -26,20 +28,27 @@ struct BakeSettings {
   /// sceneContentHash() of the scene the tracer was built from; part of every cache key. The
   /// cache is used only when this is non-zero.
   uint64_t sceneHash = 0;
+  /// Leak refinement (Sukys 3.2.2) before the capture; on by default (`bake --no-leak-refine`).
+  bool leakRefine = true;
+  LeakRefineSettings leakRefineSettings;
 };
 
 struct BakeResult {
   VolumeFile file;
   size_t probes = 0;
-  size_t captured = 0;   ///< probes traced in this bake
-  size_t cacheHits = 0;  ///< probes whose SH came from the capture cache
+  size_t captured = 0;         ///< probes traced in this bake
+  size_t cacheHits = 0;        ///< probes whose SH came from the capture cache
+  size_t leakProbesAdded = 0;  ///< probes added by leak refinement (included in `probes`)
+  size_t leakingEdgesBefore = 0, leakingEdgesAfter = 0;
+  double leakingVolumeFractionBefore = 0, leakingVolumeFractionAfter = 0;
+  double leakSeconds = 0;
   double captureSeconds = 0;
   double tetraSeconds = 0;
 };
 
 /// The bake's working data between stages.
 struct BakeProbes {
-  std::vector<uint64_t> ids;
+  std::vector<uint64_t> ids;  ///< 0 for probes added by leak refinement (not in the set)
   std::vector<Vec3> positions;
   std::vector<ShRgb> sh;  ///< filled by the capture stage
 };
@@ -47,14 +56,20 @@ struct BakeProbes {
 /// Stage 1: the accepted probes of `set`. Throws ps::ParameterError when fewer than 4.
 BakeProbes gatherAcceptedProbes(const ProbeSet& set);
 
-/// Stage 2: fills `probes.sh`, from the cache where it has an entry, tracing the rest (in one
+/// Stage 2: leak refinement (when settings.leakRefine): appends the added probes (id 0) and
+/// records the counts in r.
+void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSettings& settings,
+                     BakeResult& r);
+
+/// Stage 3: fills `probes.sh`, from the cache where it has an entry, tracing the rest (in one
 /// captureProbes call) and storing them in the cache. Adds to r.captured / r.cacheHits.
 void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& tracer,
                   const BakeSettings& settings, const ProgressFn& progress, BakeResult& r);
 
-/// Captures every accepted probe of `set` with the set's rig and builds the volume. The volume's
-/// metadata JSON records the scene path (absolute; saveVolume's caller may relativize), the rig
-/// and the probe ids. Throws ps::ParameterError when fewer than 4 probes are accepted.
+/// Captures every accepted probe of `set` (plus those leak refinement adds) with the set's rig
+/// and builds the volume. The volume's metadata JSON records the scene path (absolute;
+/// saveVolume's caller may relativize), the rig, the probe ids and the leak probes added. Throws
+/// ps::ParameterError when fewer than 4 probes are accepted.
 BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSettings& settings,
                         const ProgressFn& progress = {});
 

@@ -23,4 +23,9 @@ inline constexpr float kBarycentricSlack = 1e-5f;
 inline constexpr double kThinTetRelativeVolume = 1e-2;
 inline constexpr double kFlatTetRelativeVolume = 1e-12;
 
+/// Leak refinement (Sukys 3.2.2): an edge that meets a surface at |cos| below this (runs along
+/// it, e.g. between two probes on a floor) does not cross it. The paper's check is the sign of
+/// the dot product of the ray direction and the surface normal; this leaves out grazing hits.
+inline constexpr double kLeakGrazingCos = 1e-3;
+
 }  // namespace ps::tol

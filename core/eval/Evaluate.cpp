@@ -77,6 +77,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
       throw ParameterError("eval: could not find points outside geometry in the scene bounds");
 
   std::vector<double> ref(M), got(M);
+  std::vector<char> leaking(M, 0);
   std::atomic<size_t> done{0};
   std::atomic<bool> cancelled{false};
   std::mutex progressMutex;
@@ -87,6 +88,18 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
         referenceIrradiance(tracer, rig, lights, points[q], normals[q], s.referenceSpp, rng));
     const VolumeLocation loc = locate(volume, points[q]);
     got[q] = luminance(interpolate(volume, loc).irradiance(normals[q]));
+    // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking).
+    if (loc.tet >= 0)
+      for (int32_t vi : volume.tets[size_t(loc.tet)]) {
+        const Vec3 d = volume.position(vi) - points[q];
+        const double len = length(d);
+        if (len <= 2 * tracer.rayEpsilon()) continue;
+        if (tracer.occluded(
+                Ray{points[q], d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len})) {
+          leaking[q] = 1;
+          break;
+        }
+      }
     const size_t d = ++done;
     if (progress) {
       std::lock_guard lock(progressMutex);
@@ -113,6 +126,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   for (size_t q = 0; q < M; ++q) rel[q] = std::abs(got[q] - ref[q]) / std::max(ref[q], floorE);
   std::sort(rel.begin(), rel.end());
   r.maxRelError = rel.back();
+  r.leakingFraction = double(std::count(leaking.begin(), leaking.end(), 1)) / double(M);
   r.p95RelError = rel[std::min(M - 1, size_t(std::ceil(0.95 * M)) - 1)];
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;

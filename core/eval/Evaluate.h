@@ -25,6 +25,10 @@ struct EvalResult {
   /// Per-query relative error |E_vol - E_ref| / max(E_ref, 0.1 * mean E_ref): percentiles.
   double p95RelError = 0;
   double maxRelError = 0;
+  /// Fraction of the queries whose tetrahedron (the hull tetrahedron they are clamped to, when
+  /// outside) has a probe not visible from the query point: light leaks through geometry
+  /// there (Sukys 3.2.2).
+  double leakingFraction = 0;
   double seconds = 0;
 };
 

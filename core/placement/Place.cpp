@@ -1,12 +1,14 @@
 #include "core/placement/Place.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/placement/Ascent.h"
+#include "core/placement/Chajdas.h"
 #include "core/placement/Greedy.h"
 #include "core/placement/SpawnMerge.h"
 #include "core/placement/Uniform.h"
@@ -194,11 +196,57 @@ PlaceOutcome placeWithSpawnMerge(const Context& c) {
 
 using Method = PlaceOutcome (*)(const Context&);
 
+/// `chajdas` (Chajdas et al.): the dense field, particles traced to its sinks, clusters cleaned
+/// by probe matching, one representative each; k-means over unlit samples (Chajdas.h).
+PlaceOutcome placeWithChajdas(const Context& c) {
+  const PlaceRequest& r = c.request;
+  if (r.spacingMeters != 0 || r.maxError != 0)
+    throw ParameterError(
+        "--spacing, --max-error: not for --method chajdas (its probe count follows from "
+        "--aggressiveness, or --budget)");
+  const int budget = r.budget - int(c.kept.size());
+  if (r.budget != 0 && c.kept.empty() && budget < 4)
+    throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(budget));
+  if (r.budget != 0 && budget < 4)
+    throw ParameterError("--budget: " + std::to_string(r.budget) + " leaves fewer than 4 new " +
+                         "probes beside the " + std::to_string(c.kept.size()) + " kept ones");
+  ChajdasSettings cs;
+  cs.aggressiveness = r.aggressiveness;
+  cs.importanceVolumes.assign(c.importanceVolumes.begin(), c.importanceVolumes.end());
+  cs.seed = r.seed;
+  if (!(cs.aggressiveness > 0) || !std::isfinite(cs.aggressiveness))
+    throw ParameterError("--aggressiveness: expected a positive number, got " +
+                         std::to_string(cs.aggressiveness));
+  DenseFieldSettings fs = r.field;
+  fs.seed = r.seed;
+  fs.importanceVolumes = cs.importanceVolumes;
+  const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
+  PlaceOutcome out;
+  ChajdasResult ch;
+  if (r.budget != 0) {
+    ChajdasBudgetResult b = placeChajdasBudget(field.samples, budget, cs);
+    out.notes.push_back(
+        format("chajdas: --budget %d gives aggressiveness %.3f", r.budget, b.aggressiveness));
+    ch = std::move(b.result);
+  } else {
+    ch = placeChajdas(field.samples, cs);
+  }
+  out.notes.push_back(
+      format("chajdas: %zu field samples (%zu unlit), %zu sinks, %zu candidate clusters, %zu "
+             "probes (%.2f s)",
+             field.samples.size(), ch.unlitSamples, ch.sinks, ch.candidateClusters,
+             ch.probes.size(), ch.seconds));
+  out.spacingMeters = field.baseSpacingMeters;
+  std::vector<PlacedProbe> placed;
+  for (const ChajdasProbe& p : ch.probes) placed.push_back({p.position, p.score});
+  out.probes = awayFromKept(c, std::move(placed), field.baseSpacingMeters);
+  return out;
+}
+
 const std::map<std::string, Method>& methods() {
   static const std::map<std::string, Method> kMethods = {
-      {"uniform", placeWithUniform},
-      {"greedy", placeWithGreedy},
-      {"ascent", placeWithAscent},
+      {"uniform", placeWithUniform},        {"greedy", placeWithGreedy},
+      {"ascent", placeWithAscent},          {"chajdas", placeWithChajdas},
       {"spawn-merge", placeWithSpawnMerge},
   };
   return kMethods;

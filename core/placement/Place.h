@@ -33,6 +33,7 @@ struct PlaceRequest {
   int ascentIterations = 8;     ///< ascent: steps per probe at most
   double ascentStepMeters = 0;  ///< ascent: first step; 0 = half the start grid's spacing
   bool ascentDirect = false;    ///< ascent: follow the full light, not the indirect only
+  double aggressiveness = 1.0;  ///< chajdas: merging strength (> 0); with a budget, bisected
 };
 
 struct PlacedProbe {

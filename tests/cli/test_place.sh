@@ -6,14 +6,14 @@ set -euo pipefail
 cli="$1"; root="$2"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 scene="$root/resources/scenes/pillar-room.gltf"
-field=(--field-depth 1 --field-spp 32)
+field=(--field-depth 1 --field-spp 32 --no-leak-refine)
 
 "$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g.json"
 "$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g2.json"
 cmp "$tmp/g.json" "$tmp/g2.json"  # deterministic for a seed
 "$cli" place "$scene" --method greedy --max-error 0.3 "${field[@]}" -o "$tmp/e.json"
-"$cli" place "$scene" --method ascent --budget 32 --field-spp 32 -o "$tmp/a.json"
-"$cli" place "$scene" --method spawn-merge --budget 40 --field-spp 32 -o "$tmp/sm.json"
+"$cli" place "$scene" --method ascent --budget 32 --field-spp 32 --no-leak-refine -o "$tmp/a.json"
+"$cli" place "$scene" --method spawn-merge --budget 40 --field-spp 32 --no-leak-refine -o "$tmp/sm.json"
 # Lock two probes, then place around them.
 python3 - "$tmp" <<'PY'
 import json, sys
@@ -34,7 +34,7 @@ s["probes"][7]["state"] = "accepted"
 json.dump(s, open(f"{tmp}/locked.json", "w"))
 PY
 "$cli" place "$scene" --method greedy --budget 20 "${field[@]}" --keep "$tmp/locked.json" -o "$tmp/k.json"
-"$cli" place "$scene" --method uniform --budget 20 --keep "$tmp/locked.json" -o "$tmp/ku.json"
+"$cli" place "$scene" --method uniform --budget 20 --no-leak-refine --keep "$tmp/locked.json" -o "$tmp/ku.json"
 python3 - "$tmp" <<'PY'
 import json, sys
 tmp = sys.argv[1]
@@ -79,7 +79,7 @@ expect_error "budget: expected at least 4 probes, got 3" "$cli" place "$scene" -
 expect_error "beside the 2 kept probes" "$cli" place "$scene" --method greedy --budget 5 --keep "$tmp/locked.json" -o "$tmp/x.json"
 expect_error "base samples (limit 200000)" "$cli" place "$scene" --method greedy --budget 8 --field-spacing 0.01 -o "$tmp/x.json"
 expect_error "field depth: expected 0 to 8" "$cli" place "$scene" --method greedy --budget 8 --field-depth 9 -o "$tmp/x.json"
-expect_error "available: ascent, greedy, spawn-merge, uniform" "$cli" place "$scene" --method magic -o "$tmp/x.json"
+expect_error "available: ascent, chajdas, greedy, spawn-merge, uniform" "$cli" place "$scene" --method magic -o "$tmp/x.json"
 expect_error "spawn-merge needs at least 8 new probes" "$cli" place "$scene" --method spawn-merge --budget 6 -o "$tmp/x.json"
 test ! -e "$tmp/x.json" || { echo "FAIL: a failed place wrote its output"; fail=1; }
 exit $fail
