@@ -494,11 +494,16 @@ bool Document::bake(const BakeRequest& request) {
   startJob("bake", tr("Baking…"), [=](JobResult& result, const auto& report) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = request.samplesPerProbe;
+    bs.leakRefine = request.refineLeaks;
     BakeResult baked = bakeProbeSet(set, *tracer, bs, [&](double f) {
       return report(tr("Baking %1 probes…").arg(accepted), 0.97 * f);
     });
     saveVolume(baked.file, toPath(path));  // atomic
     result.bakedProbes = baked.probes;
+    result.notes << tr("Baked %1 probes: %2 accepted, %3 added by leak refinement")
+                        .arg(baked.probes)
+                        .arg(accepted)
+                        .arg(baked.leakProbesAdded);
     result.volumePath = path;
     result.volume = std::make_shared<const ProbeVolume>(std::move(baked.file.volume));
   });

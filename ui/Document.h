@@ -44,6 +44,9 @@ struct PlacementRequest {
 /// The bake's settings: the accepted probes captured at final quality.
 struct BakeRequest {
   int samplesPerProbe = 1024;
+  /// Leak refinement (Sukys 3.2.2) before the capture: probes added on both sides of walls
+  /// that tetrahedron edges cross; they are in the volume, not in the probe set.
+  bool refineLeaks = true;
 };
 
 /// The evaluation's settings (core/eval/Evaluate.h).

@@ -76,6 +76,12 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   bakeSpp_->setRange(1, 1 << 20);
   bakeSpp_->setValue(1024);
   bakeForm->addRow(tr("Samples per probe"), bakeSpp_);
+  leakRefine_ = new QCheckBox(tr("Refine leaks"));
+  leakRefine_->setChecked(true);
+  leakRefine_->setToolTip(
+      tr("Add probes on both sides of the walls that tetrahedron edges cross (Sukys 3.2.2); they "
+         "go into the volume, not into the probe set"));
+  bakeForm->addRow(leakRefine_);
   bake_ = new QPushButton(tr("Bake accepted probes"));
   bakeForm->addRow(bake_);
   volume_ = new QLabel;
@@ -129,6 +135,7 @@ PlacementRequest PlacementPanel::placementRequest() const {
 BakeRequest PlacementPanel::bakeRequest() const {
   BakeRequest r;
   r.samplesPerProbe = bakeSpp_->value();
+  r.refineLeaks = leakRefine_->isChecked();
   return r;
 }
 

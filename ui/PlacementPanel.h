@@ -36,6 +36,7 @@ class PlacementPanel : public QWidget {
   QSpinBox* captureSamplesBox() const { return captureSpp_; }
   QCheckBox* replaceBox() const { return replace_; }
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
+  QCheckBox* leakRefineBox() const { return leakRefine_; }
   QPushButton* cancelButton() const { return cancel_; }
 
  signals:
@@ -51,6 +52,7 @@ class PlacementPanel : public QWidget {
   QSpinBox* budget_;
   QSpinBox* captureSpp_;
   QCheckBox* replace_;
+  QCheckBox* leakRefine_ = nullptr;
   QSpinBox* bakeSpp_;
   QPushButton* run_;
   QPushButton* bake_;

@@ -231,6 +231,7 @@ class TestPanels : public QObject {
     accepted.push_back(
         doc->addManualProbe(doc->probes()[0].position + Vec3(0.1, 0.6, 0.05), "Add"));
     panel->bakeSamplesBox()->setValue(16);
+    panel->leakRefineBox()->setChecked(false);  // exactly the accepted probes
     QSignalSpy volumeChanged(doc, &Document::volumeChanged);
     QVERIFY(panel->bake());
     QCOMPARE(waitForJob(doc), QString());
@@ -248,6 +249,16 @@ class TestPanels : public QObject {
     vp->setPreviewSource(PreviewSource::Baked);
     QVERIFY(vp->previewVolume().has_value());
     QCOMPARE(vp->previewVolume()->probeCount(), accepted.size());
+    // With leak refinement (the default) the volume holds the accepted probes plus the ones it
+    // added, and the panel's notes say how many.
+    panel->leakRefineBox()->setChecked(true);
+    QVERIFY(panel->bake());
+    QCOMPARE(waitForJob(doc), QString());
+    QVERIFY(doc->volume()->probeCount() >= accepted.size());
+    const QString note = doc->lastJobNotes().join(' ');
+    QVERIFY2(note.contains(QStringLiteral("%1 added by leak refinement")
+                               .arg(doc->volume()->probeCount() - accepted.size())),
+             qPrintable(note));
     QCOMPARE(vp->previewVolume()->tets.size(), doc->volume()->tets.size());
   }
 
