@@ -32,6 +32,8 @@ void registerBake(CLI::App& app) {
   struct Opts {
     std::string set, out;
     int spp = 1024;
+    double targetError = 0;
+    int maxSpp = 65536;
     uint64_t seed = 1;
     std::string cacheDir;
     bool noCache = false;
@@ -42,7 +44,16 @@ void registerBake(CLI::App& app) {
       app.add_subcommand("bake", "Capture the accepted probes and write the runtime volume");
   cmd->add_option("probe_set", o->set, "Probe set (.json)")->required();
   cmd->add_option("-o,--output", o->out, "Volume to write (.psv)")->required();
-  cmd->add_option("--spp", o->spp, "Samples per probe")->check(CLI::PositiveNumber);
+  auto* spp = cmd->add_option("--spp", o->spp, "Samples per probe")->check(CLI::PositiveNumber);
+  auto* target =
+      cmd->add_option("--target-error", o->targetError,
+                      "Adaptive: stop each probe when the relative standard error of its "
+                      "irradiance is at most E (e.g. 0.02), or at --max-spp")
+          ->check(CLI::Range(1e-6, 1.0));
+  target->excludes(spp);
+  cmd->add_option("--max-spp", o->maxSpp, "Adaptive: most samples per probe (default 65536)")
+      ->check(CLI::Range(64, 1 << 24))
+      ->needs(target);
   cmd->add_option("--seed", o->seed, "Random seed");
   cmd->add_option("--cache", o->cacheDir,
                   "Capture cache folder (default: SET.capture-cache beside the probe set)");
@@ -61,6 +72,8 @@ void registerBake(CLI::App& app) {
     const Tracer tracer(scene);
     BakeSettings bs;
     bs.capture.samplesPerProbe = o->spp;
+    bs.capture.targetRelativeError = o->targetError;
+    bs.capture.maxSamplesPerProbe = o->maxSpp;
     bs.capture.seed = o->seed;
     bs.sceneHash = sceneContentHash(set.scenePath);
     bs.leakRefine = !o->noLeakRefine;
@@ -78,11 +91,15 @@ void registerBake(CLI::App& app) {
     if (!ec && !rel.empty()) meta["scene"] = rel.generic_string();
     r.file.metadataJson = meta.dump();
     saveVolume(r.file, o->out);
+    const std::string quality = o->targetError > 0
+                                    ? "target error " + std::to_string(o->targetError) +
+                                          " (at most " + std::to_string(o->maxSpp) + " spp)"
+                                    : std::to_string(o->spp) + " spp";
     std::printf(
         "baked %zu probes (%zu captured, %zu from the cache), %zu tetrahedra (capture %.2f s at "
-        "%d spp, tetrahedralize %.3f s) -> %s\n",
-        r.probes, r.captured, r.cacheHits, r.file.volume.tets.size(), r.captureSeconds, o->spp,
-        r.tetraSeconds, o->out.c_str());
+        "%s, tetrahedralize %.3f s) -> %s\n",
+        r.probes, r.captured, r.cacheHits, r.file.volume.tets.size(), r.captureSeconds,
+        quality.c_str(), r.tetraSeconds, o->out.c_str());
     if (bs.leakRefine)
       std::printf(
           "leak refinement added %zu probes (%.3f s): leaking edges %zu -> %zu, volume in "

@@ -12,6 +12,9 @@ scene="$root/resources/scenes/cornell.gltf"
 # Re-baking the unchanged set takes every probe from the capture cache and gives the same volume.
 "$cli" bake "$tmp/set.json" -o "$tmp/v2.psv" --spp 128 --no-leak-refine | grep -q "(0 captured, "
 cmp "$tmp/v.psv" "$tmp/v2.psv"
+# Adaptive bake: a target error instead of a fixed count; not the fixed bake's cache entries.
+"$cli" bake "$tmp/set.json" -o "$tmp/v3.psv" --target-error 0.1 --max-spp 1024 --no-leak-refine |
+  grep -q "([0-9]* captured, 0 from the cache).*target error 0.100000 (at most 1024 spp)"
 "$cli" info "$tmp/set.json" | grep -q "matches the scene"
 "$cli" eval "$tmp/v.psv" --queries 32 --reference-spp 256 --json >"$tmp/eval.json"
 "$cli" info "$tmp/set.json" | grep -q "accepted"
