@@ -13,6 +13,7 @@
 #include "core/io/SceneHash.h"
 #include "core/scene/Scene.h"
 #include "core/trace/Tracer.h"
+#include "tests/core/TestFiles.h"
 
 namespace fs = std::filesystem;
 using namespace ps;
@@ -22,12 +23,7 @@ namespace {
 const fs::path kScenes = fs::path(PS_SOURCE_DIR) / "resources" / "scenes";
 
 fs::path tempDir() {
-  const fs::path d =
-      fs::temp_directory_path() / ("ps_test_bake_" + std::to_string(::getpid()) + "_" +
-                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return ps::test::testTempDir("ps_test_bake_");
 }
 
 // A 3 x 3 x 3 grid of accepted probes inside the Cornell box (x, z in [-2.85, 2.85], y in

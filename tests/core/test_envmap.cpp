@@ -19,30 +19,16 @@
 #include "core/math/Random.h"
 #include "core/scene/EnvironmentMap.h"
 #include "core/scene/LightingRig.h"
+#include "tests/core/TestFiles.h"
 
 namespace fs = std::filesystem;
 
 namespace ps {
 namespace {
 
-fs::path tempDir() {
-  static const fs::path dir = [] {
-    fs::path d = fs::temp_directory_path() / ("ps_test_envmap_" + std::to_string(getpid()));
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
+const fs::path& tempDir() {
+  return ps::test::programTempDir("ps_test_envmap_");
 }
-
-class TempDirCleanup : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(tempDir(), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kCleanup =
-    ::testing::AddGlobalTestEnvironment(new TempDirCleanup);
 
 /// Writes a w x h float RGB map (row 0 at the top) with OpenImageIO; the extension picks the
 /// format (.hdr, .exr).

@@ -13,6 +13,7 @@
 #include "core/io/ProbeSetFile.h"
 #include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
+#include "tests/core/TestFiles.h"
 
 namespace fs = std::filesystem;
 using namespace ps;
@@ -20,13 +21,7 @@ using namespace ps;
 namespace {
 
 fs::path tempDir() {
-  const fs::path d =
-      fs::temp_directory_path() /
-      ("ps_test_io_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-       ::testing::UnitTest::GetInstance()->current_test_info()->name());
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return ps::test::testTempDir("ps_test_io_");
 }
 
 void writeText(const fs::path& p, const std::string& s) {

@@ -19,6 +19,7 @@
 #include "core/scene/Scene.h"
 #include "core/trace/Tracer.h"
 #include "core/traversal/ProbeVolume.h"
+#include "tests/core/TestFiles.h"
 
 namespace fs = std::filesystem;
 using namespace ps;
@@ -26,20 +27,13 @@ using namespace ps;
 namespace {
 
 fs::path tempDir() {
-  const fs::path d =
-      fs::temp_directory_path() / ("ps_test_runtime_" + std::to_string(::getpid()) + "_" +
-                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return ps::test::testTempDir("ps_test_runtime_");
 }
 
 // A baked volume of the two-rooms scene (uniform placement, low spp), saved as .psv.
 const fs::path& bakedVolume() {
   static const fs::path path = [] {
-    const fs::path dir =
-        fs::temp_directory_path() / ("ps_test_runtime_volume_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
+    const fs::path& dir = ps::test::programTempDir("ps_test_runtime_");
     const fs::path scenePath = fs::path(PS_SOURCE_DIR) / "resources/scenes/two-rooms.gltf";
     const Scene scene = loadScene(scenePath);
     const Tracer tracer(scene);

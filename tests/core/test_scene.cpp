@@ -20,6 +20,7 @@
 
 #include "core/common/Error.h"
 #include "core/scene/Scene.h"
+#include "tests/core/TestFiles.h"
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -31,39 +32,8 @@ const fs::path kScenes = fs::path(PS_SOURCE_DIR) / "resources" / "scenes";
 const fs::path kData = fs::path(PS_SOURCE_DIR) / "tests" / "data" / "gltf";
 const fs::path kShared = fs::path(PS_SHARED_SCENES_DIR);
 
-fs::path tempDir() {
-  static const fs::path dir = [] {
-    fs::path d = fs::temp_directory_path() / ("ps_test_scene_" + std::to_string(getpid()));
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-
-/// Removes the temp dir when the test program ends.
-class TempDirCleanup : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(tempDir(), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kCleanup =
-    ::testing::AddGlobalTestEnvironment(new TempDirCleanup);
-
-std::string base64(const std::vector<uint8_t>& bytes) {
-  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    uint32_t v = uint32_t(bytes[i]) << 16;
-    if (i + 1 < bytes.size()) v |= uint32_t(bytes[i + 1]) << 8;
-    if (i + 2 < bytes.size()) v |= bytes[i + 2];
-    out += t[(v >> 18) & 63];
-    out += t[(v >> 12) & 63];
-    out += i + 1 < bytes.size() ? t[(v >> 6) & 63] : '=';
-    out += i + 2 < bytes.size() ? t[v & 63] : '=';
-  }
-  return out;
+const fs::path& tempDir() {
+  return ps::test::programTempDir("ps_test_scene_");
 }
 
 /// Builds small glTF documents: one buffer, one bufferView per accessor.
@@ -109,7 +79,7 @@ struct Gltf {
   fs::path writeGltf(const std::string& name) {
     json d = doc;
     d["buffers"] = {{{"byteLength", bin.size()},
-                     {"uri", "data:application/octet-stream;base64," + base64(bin)}}};
+                     {"uri", "data:application/octet-stream;base64," + ps::test::base64(bin)}}};
     const fs::path path = tempDir() / name;
     std::ofstream(path) << d.dump();
     return path;

@@ -23,6 +23,7 @@
 #include "core/scene/Scene.h"
 #include "core/scene/Texture.h"
 #include "core/trace/Tracer.h"
+#include "tests/core/TestFiles.h"
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -30,38 +31,8 @@ using json = nlohmann::json;
 namespace ps {
 namespace {
 
-fs::path tempDir() {
-  static const fs::path dir = [] {
-    fs::path d = fs::temp_directory_path() / ("ps_test_texture_" + std::to_string(getpid()));
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-
-class TempDirCleanup : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(tempDir(), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kCleanup =
-    ::testing::AddGlobalTestEnvironment(new TempDirCleanup);
-
-std::string base64(const std::vector<uint8_t>& bytes) {
-  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    uint32_t v = uint32_t(bytes[i]) << 16;
-    if (i + 1 < bytes.size()) v |= uint32_t(bytes[i + 1]) << 8;
-    if (i + 2 < bytes.size()) v |= bytes[i + 2];
-    out += t[(v >> 18) & 63];
-    out += t[(v >> 12) & 63];
-    out += i + 1 < bytes.size() ? t[(v >> 6) & 63] : '=';
-    out += i + 2 < bytes.size() ? t[v & 63] : '=';
-  }
-  return out;
+const fs::path& tempDir() {
+  return ps::test::programTempDir("ps_test_texture_");
 }
 
 std::vector<uint8_t> readBytes(const fs::path& p) {
@@ -169,7 +140,7 @@ struct QuadGltf {
                 {"bufferViews", views},
                 {"buffers",
                  {{{"byteLength", bin.size()},
-                   {"uri", "data:application/octet-stream;base64," + base64(bin)}}}},
+                   {"uri", "data:application/octet-stream;base64," + ps::test::base64(bin)}}}},
                 {"materials", {material}}};
     if (!images.empty()) doc["images"] = images;
     if (!textures.empty()) doc["textures"] = textures;
@@ -323,7 +294,7 @@ TEST(GltfTextures, BaseColorFromFileBufferViewAndDataUriAreTheSameTexels) {
   fromFile.images = {{{"uri", "base.png"}}};
   fromView.images = {{{"bufferView", 3}, {"mimeType", "image/png"}}};
   fromView.imageBytes = png;
-  fromUri.images = {{{"uri", "data:image/png;base64," + base64(png)}}};
+  fromUri.images = {{{"uri", "data:image/png;base64," + ps::test::base64(png)}}};
   for (const auto& [name, g] : {std::pair{"file.gltf", fromFile}, std::pair{"view.gltf", fromView},
                                 std::pair{"uri.gltf", fromUri}}) {
     const Scene scene = loadScene(g.write(name));
@@ -428,7 +399,8 @@ TEST(GltfTextures, UnreadableTextureWarnsAndFallsBackToTheFactor) {
   expectRgbNear(albedoUnder(a, ta, 0.3, 0.3), {0.3, 0.6, 0.9}, 1e-12, "fallback");
 
   // Bytes that are not an image.
-  q.images = {{{"uri", "data:image/png;base64," + base64({0x89, 'P', 'N', 'G', 0, 0, 0, 0})}}};
+  q.images = {
+      {{"uri", "data:image/png;base64," + ps::test::base64({0x89, 'P', 'N', 'G', 0, 0, 0, 0})}}};
   const Scene b = loadScene(q.write("corrupt.gltf"));
   ASSERT_EQ(b.warnings.size(), 1u);
   EXPECT_NE(b.warnings[0].find("images[0]"), std::string::npos) << b.warnings[0];
@@ -539,20 +511,23 @@ TEST(GltfAlphaMask, TheSunShinesThroughATransparentCutOut) {
   // up, so the probe under it sees its back face where it is not cut out.
   const double e = 3;
   const double wantUp = e * (0.25 + 0.5 + (5.0 / 16.0));
-  q.images = {{{"uri", "data:image/png;base64," + base64(pngBytes(2, 2, 4, clear, "c.png"))}}};
+  q.images = {
+      {{"uri", "data:image/png;base64," + ps::test::base64(pngBytes(2, 2, 4, clear, "c.png"))}}};
   const ProbeCapture through = captureUnderMask(q, "mask-clear.gltf");
   EXPECT_NEAR(through.sh.irradiance({0, 1, 0}).g, wantUp, 1e-9);
   EXPECT_EQ(through.backfaceFraction, 0.0);  // rays pass through the cut-out: nothing seen
 
   // The same quad with an opaque texture casts its shadow.
-  q.images = {{{"uri", "data:image/png;base64," + base64(pngBytes(2, 2, 4, opaque, "o.png"))}}};
+  q.images = {
+      {{"uri", "data:image/png;base64," + ps::test::base64(pngBytes(2, 2, 4, opaque, "o.png"))}}};
   const ProbeCapture blocked = captureUnderMask(q, "mask-opaque.gltf");
   EXPECT_NEAR(blocked.sh.irradiance({0, 1, 0}).g, 0.0, 1e-9);
   EXPECT_GT(blocked.backfaceFraction, 0.05);
 
   // OPAQUE ignores alpha; MASK with the factor's alpha under the cutoff passes light.
   q.material["alphaMode"] = "OPAQUE";
-  q.images = {{{"uri", "data:image/png;base64," + base64(pngBytes(2, 2, 4, clear, "c2.png"))}}};
+  q.images = {
+      {{"uri", "data:image/png;base64," + ps::test::base64(pngBytes(2, 2, 4, clear, "c2.png"))}}};
   EXPECT_NEAR(captureUnderMask(q, "opaque-clear.gltf").sh.irradiance({0, 1, 0}).g, 0.0, 1e-9);
   q.material = {{"alphaMode", "MASK"},
                 {"alphaCutoff", 0.5},
@@ -574,7 +549,8 @@ TEST(GltfAlphaMask, CutOutFollowsTheTexelsAlpha) {
                 {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}};
   q.textures = {{{"source", 0}, {"sampler", 0}}};
   q.samplers = {nearestSampler()};
-  q.images = {{{"uri", "data:image/png;base64," + base64(pngBytes(2, 2, 4, kTexels, "a.png"))}}};
+  q.images = {
+      {{"uri", "data:image/png;base64," + ps::test::base64(pngBytes(2, 2, 4, kTexels, "a.png"))}}};
   for (double cutoff : {0.6, 0.4}) {
     q.material["alphaCutoff"] = cutoff;
     const Scene scene = loadScene(q.write("cut.gltf"));
