@@ -31,9 +31,7 @@ constexpr int kMaxSamplesPerProbe = 1 << 24;
 void registerBake(CLI::App& app) {
   struct Opts {
     std::string set, out;
-    int spp = 1024;
-    double targetError = 0;
-    int maxSpp = 65536;
+    SamplingOptions sampling{1024};
     uint64_t seed = 1;
     std::string cacheDir;
     bool noCache = false;
@@ -44,16 +42,7 @@ void registerBake(CLI::App& app) {
       app.add_subcommand("bake", "Capture the accepted probes and write the runtime volume");
   cmd->add_option("probe_set", o->set, "Probe set (.json)")->required();
   cmd->add_option("-o,--output", o->out, "Volume to write (.psv)")->required();
-  auto* spp = cmd->add_option("--spp", o->spp, "Samples per probe")->check(CLI::PositiveNumber);
-  auto* target =
-      cmd->add_option("--target-error", o->targetError,
-                      "Adaptive: stop each probe when the relative standard error of its "
-                      "irradiance is at most E (e.g. 0.02), or at --max-spp")
-          ->check(CLI::Range(1e-6, 1.0));
-  target->excludes(spp);
-  cmd->add_option("--max-spp", o->maxSpp, "Adaptive: most samples per probe (default 65536)")
-      ->check(CLI::Range(64, 1 << 24))
-      ->needs(target);
+  o->sampling.add(*cmd);
   cmd->add_option("--seed", o->seed, "Random seed");
   cmd->add_option("--cache", o->cacheDir,
                   "Capture cache folder (default: SET.capture-cache beside the probe set)");
@@ -62,18 +51,17 @@ void registerBake(CLI::App& app) {
   cmd->add_flag("--no-leak-refine", o->noLeakRefine,
                 "Do not add probes where the probe mesh's edges cross geometry (Sukys 3.2.2)");
   cmd->callback([o] {
-    if (o->spp > kMaxSamplesPerProbe)
-      throw ParameterError("--spp: " + std::to_string(o->spp) + " samples per probe is above the " +
-                           "limit of " + std::to_string(kMaxSamplesPerProbe));
+    if (o->sampling.spp > kMaxSamplesPerProbe)
+      throw ParameterError("--spp: " + std::to_string(o->sampling.spp) +
+                           " samples per probe is above the " + "limit of " +
+                           std::to_string(kMaxSamplesPerProbe));
     const ProbeSet set = loadProbeSet(o->set);
     if (set.scenePath.empty()) throw FileError(o->set, "scene", "the probe set names no scene");
     const Scene scene = loadScene(set.scenePath);
     for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
     const Tracer tracer(scene);
     BakeSettings bs;
-    bs.capture.samplesPerProbe = o->spp;
-    bs.capture.targetRelativeError = o->targetError;
-    bs.capture.maxSamplesPerProbe = o->maxSpp;
+    o->sampling.apply(bs.capture);
     bs.capture.seed = o->seed;
     bs.sceneHash = sceneContentHash(set.scenePath);
     bs.leakRefine = !o->noLeakRefine;
@@ -91,10 +79,7 @@ void registerBake(CLI::App& app) {
     if (!ec && !rel.empty()) meta["scene"] = rel.generic_string();
     r.file.metadataJson = meta.dump();
     saveVolume(r.file, o->out);
-    const std::string quality = o->targetError > 0
-                                    ? "target error " + std::to_string(o->targetError) +
-                                          " (at most " + std::to_string(o->maxSpp) + " spp)"
-                                    : std::to_string(o->spp) + " spp";
+    const std::string quality = o->sampling.describe();
     std::printf(
         "baked %zu probes (%zu captured, %zu from the cache), %zu tetrahedra (capture %.2f s at "
         "%s, tetrahedralize %.3f s) -> %s\n",

@@ -27,8 +27,7 @@ using ojson = nlohmann::ordered_json;
 void registerCapture(CLI::App& app) {
   struct Opts {
     std::string scene, at, pointsFile, mode = "full";
-    int spp = 256, maxSpp = 65536;
-    double targetError = 0;
+    SamplingOptions sampling{256};
     uint64_t seed = 1;
     bool json = false, histograms = false, virtualOffset = false;
     RigOptions rig;
@@ -40,16 +39,7 @@ void registerCapture(CLI::App& app) {
   auto* at = cmd->add_option("--at", o->at, "One point X,Y,Z");
   auto* pf = cmd->add_option("--points", o->pointsFile, "File with one \"x y z\" per line");
   at->excludes(pf);
-  auto* spp = cmd->add_option("--spp", o->spp, "Samples per probe")->check(CLI::PositiveNumber);
-  auto* target =
-      cmd->add_option("--target-error", o->targetError,
-                      "Adaptive: stop each probe when the relative standard error of its "
-                      "irradiance is at most E (e.g. 0.02), or at --max-spp")
-          ->check(CLI::Range(1e-6, 1.0));
-  target->excludes(spp);
-  cmd->add_option("--max-spp", o->maxSpp, "Adaptive: most samples per probe (default 65536)")
-      ->check(CLI::Range(64, 1 << 24))
-      ->needs(target);
+  o->sampling.add(*cmd);
   cmd->add_option("--mode", o->mode, "full or indirect")
       ->check(CLI::IsMember({"full", "indirect"}));
   cmd->add_option("--seed", o->seed, "Random seed");
@@ -74,9 +64,7 @@ void registerCapture(CLI::App& app) {
       for (Vec3& p : pts)
         if (const auto q = ps::virtualOffset(tracer, p, VirtualOffsetSettings{})) p = *q;
     CaptureSettings cs;
-    cs.samplesPerProbe = o->spp;
-    cs.targetRelativeError = o->targetError;
-    cs.maxSamplesPerProbe = o->maxSpp;
+    o->sampling.apply(cs);
     cs.seed = o->seed;
     cs.mode = o->mode == "indirect" ? CaptureMode::IndirectOnly : CaptureMode::Full;
     const auto caps = captureProbes(tracer, o->rig.build(), pts, cs);

@@ -148,6 +148,35 @@ std::vector<Vec3> readPointsFile(const std::filesystem::path& path) {
   return pts;
 }
 
+void SamplingOptions::add(CLI::App& cmd) {
+  auto* fixed =
+      cmd.add_option("--spp", spp, "Samples per probe (default " + std::to_string(spp) + ")")
+          ->check(CLI::PositiveNumber);
+  auto* target = cmd.add_option("--target-error", targetError,
+                                "Adaptive: stop each probe when the relative standard error of its "
+                                "irradiance is at most E (e.g. 0.02), or at --max-spp")
+                     ->check(CLI::Range(1e-6, 1.0));
+  target->excludes(fixed);
+  cmd.add_option("--max-spp", maxSpp, "Adaptive: most samples per probe (default 65536)")
+      ->check(CLI::Range(64, 1 << 24))
+      ->needs(target);
+}
+
+void SamplingOptions::apply(CaptureSettings& settings) const {
+  settings.samplesPerProbe = spp;
+  settings.targetRelativeError = targetError;
+  settings.maxSamplesPerProbe = maxSpp;
+}
+
+std::string SamplingOptions::describe() const {
+  if (targetError > 0) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "target error %g (at most %d spp)", targetError, maxSpp);
+    return buf;
+  }
+  return std::to_string(spp) + " spp";
+}
+
 ProgressFn terminalProgress(const std::string& label) {
   if (!::isatty(2)) return {};
   return [label, last = -1](double f) mutable {

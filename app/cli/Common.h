@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/capture/Capture.h"
 #include "core/common/Progress.h"
 #include "core/io/ProbeSet.h"
 #include "core/io/VolumeFile.h"
@@ -22,6 +23,20 @@ struct RigOptions {
   void add(CLI::App& cmd);
   /// Throws ps::ParameterError naming the option and what was expected.
   LightingRig build() const;
+};
+
+/// Samples per probe, fixed (--spp N) or adaptive (--target-error E [--max-spp N]), shared by
+/// capture and bake.
+struct SamplingOptions {
+  int spp;
+  double targetError = 0;
+  int maxSpp = 65536;
+  explicit SamplingOptions(int defaultSpp) : spp(defaultSpp) {}
+  void add(CLI::App& cmd);
+  /// Sets samplesPerProbe, targetRelativeError and maxSamplesPerProbe.
+  void apply(CaptureSettings& settings) const;
+  /// "1024 spp" or "target error 0.02 (at most 65536 spp)".
+  std::string describe() const;
 };
 
 /// "x,y,z" (or more numbers) -> doubles; throws ParameterError naming `option`.
