@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <chrono>
 
 #include <filesystem>
 #include <fstream>
@@ -345,22 +346,36 @@ TEST(ProbeSetFile, SaveKilledMidWayLeavesALoadableFile) {
   }
   saveProbeSet(a, target);
   const std::string bytesA = readText(target);
+  // Kills are timed against how long one save takes here (a sanitizer build or a busy machine
+  // is many times slower), so that they land inside saves.
+  const auto t0 = std::chrono::steady_clock::now();
   saveProbeSet(b, target);
+  const double saveMicros =
+      std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
   const std::string bytesB = readText(target);
   std::mt19937 rng(11);
+  std::uniform_real_distribution<double> delay(0.5 * saveMicros, 4.0 * saveMicros);
 #if defined(__SANITIZE_ADDRESS__)
   const int rounds = 20;
 #else
   const int rounds = 60;
 #endif
-  int killedWhileRunning = 0;
-  for (int round = 0; round < rounds; ++round) {
+  // The kills must land inside saves at least once (they then leave temporary files behind,
+  // never the target torn); more rounds up to 10x when the timing keeps missing the window.
+  auto tempsLeft = [&] {
+    size_t temps = 0;
+    for (const auto& e : fs::directory_iterator(dir))
+      temps += e.path().filename().string().find(".tmp-") != std::string::npos;
+    return temps;
+  };
+  int killedWhileRunning = 0, round = 0;
+  for (; round < rounds || (tempsLeft() == 0 && round < 10 * rounds); ++round) {
     const pid_t child = ::fork();
     ASSERT_GE(child, 0);
     if (child == 0) {
       for (int k = 0;; ++k) saveProbeSet(k % 2 ? a : b, target);  // until killed
     }
-    ::usleep(std::uniform_int_distribution<int>(2000, 30000)(rng));
+    ::usleep(useconds_t(delay(rng)));
     ::kill(child, SIGKILL);
     int status = 0;
     ::waitpid(child, &status, 0);
@@ -370,10 +385,7 @@ TEST(ProbeSetFile, SaveKilledMidWayLeavesALoadableFile) {
         << "torn file after kill " << round << ", " << now.size() << " bytes";
     EXPECT_NO_THROW(loadProbeSet(target));
   }
-  EXPECT_EQ(killedWhileRunning, rounds);
-  // The kills did land inside saves: they left temporary files behind (never the target torn).
-  size_t temps = 0;
-  for (const auto& e : fs::directory_iterator(dir))
-    temps += e.path().filename().string().find(".tmp-") != std::string::npos;
-  EXPECT_GT(temps, 0u);
+  EXPECT_EQ(killedWhileRunning, round);
+  EXPECT_GT(tempsLeft(), 0u) << "no kill landed inside a save in " << round << " rounds (one save "
+                             << saveMicros << " us)";
 }
