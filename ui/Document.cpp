@@ -425,14 +425,17 @@ bool Document::runPlacement(const PlacementRequest& request) {
   PlaceRequest place;
   place.method = request.method;
   place.budget = request.budget;
-  // A budget sets the count; without one the spacing does (greedy needs a budget).
+  // A budget sets the count; without one the spacing does for the grid methods, the
+  // aggressiveness for chajdas; greedy needs a budget.
+  const bool fieldMethod = request.method == "greedy" || request.method == "chajdas";
   if (request.budget <= 0 && request.method == "greedy")
     throw ParameterError("budget: greedy needs a probe budget (at least 4)");
-  if (request.budget <= 0 && !(request.spacingMeters > 0))
+  if (request.budget <= 0 && !fieldMethod && !(request.spacingMeters > 0))
     throw ParameterError("spacing: expected a positive number of metres");
   if (request.budget > 0 && request.budget < 4)
     throw ParameterError("budget: expected at least 4 probes (or 0 for no budget)");
-  if (request.budget <= 0) place.spacingMeters = request.spacingMeters;
+  if (request.budget <= 0 && !fieldMethod) place.spacingMeters = request.spacingMeters;
+  place.aggressiveness = request.aggressiveness;
   place.field.samplesPerProbe = request.samplesPerProbe;
   // The probes that stay (accepted, locked, and the candidates when they are not replaced) are
   // built around; rejected ones are not part of the volume (see onJobDone for them).

@@ -39,6 +39,7 @@ struct PlacementRequest {
   int budget = 0;                 ///< > 0: the spacing giving about this many probes
   int samplesPerProbe = 64;       ///< quick capture of the candidates, so they show their light
   bool replaceCandidates = true;  ///< false: keep the unlocked candidates too, only add
+  double aggressiveness = 1.0;    ///< chajdas: merging strength (without a budget)
 };
 
 /// The bake's settings: the accepted probes captured at final quality.

@@ -58,6 +58,14 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   form->addRow(tr("Method"), method_);
   form->addRow(tr("Spacing"), spacing_);
   form->addRow(tr("Budget"), budget_);
+  aggressiveness_ = new QDoubleSpinBox;
+  aggressiveness_->setRange(0.05, 20);
+  aggressiveness_->setSingleStep(0.25);
+  aggressiveness_->setValue(1.0);
+  aggressiveness_->setToolTip(
+      tr("chajdas without a budget: how readily clusters of similar lighting merge (higher: "
+         "fewer probes)"));
+  form->addRow(tr("Aggressiveness"), aggressiveness_);
   form->addRow(tr("Preview samples"), captureSpp_);
   replace_ = new QCheckBox(tr("Replace unlocked candidates"));
   replace_->setChecked(true);
@@ -129,6 +137,7 @@ PlacementRequest PlacementPanel::placementRequest() const {
   r.budget = budget_->value();
   r.samplesPerProbe = captureSpp_->value();
   r.replaceCandidates = replace_->isChecked();
+  r.aggressiveness = aggressiveness_->value();
   return r;
 }
 

@@ -33,6 +33,7 @@ class PlacementPanel : public QWidget {
   QComboBox* methodBox() const { return method_; }
   QDoubleSpinBox* spacingBox() const { return spacing_; }
   QSpinBox* budgetBox() const { return budget_; }
+  QDoubleSpinBox* aggressivenessBox() const { return aggressiveness_; }
   QSpinBox* captureSamplesBox() const { return captureSpp_; }
   QCheckBox* replaceBox() const { return replace_; }
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
@@ -50,6 +51,7 @@ class PlacementPanel : public QWidget {
   QComboBox* method_;
   QDoubleSpinBox* spacing_;
   QSpinBox* budget_;
+  QDoubleSpinBox* aggressiveness_ = nullptr;
   QSpinBox* captureSpp_;
   QCheckBox* replace_;
   QCheckBox* leakRefine_ = nullptr;

@@ -181,6 +181,21 @@ class TestPanels : public QObject {
     QCOMPARE(doc->probe(lockedId)->position, locked.position);
     QVERIFY(!doc->lastJobNotes().isEmpty());  // "dense field: ...", "greedy: field error ..."
     QCOMPARE(doc->probeSet().placement.method, std::string("greedy"));
+
+    // chajdas without a budget: the aggressiveness decides the count (more merges, fewer).
+    panel->methodBox()->setCurrentText(QStringLiteral("chajdas"));
+    panel->budgetBox()->setValue(0);
+    auto chajdasCount = [&](double aggressiveness) {
+      panel->aggressivenessBox()->setValue(aggressiveness);
+      if (!panel->run()) return size_t(0);
+      if (!waitForJob(doc).isEmpty()) return size_t(0);
+      size_t n = 0;
+      for (const Probe& p : doc->probes()) n += p.method == "chajdas";
+      return n;
+    };
+    const size_t gentle = chajdasCount(1.0), aggressive = chajdasCount(2.0);
+    QVERIFY2(aggressive > 0 && gentle > aggressive,
+             qPrintable(QStringLiteral("%1 vs %2").arg(gentle).arg(aggressive)));
   }
 
   void cancelStopsTheJobAndChangesNothing() {
