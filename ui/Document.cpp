@@ -90,6 +90,7 @@ void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const
   ++changeCount_;
   emit probesReset();
   emit rigChanged();
+  emit importanceVolumesChanged();
   if (sceneChanges) {
     volume_.reset();
     volumePath_.clear();
@@ -232,6 +233,30 @@ void Document::setRig(const LightingRig& rig, const QString& text) {
   undo_.push(new SetRigCommand(this, rig, text));
 }
 
+static std::string formatNumber(double x) {
+  return QString::number(x).toStdString();
+}
+
+void Document::setImportanceVolumes(const std::vector<ImportanceVolume>& volumes,
+                                    const QString& text) {
+  for (size_t i = 0; i < volumes.size(); ++i) {
+    const ImportanceVolume& v = volumes[i];
+    const std::string which = "importance volume " + std::to_string(i + 1) +
+                              (v.name.empty() ? std::string() : " (" + v.name + ")");
+    for (int a = 0; a < 3; ++a) {
+      const char* axis = a == 0 ? "x" : a == 1 ? "y" : "z";
+      if (!std::isfinite(v.lo[a]) || !std::isfinite(v.hi[a]))
+        throw ParameterError(which + ": expected finite corners on " + axis);
+      if (v.lo[a] > v.hi[a])
+        throw ParameterError(which + ": expected min " + axis + " <= max " + axis + ", got " +
+                             formatNumber(v.lo[a]) + " > " + formatNumber(v.hi[a]));
+    }
+    if (!(v.weight > 0) || !std::isfinite(v.weight))
+      throw ParameterError(which + ": expected a positive weight, got " + formatNumber(v.weight));
+  }
+  undo_.push(new SetImportanceVolumesCommand(this, volumes, text));
+}
+
 void Document::writeCopy(const QString& path) const {
   ProbeSet set = set_;
   if (!scenePath_.isEmpty())
@@ -303,6 +328,12 @@ void Document::setRigRaw(const LightingRig& rig) {
   set_.rig = rig;
   ++changeCount_;
   emit rigChanged();
+}
+
+void Document::setImportanceVolumesRaw(const std::vector<ImportanceVolume>& volumes) {
+  set_.importanceVolumes = volumes;
+  ++changeCount_;
+  emit importanceVolumesChanged();
 }
 
 void Document::requestCancel() {

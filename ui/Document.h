@@ -121,6 +121,10 @@ class Document : public QObject {
   void setLocked(const std::vector<uint64_t>& ids, bool locked);
   /// Replaces the lighting rig (undoable). The probes' captured SH stays as it was.
   void setRig(const LightingRig& rig, const QString& text);
+  /// Replaces the importance volumes (undoable). Each is checked first: a non-empty name is not
+  /// required, but lo <= hi on every axis, finite corners and a positive weight are; a bad one
+  /// throws ParameterError naming it ("importance volume 2: ...") and changes nothing.
+  void setImportanceVolumes(const std::vector<ImportanceVolume>& volumes, const QString& text);
 
   // --- recovery (autosave) ---
   /// Writes the probe set (scene path absolute) to `path` atomically without changing the
@@ -189,6 +193,7 @@ class Document : public QObject {
   void setProbePositionRaw(uint64_t id, Vec3 p, const std::optional<ShRgb>& sh);
   void setProbeLockedRaw(uint64_t id, bool locked);
   void setRigRaw(const LightingRig& rig);
+  void setImportanceVolumesRaw(const std::vector<ImportanceVolume>& volumes);
   uint64_t allocateId() { return set_.nextId++; }
 
  signals:
@@ -203,6 +208,7 @@ class Document : public QObject {
   void modifiedChanged(bool modified);
   void pathsChanged();
   void rigChanged();
+  void importanceVolumesChanged();
   /// volume() changed (baked, loaded, or dropped with the scene).
   void volumeChanged();
   void evaluationsChanged();

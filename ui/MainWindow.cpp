@@ -73,6 +73,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   placementDock->setWidget(placement_);
   addDockWidget(Qt::LeftDockWidgetArea, placementDock);
   connect(placement_, &PlacementPanel::failed, this, &MainWindow::showError);
+  placement_->setSelectionProvider([this] { return selectedIds(); });
 
   lighting_ = new LightingPanel(doc_);
   auto* lightingDock = new QDockWidget(tr("Lighting"), this);

@@ -7,16 +7,19 @@
 #include <QFormLayout>
 #include <QGroupBox>
 #include <QHBoxLayout>
+#include <QHeaderView>
 #include <QLabel>
 #include <QProgressBar>
 #include <QPushButton>
 #include <QSpinBox>
+#include <QTableWidget>
 #include <QVBoxLayout>
 
 #include <map>
 
 #include "core/common/Error.h"
 #include "core/placement/Place.h"
+#include "core/scene/Scene.h"
 #include "ui/Document.h"
 
 namespace ps::ui {
@@ -78,6 +81,30 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   form->addRow(run_);
   layout->addWidget(placeBox);
 
+  auto* volumeBox = new QGroupBox(tr("Importance volumes"));
+  auto* volumeLayout = new QVBoxLayout(volumeBox);
+  volumes_ = new QTableWidget(0, 8);
+  volumes_->setHorizontalHeaderLabels({tr("Name"), tr("Weight"), tr("Min x"), tr("Min y"),
+                                       tr("Min z"), tr("Max x"), tr("Max y"), tr("Max z")});
+  volumes_->verticalHeader()->setVisible(false);
+  volumes_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
+  volumes_->setSelectionBehavior(QAbstractItemView::SelectRows);
+  volumes_->setSelectionMode(QAbstractItemView::SingleSelection);
+  volumes_->setMinimumHeight(90);
+  volumes_->setToolTip(
+      tr("Boxes in metres. With volumes, greedy and chajdas sample the lighting only inside them; "
+         "a weight above 1 makes chajdas merge less there (more probes), below 1 more"));
+  volumeLayout->addWidget(volumes_);
+  auto* volumeButtons = new QHBoxLayout;
+  addVolume_ = new QPushButton(tr("Add around selection"));
+  addVolume_->setToolTip(
+      tr("A box around the selected probes (or the whole scene when none is selected)"));
+  removeVolume_ = new QPushButton(tr("Remove"));
+  volumeButtons->addWidget(addVolume_);
+  volumeButtons->addWidget(removeVolume_);
+  volumeLayout->addLayout(volumeButtons);
+  layout->addWidget(volumeBox);
+
   auto* bakeBox = new QGroupBox(tr("Bake"));
   auto* bakeForm = new QFormLayout(bakeBox);
   bakeSpp_ = new QSpinBox;
@@ -124,9 +151,15 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
     progress_->setValue(0);
     updateState();
   });
+  connect(addVolume_, &QPushButton::clicked, this, [this] { addVolumeAroundSelection(); });
+  connect(removeVolume_, &QPushButton::clicked, this, [this] { removeCurrentVolume(); });
+  connect(volumes_, &QTableWidget::itemChanged, this, &PlacementPanel::onVolumeEdited);
+  connect(volumes_, &QTableWidget::itemSelectionChanged, this, &PlacementPanel::updateState);
+  connect(doc_, &Document::importanceVolumesChanged, this, &PlacementPanel::refreshVolumes);
   connect(doc_, &Document::volumeChanged, this, &PlacementPanel::updateState);
   connect(doc_, &Document::sceneChanged, this, &PlacementPanel::updateState);
   connect(doc_, &Document::pathsChanged, this, &PlacementPanel::updateState);
+  refreshVolumes();
   updateState();
 }
 
@@ -178,11 +211,113 @@ bool PlacementPanel::bake() {
   return false;
 }
 
+bool PlacementPanel::addVolumeAroundSelection() {
+  const std::vector<uint64_t> ids = selection_ ? selection_() : std::vector<uint64_t>();
+  Bounds3 box;
+  for (uint64_t id : ids)
+    if (const Probe* p = doc_->probe(id)) box.extend(p->position);
+  if (!box.empty()) {
+    const Vec3 pad(0.5, 0.5, 0.5);
+    box = Bounds3{box.lo - pad, box.hi + pad};
+  } else if (doc_->hasScene()) {
+    box = doc_->scene()->bounds;
+  } else {
+    emit failed(tr("Importance volume"), tr("Select probes or open a scene first."));
+    return false;
+  }
+  std::vector<ImportanceVolume> volumes = doc_->probeSet().importanceVolumes;
+  ImportanceVolume v;
+  v.name = "Volume " + std::to_string(volumes.size() + 1);
+  v.lo = box.lo;
+  v.hi = box.hi;
+  v.weight = 2.0;
+  volumes.push_back(v);
+  try {
+    doc_->setImportanceVolumes(volumes, tr("Add importance volume"));
+  } catch (const Error& e) {
+    emit failed(tr("Importance volume"), QString::fromStdString(e.what()));
+    return false;
+  }
+  volumes_->selectRow(int(volumes.size()) - 1);
+  return true;
+}
+
+bool PlacementPanel::removeCurrentVolume() {
+  std::vector<ImportanceVolume> volumes = doc_->probeSet().importanceVolumes;
+  const int row = volumes_->currentRow();
+  if (row < 0 || size_t(row) >= volumes.size()) return false;
+  volumes.erase(volumes.begin() + row);
+  doc_->setImportanceVolumes(volumes, tr("Remove importance volume"));
+  return true;
+}
+
+void PlacementPanel::refreshVolumes() {
+  syncingVolumes_ = true;
+  const std::vector<ImportanceVolume>& volumes = doc_->probeSet().importanceVolumes;
+  const int current = volumes_->currentRow();
+  volumes_->setRowCount(int(volumes.size()));
+  for (size_t i = 0; i < volumes.size(); ++i) {
+    const ImportanceVolume& v = volumes[i];
+    const QString cells[8] = {QString::fromStdString(v.name), QString::number(v.weight),
+                              QString::number(v.lo.x),        QString::number(v.lo.y),
+                              QString::number(v.lo.z),        QString::number(v.hi.x),
+                              QString::number(v.hi.y),        QString::number(v.hi.z)};
+    for (int c = 0; c < 8; ++c) {
+      QTableWidgetItem* item = volumes_->item(int(i), c);
+      if (!item) {
+        item = new QTableWidgetItem;
+        volumes_->setItem(int(i), c, item);
+      }
+      item->setText(cells[c]);
+    }
+  }
+  if (current >= 0 && current < volumes_->rowCount()) volumes_->selectRow(current);
+  syncingVolumes_ = false;
+  updateState();
+}
+
+void PlacementPanel::onVolumeEdited(QTableWidgetItem* item) {
+  if (syncingVolumes_) return;
+  std::vector<ImportanceVolume> volumes = doc_->probeSet().importanceVolumes;
+  const int row = item->row(), col = item->column();
+  if (row < 0 || size_t(row) >= volumes.size()) return;
+  ImportanceVolume& v = volumes[size_t(row)];
+  const QString header = volumes_->horizontalHeaderItem(col)->text();
+  auto refuse = [&](const QString& why) {
+    refreshVolumes();  // back to the document's values
+    emit failed(tr("Importance volume"), why);
+  };
+  if (col == 0) {
+    v.name = item->text().trimmed().toStdString();
+  } else {
+    bool ok = false;
+    const double x = item->text().trimmed().toDouble(&ok);
+    if (!ok) {
+      refuse(tr("importance volume %1, %2: expected a number, got \"%3\"")
+                 .arg(row + 1)
+                 .arg(header.toLower(), item->text()));
+      return;
+    }
+    if (col == 1)
+      v.weight = x;
+    else if (col <= 4)
+      v.lo[col - 2] = x;
+    else
+      v.hi[col - 5] = x;
+  }
+  try {
+    doc_->setImportanceVolumes(volumes, tr("Edit importance volume %1").arg(row + 1));
+  } catch (const Error& e) {
+    refuse(QString::fromStdString(e.what()));
+  }
+}
+
 void PlacementPanel::updateState() {
   const bool busy = doc_->isBusy();
   run_->setEnabled(!busy && doc_->hasScene());
   bake_->setEnabled(!busy && doc_->hasScene());
   cancel_->setEnabled(busy);
+  removeVolume_->setEnabled(volumes_->currentRow() >= 0 && volumes_->rowCount() > 0);
   progress_->setVisible(busy);
   volume_->setText(doc_->volume() ? tr("Volume: %1").arg(QFileInfo(doc_->volumePath()).fileName())
                                   : tr("Not baked yet"));

@@ -2,8 +2,14 @@
 // The placement and bake dock (issue 6): method, spacing, budget, quick-capture samples; Run
 // places in the background and replaces the unlocked candidates (Document::runPlacement); Bake
 // captures the accepted probes at final quality and saves the volume beside the probe set
-// (Document::bake). Progress and Cancel are in the main window's status bar and here.
+// (Document::bake). The importance volumes (boxes the artist adds around a selection and edits in
+// a table) restrict greedy's and chajdas' dense field to them and weight chajdas' merging. Progress
+// and Cancel are in the main window's status bar and here.
 #include <QWidget>
+
+#include <cstdint>
+#include <functional>
+#include <vector>
 
 class QCheckBox;
 class QComboBox;
@@ -12,6 +18,8 @@ class QLabel;
 class QProgressBar;
 class QPushButton;
 class QSpinBox;
+class QTableWidget;
+class QTableWidgetItem;
 
 namespace ps::ui {
 
@@ -30,6 +38,17 @@ class PlacementPanel : public QWidget {
   bool run();
   bool bake();
 
+  /// Where "Add around selection" takes the selected probes from (the main window's table).
+  void setSelectionProvider(std::function<std::vector<uint64_t>()> provider) {
+    selection_ = std::move(provider);
+  }
+  /// Adds an importance volume around the selected probes (padded by half a metre), or around
+  /// the whole scene when none is selected; one undo step. False (after emitting failed) when
+  /// there is neither a selection nor a scene.
+  bool addVolumeAroundSelection();
+  /// Removes the volume of the table's current row; one undo step.
+  bool removeCurrentVolume();
+
   QComboBox* methodBox() const { return method_; }
   QDoubleSpinBox* spacingBox() const { return spacing_; }
   QSpinBox* budgetBox() const { return budget_; }
@@ -39,6 +58,8 @@ class PlacementPanel : public QWidget {
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
   QCheckBox* leakRefineBox() const { return leakRefine_; }
   QPushButton* cancelButton() const { return cancel_; }
+  /// One row per importance volume: name, weight, min x/y/z, max x/y/z (metres), editable.
+  QTableWidget* volumeTable() const { return volumes_; }
 
  signals:
   /// A request was refused (bad numbers, nothing accepted, no saved set): title and reason.
@@ -46,6 +67,8 @@ class PlacementPanel : public QWidget {
 
  private:
   void updateState();
+  void refreshVolumes();
+  void onVolumeEdited(QTableWidgetItem* item);
 
   Document* doc_;
   QComboBox* method_;
@@ -62,6 +85,11 @@ class PlacementPanel : public QWidget {
   QProgressBar* progress_;
   QLabel* status_;
   QLabel* volume_;
+  QTableWidget* volumes_ = nullptr;
+  QPushButton* addVolume_ = nullptr;
+  QPushButton* removeVolume_ = nullptr;
+  bool syncingVolumes_ = false;
+  std::function<std::vector<uint64_t>()> selection_;
 };
 
 }  // namespace ps::ui

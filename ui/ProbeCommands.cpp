@@ -150,4 +150,19 @@ void SetRigCommand::undo() {
   doc_->setRigRaw(old_);
 }
 
+SetImportanceVolumesCommand::SetImportanceVolumesCommand(Document* doc,
+                                                         std::vector<ImportanceVolume> volumes,
+                                                         const QString& text)
+    : doc_(doc), old_(doc->probeSet().importanceVolumes), new_(std::move(volumes)) {
+  setText(text);
+}
+
+void SetImportanceVolumesCommand::redo() {
+  doc_->setImportanceVolumesRaw(new_);
+}
+
+void SetImportanceVolumesCommand::undo() {
+  doc_->setImportanceVolumesRaw(old_);
+}
+
 }  // namespace ps::ui

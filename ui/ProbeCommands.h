@@ -118,4 +118,17 @@ class SetRigCommand : public QUndoCommand {
   LightingRig old_, new_;
 };
 
+/// Replaces the importance volumes (boxes weighting where placement puts probes).
+class SetImportanceVolumesCommand : public QUndoCommand {
+ public:
+  SetImportanceVolumesCommand(Document* doc, std::vector<ImportanceVolume> volumes,
+                              const QString& text);
+  void undo() override;
+  void redo() override;
+
+ private:
+  Document* doc_;
+  std::vector<ImportanceVolume> old_, new_;
+};
+
 }  // namespace ps::ui

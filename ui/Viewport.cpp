@@ -310,6 +310,7 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
     fieldsDirty_ = true;
     update();
   });
+  connect(doc, &Document::importanceVolumesChanged, this, [this] { update(); });
   connect(doc, &Document::probeInserted, this, &Viewport::onProbesChanged);
   connect(doc, &Document::probeRemoved, this, &Viewport::onProbesChanged);
   // A changed probe (moved, accepted, ...) keeps the drawn size: no O(n^2) radius update.
@@ -890,7 +891,10 @@ void Viewport::paintGL() {
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
     glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    // "Over" on alpha too: the framebuffer stays opaque. With plain glBlendFunc its alpha drops
+    // under translucent strokes and the window composes (and grabs) them as invalid
+    // premultiplied colour: orange lines came out green in the window screenshot.
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
     glUseProgram(probeProgram_);
     glUniformMatrix4fv(glGetUniformLocation(probeProgram_, "uViewProj"), 1, GL_FALSE,
                        vp.constData());
@@ -968,7 +972,7 @@ void Viewport::drawHandle(const QMatrix4x4& vp) {
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);
   glEnable(GL_BLEND);
-  glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+  glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
   glUseProgram(lineProgram_);
   glUniformMatrix4fv(glGetUniformLocation(lineProgram_, "uViewProj"), 1, GL_FALSE, vp.constData());
   glBindVertexArray(lineVao_);

@@ -560,7 +560,7 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
       v.insert(v.end(), {float(c[size_t(i)].x), float(c[size_t(i)].y), float(c[size_t(i)].z),
                          uv[i][0], uv[i][1], 0, 0});
     glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
     glUseProgram(sliceProgram_);
     glUniformMatrix4fv(glGetUniformLocation(sliceProgram_, "uViewProj"), 1, GL_FALSE,
                        vp.constData());
@@ -587,7 +587,7 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
 
   if (overlay(Overlay::TetMesh) && meshVertexCount_ > 0) {
     glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
     glUseProgram(lineProgram_);
     glUniformMatrix4fv(glGetUniformLocation(lineProgram_, "uViewProj"), 1, GL_FALSE,
                        vp.constData());
@@ -655,6 +655,33 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
       drawLines(v, GL_LINES, vp);
       glEnable(GL_DEPTH_TEST);
     }
+  }
+
+  // The importance volumes: box edges, orange where probes are wanted denser (weight >= 1),
+  // blue where sparser; solid where visible, faint where behind geometry.
+  if (!doc_->probeSet().importanceVolumes.empty()) {
+    std::vector<float> v;
+    for (const ImportanceVolume& box : doc_->probeSet().importanceVolumes) {
+      const float r = box.weight >= 1 ? 1.0f : 0.3f, g = box.weight >= 1 ? 0.55f : 0.65f,
+                  b = box.weight >= 1 ? 0.1f : 1.0f;
+      auto corner = [&](int i) {
+        return Vec3(i & 1 ? box.hi.x : box.lo.x, i & 2 ? box.hi.y : box.lo.y,
+                    i & 4 ? box.hi.z : box.lo.z);
+      };
+      for (int i = 0; i < 8; ++i)
+        for (int bit : {1, 2, 4})
+          if (!(i & bit))
+            for (const Vec3 p : {corner(i), corner(i | bit)})
+              v.insert(v.end(), {float(p.x), float(p.y), float(p.z), r, g, b, 1.0f});
+    }
+    drawLines(v, GL_LINES, vp);
+    for (size_t i = 6; i < v.size(); i += 7) v[i] = 0.3f;
+    glEnable(GL_BLEND);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    glDisable(GL_DEPTH_TEST);
+    drawLines(v, GL_LINES, vp);
+    glEnable(GL_DEPTH_TEST);
+    glDisable(GL_BLEND);
   }
 }
 

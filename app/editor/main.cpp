@@ -104,6 +104,19 @@ bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) 
   if (vp->overlay(O::TestObject) && vp->previewVolume())
     root["testObject"] =
         QJsonObject{{"centre", px(vp->testObjectPosition())}, {"tet", int(vp->testObjectTet())}};
+  // Importance volumes: each box's weight and its twelve edges projected (null when behind).
+  QJsonArray volumes;
+  for (const ps::ImportanceVolume& v : w.document()->probeSet().importanceVolumes) {
+    QJsonArray edges;
+    auto corner = [&](int i) {
+      return ps::Vec3(i & 1 ? v.hi.x : v.lo.x, i & 2 ? v.hi.y : v.lo.y, i & 4 ? v.hi.z : v.lo.z);
+    };
+    for (int i = 0; i < 8; ++i)
+      for (int bit : {1, 2, 4})
+        if (!(i & bit)) edges.append(QJsonArray{px(corner(i)), px(corner(i | bit))});
+    volumes.append(QJsonObject{{"weight", v.weight}, {"edges", edges}});
+  }
+  root["importanceVolumes"] = volumes;
   QFile f(out + ".json");
   if (!f.open(QIODevice::WriteOnly) || f.write(QJsonDocument(root).toJson()) < 0) {
     fail(QStringLiteral("%1: cannot write").arg(out + ".json"));

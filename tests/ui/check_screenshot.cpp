@@ -19,6 +19,11 @@
 //     from BASE by more than 12 (the slice is drawn where its corners project);
 //   - nothing outside the scene: over the pixels where BASE shows the background gradient, the
 //     mean absolute difference is below 1.5 (overlays stay inside the scene).
+//
+// check_screenshot --volumes SHOT.png BASE.png: SHOT shows importance volumes, BASE the same view
+// without. Of the points at 1/8 ... 7/8 along each on-screen box edge (from the sidecar), at
+// least 60 % have a pixel within 2 px that differs from BASE by more than 20 and has the box's
+// hue: orange (red above blue by 25) for a weight >= 1, blue (blue above red by 25) below 1.
 #include <QFile>
 #include <QImage>
 #include <QJsonArray>
@@ -39,16 +44,28 @@ int channelDiff(QRgb a, QRgb b) {
   return std::max({std::abs(qRed(a) - qRed(b)), std::abs(qGreen(a) - qGreen(b)),
                    std::abs(qBlue(a) - qBlue(b))});
 }
+/// A render, the same view without what it checks, and the render's sidecar; "" when all read.
+struct Pair {
+  QImage shot, base;
+  QJsonObject root;
+};
+const char* loadPair(const char* shotPath, const char* basePath, Pair& p) {
+  p.shot = QImage(shotPath).convertToFormat(QImage::Format_RGB32);
+  p.base = QImage(basePath).convertToFormat(QImage::Format_RGB32);
+  if (p.shot.isNull() || p.base.isNull()) return "cannot read the images";
+  if (p.shot.size() != p.base.size()) return "the two renders differ in size";
+  QFile jf(QString::fromLocal8Bit(shotPath) + ".json");
+  if (!jf.open(QIODevice::ReadOnly)) return "cannot read SHOT.png.json";
+  p.root = QJsonDocument::fromJson(jf.readAll()).object();
+  return "";
+}
 }  // namespace
 
 int checkOverlays(const char* shotPath, const char* basePath) {
-  const QImage shot = QImage(shotPath).convertToFormat(QImage::Format_RGB32);
-  const QImage base = QImage(basePath).convertToFormat(QImage::Format_RGB32);
-  if (shot.isNull() || base.isNull()) return fail("cannot read the images");
-  if (shot.size() != base.size()) return fail("the two renders differ in size");
-  QFile jf(QString::fromLocal8Bit(shotPath) + ".json");
-  if (!jf.open(QIODevice::ReadOnly)) return fail("cannot read SHOT.png.json");
-  const QJsonObject root = QJsonDocument::fromJson(jf.readAll()).object();
+  Pair pair;
+  if (const char* why = loadPair(shotPath, basePath, pair); *why) return fail(why);
+  const QImage &shot = pair.shot, &base = pair.base;
+  const QJsonObject& root = pair.root;
   const int w = shot.width(), h = shot.height();
   auto diffAt = [&](int x, int y) {
     if (x < 0 || y < 0 || x >= w || y >= h) return -1;
@@ -119,11 +136,54 @@ int checkOverlays(const char* shotPath, const char* basePath) {
   return 0;
 }
 
+int checkVolumes(const char* shotPath, const char* basePath) {
+  Pair pair;
+  if (const char* why = loadPair(shotPath, basePath, pair); *why) return fail(why);
+  const QImage &shot = pair.shot, &base = pair.base;
+  const QJsonArray volumes = pair.root["importanceVolumes"].toArray();
+  if (volumes.isEmpty()) return fail("no importance volumes in the sidecar");
+  const int w = shot.width(), h = shot.height();
+  for (int vi = 0; vi < volumes.size(); ++vi) {
+    const QJsonObject v = volumes[vi].toObject();
+    const bool warm = v["weight"].toDouble() >= 1;
+    int on = 0, drawn = 0;
+    for (const QJsonValue& e : v["edges"].toArray()) {
+      const QJsonArray a = e.toArray()[0].toArray(), b = e.toArray()[1].toArray();
+      if (a.size() != 2 || b.size() != 2) continue;
+      for (int k = 1; k < 8; ++k) {
+        const double t = k / 8.0;
+        const int cx = int(a[0].toDouble() * (1 - t) + b[0].toDouble() * t);
+        const int cy = int(a[1].toDouble() * (1 - t) + b[1].toDouble() * t);
+        if (cx < 2 || cy < 2 || cx >= w - 2 || cy >= h - 2) continue;
+        ++on;
+        bool found = false;
+        for (int y = cy - 2; y <= cy + 2 && !found; ++y)
+          for (int x = cx - 2; x <= cx + 2 && !found; ++x) {
+            const QRgb p = shot.pixel(x, y);
+            const int hue = warm ? qRed(p) - qBlue(p) : qBlue(p) - qRed(p);
+            found = hue > 25 && channelDiff(p, base.pixel(x, y)) > 20;
+          }
+        drawn += found;
+      }
+    }
+    std::printf("importance volume %d (%s): edge points on screen %d, drawn %d\n", vi + 1,
+                warm ? "orange" : "blue", on, drawn);
+    if (on < 20) return fail("an importance volume is mostly off screen");
+    if (drawn < 0.6 * on) return fail("an importance volume is not drawn where its edges project");
+  }
+  std::printf("check_screenshot --volumes: OK\n");
+  return 0;
+}
+
 int main(int argc, char** argv) {
   if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--overlays"))
     return checkOverlays(argv[2], argv[3]);
+  if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--volumes"))
+    return checkVolumes(argv[2], argv[3]);
   if (argc != 3)
-    return fail("usage: check_screenshot SHOT.png NOPROBES.png | --overlays SHOT.png BASE.png");
+    return fail(
+        "usage: check_screenshot SHOT.png NOPROBES.png | --overlays SHOT.png BASE.png | "
+        "--volumes SHOT.png BASE.png");
   const QImage shot = QImage(argv[1]).convertToFormat(QImage::Format_RGB32);
   const QImage bare = QImage(argv[2]).convertToFormat(QImage::Format_RGB32);
   if (shot.isNull() || bare.isNull()) return fail("cannot read the images");

@@ -1,6 +1,7 @@
 // The placement / bake and lighting panels, headless (QT_QPA_PLATFORM=offscreen): placement in
 // the background keeps accepted, rejected and locked probes and is one undo step; cancel; bake
-// writes the volume beside the probe set; the lighting panel edits the rig (undoable).
+// writes the volume beside the probe set; importance volumes are added, edited, refused, undone,
+// saved and restrict greedy; the lighting panel edits the rig (undoable).
 #include <QCheckBox>
 #include <QComboBox>
 #include <QDoubleSpinBox>
@@ -196,6 +197,100 @@ class TestPanels : public QObject {
     const size_t gentle = chajdasCount(1.0), aggressive = chajdasCount(2.0);
     QVERIFY2(aggressive > 0 && gentle > aggressive,
              qPrintable(QStringLiteral("%1 vs %2").arg(gentle).arg(aggressive)));
+  }
+
+  void importanceVolumesAreAddedEditedUndoneSavedAndSteerPlacement() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    PlacementPanel* panel = win.w.placementPanel();
+    QSignalSpy failed(panel, &PlacementPanel::failed);
+    const Vec3 c = doc->scene()->bounds.center();
+    std::vector<Probe> two(2);
+    two[0].position = c + Vec3(-1.0, -0.3, -0.8);
+    two[1].position = c + Vec3(0.6, 0.4, 0.9);
+    const auto ids = doc->addProbes(two, "Add");
+    win.w.selectProbes({ids[0], ids[1]});
+
+    // A box around the selection, padded by half a metre, weight 2, one undo step.
+    const int steps = doc->undoStack()->count();
+    QVERIFY(panel->addVolumeAroundSelection());
+    QCOMPARE(doc->undoStack()->count(), steps + 1);
+    QCOMPARE(doc->probeSet().importanceVolumes.size(), size_t(1));
+    const ImportanceVolume v = doc->probeSet().importanceVolumes[0];
+    QCOMPARE(v.lo.x, two[0].position.x - 0.5);
+    QCOMPARE(v.hi.z, two[1].position.z + 0.5);
+    QCOMPARE(v.weight, 2.0);
+    QTableWidget* table = panel->volumeTable();
+    QCOMPARE(table->rowCount(), 1);
+    QCOMPARE(table->item(0, 0)->text(), QStringLiteral("Volume 1"));
+
+    // Edits in the table: a number is taken (undoable), a word or an inverted box is refused
+    // with the row and the field named, and the document keeps its values.
+    table->item(0, 1)->setText(QStringLiteral("3"));
+    QCOMPARE(doc->probeSet().importanceVolumes[0].weight, 3.0);
+    table->item(0, 2)->setText(QStringLiteral("wide"));
+    QCOMPARE(failed.count(), 1);
+    QVERIFY2(
+        failed.at(0).at(1).toString().contains("importance volume 1, min x: expected a number"),
+        qPrintable(failed.at(0).at(1).toString()));
+    QCOMPARE(doc->probeSet().importanceVolumes[0].lo.x, v.lo.x);
+    QCOMPARE(table->item(0, 2)->text(), QString::number(v.lo.x));
+    table->item(0, 2)->setText(QString::number(v.hi.x + 1));
+    QCOMPARE(failed.count(), 2);
+    QVERIFY2(failed.at(1).at(1).toString().contains("expected min x <= max x"),
+             qPrintable(failed.at(1).at(1).toString()));
+    QCOMPARE(doc->probeSet().importanceVolumes[0].lo.x, v.lo.x);
+    table->item(0, 1)->setText(QStringLiteral("0"));
+    QCOMPARE(failed.count(), 3);
+    QVERIFY(failed.at(2).at(1).toString().contains("expected a positive weight"));
+    QCOMPARE(doc->probeSet().importanceVolumes[0].weight, 3.0);
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probeSet().importanceVolumes[0].weight, 2.0);
+    QCOMPARE(table->item(0, 1)->text(), QStringLiteral("2"));
+    doc->undoStack()->undo();
+    QVERIFY(doc->probeSet().importanceVolumes.empty());
+    QCOMPARE(table->rowCount(), 0);
+    doc->undoStack()->redo();
+    QCOMPARE(doc->probeSet().importanceVolumes.size(), size_t(1));
+
+    // Greedy samples the lighting inside the volume only: every probe it places is in the box.
+    panel->methodBox()->setCurrentText(QStringLiteral("greedy"));
+    panel->budgetBox()->setValue(12);
+    panel->captureSamplesBox()->setValue(16);
+    QVERIFY(panel->run());
+    QCOMPARE(waitForJob(doc), QString());
+    size_t greedy = 0;
+    for (const Probe& p : doc->probes()) {
+      if (p.method != "greedy") continue;
+      ++greedy;
+      for (int a = 0; a < 3; ++a)
+        QVERIFY2(p.position[a] >= v.lo[a] - 1e-9 && p.position[a] <= v.hi[a] + 1e-9,
+                 qPrintable(QStringLiteral("axis %1: %2 outside [%3, %4]")
+                                .arg(a)
+                                .arg(p.position[a])
+                                .arg(v.lo[a])
+                                .arg(v.hi[a])));
+    }
+    QVERIFY(greedy >= 4);
+
+    // Saved with the probe set and read back.
+    QTemporaryDir dir;
+    const QString set = dir.filePath("volumes.probes.json");
+    QVERIFY(win.w.saveAs(set));
+    Window other;
+    QVERIFY(other.w.openProbeSet(set));
+    QCOMPARE(other.doc->probeSet().importanceVolumes.size(), size_t(1));
+    QCOMPARE(other.doc->probeSet().importanceVolumes[0].name, std::string("Volume 1"));
+    QCOMPARE(other.doc->probeSet().importanceVolumes[0].hi.z, v.hi.z);
+    QCOMPARE(other.w.placementPanel()->volumeTable()->rowCount(), 1);
+
+    // Remove: the current row goes, one undo step.
+    table->selectRow(0);
+    QVERIFY(panel->removeCurrentVolume());
+    QVERIFY(doc->probeSet().importanceVolumes.empty());
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probeSet().importanceVolumes.size(), size_t(1));
   }
 
   void cancelStopsTheJobAndChangesNothing() {
