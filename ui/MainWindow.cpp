@@ -203,6 +203,25 @@ void MainWindow::createActions() {
     viewport_->setTool(on ? Viewport::Tool::AddProbe : Viewport::Tool::Select);
     statusBar()->showMessage(on ? tr("Click a surface to add a probe (N to stop)") : QString());
   });
+  QAction* volumeTool = edit->addAction(tr("Draw importance &volume"));
+  volumeTool->setCheckable(true);
+  volumeTool->setShortcut(Qt::Key_B);
+  volumeTool->setToolTip(
+      tr("Drag on a floor to draw a box from it up to the top of the scene; edit it in the "
+         "placement panel"));
+  connect(volumeTool, &QAction::toggled, this, [this, addTool](bool on) {
+    if (on) addTool->setChecked(false);
+    viewport_->setTool(
+        on ? Viewport::Tool::DrawVolume
+           : (addTool->isChecked() ? Viewport::Tool::AddProbe : Viewport::Tool::Select));
+    statusBar()->showMessage(on ? tr("Drag on a surface to draw an importance volume (B to stop)")
+                                : QString());
+  });
+  connect(addTool, &QAction::toggled, this, [volumeTool](bool on) {
+    if (on) volumeTool->setChecked(false);
+  });
+  connect(viewport_, &Viewport::volumeDrawn, this,
+          [this](const Bounds3& box) { placement_->addVolume(box); });
   a = edit->addAction(tr("Add probe at the &camera"), this, &MainWindow::addProbeAtCamera);
   a->setShortcut(QKeySequence(Qt::SHIFT | Qt::Key_N));
   edit->addSeparator();
@@ -342,6 +361,7 @@ void MainWindow::createActions() {
   QToolBar* tools = addToolBar(tr("Edit"));
   tools->setObjectName("editToolBar");
   tools->addAction(addTool);
+  tools->addAction(volumeTool);
 }
 
 QStringList MainWindow::recentFiles() const {

@@ -225,6 +225,10 @@ bool PlacementPanel::addVolumeAroundSelection() {
     emit failed(tr("Importance volume"), tr("Select probes or open a scene first."));
     return false;
   }
+  return addVolume(box);
+}
+
+bool PlacementPanel::addVolume(const Bounds3& box) {
   std::vector<ImportanceVolume> volumes = doc_->probeSet().importanceVolumes;
   ImportanceVolume v;
   v.name = "Volume " + std::to_string(volumes.size() + 1);

@@ -11,6 +11,8 @@
 #include <functional>
 #include <vector>
 
+#include "core/math/Vec3.h"
+
 class QCheckBox;
 class QComboBox;
 class QDoubleSpinBox;
@@ -46,6 +48,9 @@ class PlacementPanel : public QWidget {
   /// the whole scene when none is selected; one undo step. False (after emitting failed) when
   /// there is neither a selection nor a scene.
   bool addVolumeAroundSelection();
+  /// Adds this box as an importance volume ("Volume N", weight 2) and selects its row; one undo
+  /// step. False (after emitting failed) when the box is refused.
+  bool addVolume(const Bounds3& box);
   /// Removes the volume of the table's current row; one undo step.
   bool removeCurrentVolume();
 

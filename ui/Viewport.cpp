@@ -16,6 +16,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Tolerances.h"
 #include "core/scene/Scene.h"
+#include "core/trace/Tracer.h"
 #include "ui/Document.h"
 #include "ui/SurfacePlacement.h"
 
@@ -365,7 +366,7 @@ bool Viewport::isDrawn(const Probe& p) const {
 
 void Viewport::setTool(Tool t) {
   tool_ = t;
-  setCursor(t == Tool::AddProbe ? Qt::CrossCursor : Qt::ArrowCursor);
+  setCursor(t == Tool::Select ? Qt::ArrowCursor : Qt::CrossCursor);
 }
 
 void Viewport::setCutaway(bool on) {
@@ -382,6 +383,14 @@ float Viewport::cutHeight() const {
   const Scene* scene = doc_->scene();
   if (!scene || scene->bounds.empty()) return std::numeric_limits<float>::max();
   return float(scene->bounds.lo.y + cutFraction_ * scene->bounds.extent().y);
+}
+
+PickRay Viewport::surfaceRay(QPointF widgetPos) const {
+  PickRay r = pickRay(widgetPos);
+  const float cut = cutHeight();
+  if (cutaway_ && r.origin.y() > cut && r.direction.y() < 0)
+    r.origin += r.direction * ((cut - r.origin.y()) / r.direction.y());
+  return r;
 }
 
 void Viewport::setCutFraction(float f) {
@@ -1030,7 +1039,26 @@ void Viewport::mousePressEvent(QMouseEvent* e) {
       return;
     }
   }
+  if (tool_ == Tool::DrawVolume && doc_->tracer()) {
+    const PickRay ray = surfaceRay(e->position());
+    const Vec3 o(ray.origin.x(), ray.origin.y(), ray.origin.z());
+    const Vec3 d(ray.direction.x(), ray.direction.y(), ray.direction.z());
+    if (const auto hit = doc_->tracer()->intersect(Ray{o, d, 0.0})) {
+      drag_ = Drag::Volume;
+      volumeStart_ = volumeEnd_ = o + d * hit->t;
+      return;
+    }
+  }
   drag_ = (e->modifiers() & Qt::ControlModifier) ? Drag::Box : Drag::Camera;
+}
+
+Bounds3 Viewport::drawnVolume() const {
+  Bounds3 box;
+  box.extend(volumeStart_);
+  box.extend(Vec3(volumeEnd_.x, volumeStart_.y, volumeEnd_.z));
+  const double top = doc_->scene() ? doc_->scene()->bounds.hi.y : volumeStart_.y;
+  box.hi.y = std::max(top, volumeStart_.y + 0.5);
+  return box;
 }
 
 void Viewport::mouseMoveEvent(QMouseEvent* e) {
@@ -1070,6 +1098,17 @@ void Viewport::mouseMoveEvent(QMouseEvent* e) {
       }
       return;
     }
+    case Drag::Volume: {
+      // The cursor's ray meets the horizontal plane through the point pressed.
+      const PickRay r = pickRay(e->position());
+      if (std::abs(r.direction.y()) < 1e-6f) return;
+      const float t = (float(volumeStart_.y) - r.origin.y()) / r.direction.y();
+      if (t <= 0) return;
+      const QVector3D p = r.origin + r.direction * t;
+      volumeEnd_ = Vec3(p.x(), volumeStart_.y, p.z());
+      update();
+      return;
+    }
     case Drag::Look:
       camera_.lookAround(float(d.x()), float(d.y()));
       update();
@@ -1107,6 +1146,14 @@ void Viewport::mouseReleaseEvent(QMouseEvent* e) {
       return;
     }
   }
+  if (drag == Drag::Volume) {
+    pressButton_ = Qt::NoButton;
+    const Bounds3 box = drawnVolume();
+    update();
+    // A click or a sliver (under 5 cm across) draws nothing.
+    if (dragged_ && box.extent().x >= 0.05 && box.extent().z >= 0.05) emit volumeDrawn(box);
+    return;
+  }
   if (drag == Drag::Handle) {
     dragKey_ = -1;
     update();
@@ -1114,7 +1161,7 @@ void Viewport::mouseReleaseEvent(QMouseEvent* e) {
   if (e->button() == Qt::LeftButton && pressButton_ == Qt::LeftButton && !dragged_ &&
       drag != Drag::Handle) {
     if (tool_ == Tool::AddProbe)
-      emit addProbeRequested(pickRay(e->position()));
+      emit addProbeRequested(surfaceRay(e->position()));
     else
       emit probeClicked(pickProbe(e->position()), e->modifiers());
   }

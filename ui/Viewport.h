@@ -53,13 +53,17 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The drawn radius of a probe in metres (depends on its state and on the selection).
   float drawnRadius(const Probe& p) const;
 
-  /// What a left click does: select (and drag the move handle), or add a probe on the surface.
-  enum class Tool { Select, AddProbe };
+  /// What a left click does: select (and drag the move handle), add a probe on the surface, or
+  /// (DrawVolume) drag out an importance volume's footprint from the surface point pressed.
+  enum class Tool { Select, AddProbe, DrawVolume };
   void setTool(Tool t);
   Tool tool() const { return tool_; }
 
   /// The world ray through a widget pixel (origin on the near plane, unit direction).
   PickRay pickRay(QPointF widgetPos) const;
+  /// pickRay() starting where the artist can see: with the cut-away on, a ray from above the
+  /// cut height starts at the cut plane, so clicks go through the removed ceiling to the floor.
+  PickRay surfaceRay(QPointF widgetPos) const;
   /// Probes whose centres project inside the widget rectangle (hidden probes excluded).
   QSet<quint64> probesInRect(const QRectF& widgetRect) const;
 
@@ -174,6 +178,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void boxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers modifiers);
   /// In the AddProbe tool, the user clicked: the ray through the cursor.
   void addProbeRequested(const ps::ui::PickRay& ray);
+  /// In the DrawVolume tool, a drag ended: the box whose footprint the drag spanned on the
+  /// horizontal plane through the surface point pressed, from that point up to the scene's top.
+  void volumeDrawn(const ps::Bounds3& box);
   /// A background rebuild of the lighting fields arrived.
   void fieldsUpdated();
 
@@ -277,7 +284,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   QPointF pressPos_, lastPos_;
   Qt::MouseButton pressButton_ = Qt::NoButton;
   bool dragged_ = false;
-  enum class Drag { None, Camera, Handle, Box, Look, TestObject } drag_ = Drag::None;
+  enum class Drag { None, Camera, Handle, Box, Look, TestObject, Volume } drag_ = Drag::None;
+  // Volume drag: the surface point pressed and the point under the cursor on its level.
+  Vec3 volumeStart_, volumeEnd_;
+  Bounds3 drawnVolume() const;
   Vec3 testDragStart_;
   // Handle drag: the part, where it started, the probes moved and their start positions.
   HandlePart dragPart_ = HandlePart::None;

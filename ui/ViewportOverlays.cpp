@@ -659,20 +659,27 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
 
   // The importance volumes: box edges, orange where probes are wanted denser (weight >= 1),
   // blue where sparser; solid where visible, faint where behind geometry.
-  if (!doc_->probeSet().importanceVolumes.empty()) {
+  // The box being drawn (DrawVolume tool) in white.
+  auto boxEdges = [](std::vector<float>& v, Vec3 lo, Vec3 hi, float r, float g, float b) {
+    auto corner = [&](int i) {
+      return Vec3(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
+    };
+    for (int i = 0; i < 8; ++i)
+      for (int bit : {1, 2, 4})
+        if (!(i & bit))
+          for (const Vec3 p : {corner(i), corner(i | bit)})
+            v.insert(v.end(), {float(p.x), float(p.y), float(p.z), r, g, b, 1.0f});
+  };
+  const bool drawing = drag_ == Drag::Volume && dragged_;
+  if (!doc_->probeSet().importanceVolumes.empty() || drawing) {
     std::vector<float> v;
     for (const ImportanceVolume& box : doc_->probeSet().importanceVolumes) {
-      const float r = box.weight >= 1 ? 1.0f : 0.3f, g = box.weight >= 1 ? 0.55f : 0.65f,
-                  b = box.weight >= 1 ? 0.1f : 1.0f;
-      auto corner = [&](int i) {
-        return Vec3(i & 1 ? box.hi.x : box.lo.x, i & 2 ? box.hi.y : box.lo.y,
-                    i & 4 ? box.hi.z : box.lo.z);
-      };
-      for (int i = 0; i < 8; ++i)
-        for (int bit : {1, 2, 4})
-          if (!(i & bit))
-            for (const Vec3 p : {corner(i), corner(i | bit)})
-              v.insert(v.end(), {float(p.x), float(p.y), float(p.z), r, g, b, 1.0f});
+      const bool warm = box.weight >= 1;
+      boxEdges(v, box.lo, box.hi, warm ? 1.0f : 0.3f, warm ? 0.55f : 0.65f, warm ? 0.1f : 1.0f);
+    }
+    if (drawing) {
+      const Bounds3 box = drawnVolume();
+      boxEdges(v, box.lo, box.hi, 1.0f, 1.0f, 1.0f);
     }
     drawLines(v, GL_LINES, vp);
     for (size_t i = 6; i < v.size(); i += 7) v[i] = 0.3f;

@@ -49,6 +49,13 @@ void send(QWidget* w, QEvent::Type type, QPointF pos, Qt::MouseButton button,
   QCoreApplication::sendEvent(w, &e);
 }
 
+/// No dialogs, no prompt on close, no automatic proposal: the test drives everything.
+void quiet(MainWindow& w) {
+  w.setQuiet(true);
+  w.setPromptOnClose(false);
+  w.document()->setAutoPropose(false);
+}
+
 /// A press at `from`, moves in `steps` to `to`, a release: what a user's drag sends.
 void drag(QWidget* w, QPointF from, QPointF to, Qt::MouseButton button = Qt::LeftButton,
           Qt::KeyboardModifiers mods = Qt::NoModifier, int steps = 8) {
@@ -135,10 +142,8 @@ class TestEditing : public QObject {
 
   void handleDragIsOneUndoStepAlongTheAxis() {
     MainWindow w;
-    w.setQuiet(true);
-    w.setPromptOnClose(false);
+    quiet(w);
     Document* doc = w.document();
-    doc->setAutoPropose(false);
     QVERIFY(w.openScene(kScene));
     Viewport* vp = w.viewport();
     vp->resize(900, 700);
@@ -190,10 +195,8 @@ class TestEditing : public QObject {
 
   void boxSelectPicksTheProbesInside() {
     MainWindow w;
-    w.setQuiet(true);
-    w.setPromptOnClose(false);
+    quiet(w);
     Document* doc = w.document();
-    doc->setAutoPropose(false);
     QVERIFY(w.openScene(kScene));
     Viewport* vp = w.viewport();
     vp->resize(800, 600);
@@ -257,19 +260,29 @@ class TestEditing : public QObject {
 
     // The AddProbe tool: a click adds one accepted, captured manual probe (one undo step).
     MainWindow w;
-    w.setQuiet(true);
-    w.setPromptOnClose(false);
-    w.document()->setAutoPropose(false);
+    quiet(w);
     QVERIFY(w.openScene(kScene));
     Viewport* vp = w.viewport();
     vp->resize(800, 600);
     vp->frameAll();
     vp->setTool(Viewport::Tool::AddProbe);
     const QPointF centre(400, 300);
-    const PickRay ray = vp->pickRay(centre);
+    // The ray starts at the cut plane: what the cut-away removed is not clicked.
+    const PickRay ray = vp->surfaceRay(centre);
+    QVERIFY(vp->cutaway());
+    QCOMPARE(ray.origin.y(), vp->cutHeight());
+    {
+      // Here the whole ray meets geometry the cut-away hides (y 3.2 above the 2.35 m cut):
+      // a probe the artist cannot see, which is where the click used to put it.
+      const PickRay full = vp->pickRay(centre);
+      const auto above = placeOnSurface(*w.document()->tracer(), toV(full.origin),
+                                        toV(full.direction), w.surfaceOffsetMeters());
+      QVERIFY(above && above->hitPoint.y > vp->cutHeight());
+    }
     const auto expected = placeOnSurface(*w.document()->tracer(), toV(ray.origin),
                                          toV(ray.direction), w.surfaceOffsetMeters());
     QVERIFY(expected);
+    QVERIFY(expected->hitPoint.y < vp->cutHeight());
     send(vp, QEvent::MouseButtonPress, centre, Qt::LeftButton, Qt::LeftButton);
     send(vp, QEvent::MouseButtonRelease, centre, Qt::LeftButton, Qt::NoButton);
     QCOMPARE(w.document()->probes().size(), size_t(1));
@@ -287,12 +300,73 @@ class TestEditing : public QObject {
     QVERIFY(length(w.document()->probes()[1].position - toV(vp->camera().eye())) < 1e-5);
   }
 
+  void drawingInTheViewportAddsAnImportanceVolume() {
+    // The DrawVolume tool (Edit > Draw importance volume, B): a drag on the floor spans the
+    // box's footprint on the level of the point pressed, up to the top of the scene.
+    MainWindow w;
+    quiet(w);
+    Document* doc = w.document();
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(800, 600);
+    vp->frameAll();
+    QAction* tool = nullptr;
+    for (QAction* a : w.findChildren<QAction*>())
+      if (a->text() == QStringLiteral("Draw importance &volume")) tool = a;
+    QVERIFY(tool);
+    tool->setChecked(true);
+    QCOMPARE(vp->tool(), Viewport::Tool::DrawVolume);
+
+    // A floor point: the first pixel along the middle row whose ray (from the cut plane, as
+    // the artist sees it) meets an upward-facing surface in the lowest half metre of the scene.
+    const Bounds3 bounds = doc->scene()->bounds;
+    QPointF from;
+    std::optional<Hit> hit;
+    PickRay r0;
+    for (int x = 100; x < 700 && !hit; x += 10) {
+      from = QPointF(x, 330);
+      r0 = vp->surfaceRay(from);
+      hit = doc->tracer()->intersect(Ray{toV(r0.origin), toV(r0.direction), 0.0});
+      if (hit && !(hit->geometricNormal.y > 0.9 &&
+                   toV(r0.origin).y + toV(r0.direction).y * hit->t < bounds.lo.y + 0.5))
+        hit.reset();
+    }
+    QVERIFY(hit);
+    const QPointF to = from + QPointF(70, 40);
+    const PickRay r1 = vp->pickRay(to);
+    const Vec3 a = toV(r0.origin) + toV(r0.direction) * hit->t;
+    const double t1 = (a.y - r1.origin.y()) / r1.direction.y();
+    QVERIFY(t1 > 0);
+    const Vec3 b = toV(r1.origin) + toV(r1.direction) * t1;
+
+    // A click draws nothing.
+    send(vp, QEvent::MouseButtonPress, from, Qt::LeftButton, Qt::LeftButton);
+    send(vp, QEvent::MouseButtonRelease, from, Qt::LeftButton, Qt::NoButton);
+    QVERIFY(doc->probeSet().importanceVolumes.empty());
+
+    drag(vp, from, to);
+    QCOMPARE(doc->probeSet().importanceVolumes.size(), size_t(1));
+    const ImportanceVolume& v = doc->probeSet().importanceVolumes[0];
+    QVERIFY(std::abs(v.lo.x - std::min(a.x, b.x)) < 1e-3 &&
+            std::abs(v.hi.x - std::max(a.x, b.x)) < 1e-3);
+    QVERIFY(std::abs(v.lo.z - std::min(a.z, b.z)) < 1e-3 &&
+            std::abs(v.hi.z - std::max(a.z, b.z)) < 1e-3);
+    QVERIFY(std::abs(v.lo.y - a.y) < 1e-3);
+    QCOMPARE(v.hi.y, doc->scene()->bounds.hi.y);
+    QCOMPARE(v.weight, 2.0);
+    QCOMPARE(doc->undoStack()->count(), 1);
+    doc->undoStack()->undo();
+    QVERIFY(doc->probeSet().importanceVolumes.empty());
+
+    // Leaving the tool selects again.
+    tool->setChecked(false);
+    QCOMPARE(vp->tool(), Viewport::Tool::Select);
+  }
+
   void inspectorEditsThePositionAndShowsTheSh() {
     MainWindow w;
-    w.setQuiet(true);
-    w.setPromptOnClose(false);
+    quiet(w);
     Document* doc = w.document();
-    doc->setAutoPropose(false);
     QVERIFY(w.openScene(kScene));
     Probe p;
     p.position = Vec3(0.25, 1.5, -0.5);
@@ -374,10 +448,8 @@ class TestEditing : public QObject {
 
   void overlaysToggleFromTheMenuAndTheTestObjectDrags() {
     MainWindow w;
-    w.setQuiet(true);
-    w.setPromptOnClose(false);
+    quiet(w);
     Document* doc = w.document();
-    doc->setAutoPropose(false);
     QVERIFY(w.openScene(kScene));
     Viewport* vp = w.viewport();
     vp->resize(800, 600);
@@ -502,9 +574,7 @@ class TestEditing : public QObject {
 
   void probesInsideGeometryAreMarkedInvalid() {
     MainWindow w;
-    w.setQuiet(true);
-    w.setPromptOnClose(false);
-    w.document()->setAutoPropose(false);
+    quiet(w);
     QVERIFY(w.openScene(kScene));
     const Bounds3 b = w.document()->scene()->bounds;
     Probe inside, below;
@@ -537,9 +607,7 @@ class TestEditing : public QObject {
 
   void wasdFliesWhileTheRightButtonIsHeld() {
     MainWindow w;
-    w.setQuiet(true);
-    w.setPromptOnClose(false);
-    w.document()->setAutoPropose(false);
+    quiet(w);
     QVERIFY(w.openScene(kScene));
     Viewport* vp = w.viewport();
     vp->resize(800, 600);
