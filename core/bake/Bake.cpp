@@ -7,7 +7,6 @@
 #include "core/common/Error.h"
 #include "core/io/JsonFields.h"
 #include "core/io/SceneHash.h"
-#include "core/scene/EnvironmentMap.h"
 #include "core/tessellation/Tetrahedralization.h"
 
 namespace ps {
@@ -63,10 +62,7 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
   std::vector<size_t> missing;
   // The rig's JSON in the key names the environment map by path only: its texels decide the
   // capture too, so a map edited in place must miss the cache.
-  uint64_t keyBase = settings.sceneHash;
-  if (cache)
-    if (const auto map = environmentOf(rig))
-      keyBase = fnv1a64(map->rgb.data(), map->rgb.size() * sizeof(float), keyBase);
+  const uint64_t keyBase = cache ? foldEnvironmentTexels(settings.sceneHash, rig) : 0;
   for (size_t i = 0; i < n; ++i) {
     if (cache) {
       keys[i] = CaptureCache::key(keyBase, rig, settings.capture, probes.positions[i]);

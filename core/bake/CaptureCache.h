@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "core/capture/Capture.h"
+#include "core/io/KeyedFileCache.h"
 #include "core/math/Sh.h"
 #include "core/scene/LightingRig.h"
 
@@ -31,14 +32,13 @@ class CaptureCache {
   /// Stores atomically (a killed bake never leaves a half entry).
   void store(uint64_t key, const ShRgb& sh) const;
 
-  const std::filesystem::path& dir() const { return dir_; }
+  const std::filesystem::path& dir() const { return files_.dir(); }
 
   /// Bump when the capture integrator changes its results, to invalidate every old entry.
   static constexpr uint32_t kAlgorithmVersion = 2;  ///< 2: textures, environment maps, adaptive
 
  private:
-  std::filesystem::path entryPath(uint64_t key) const;
-  std::filesystem::path dir_;
+  KeyedFileCache files_;
 };
 
 }  // namespace ps

@@ -19,6 +19,12 @@ uint64_t fnv1a64(const void* data, size_t size, uint64_t h) {
   return h;
 }
 
+uint64_t foldEnvironmentTexels(uint64_t h, const LightingRig& rig) {
+  if (const auto map = environmentOf(rig))
+    h = fnv1a64(map->rgb.data(), map->rgb.size() * sizeof(float), h);
+  return h;
+}
+
 namespace {
 
 std::string lowerExtension(const fs::path& p) {

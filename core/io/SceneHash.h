@@ -19,6 +19,11 @@ uint64_t fnv1a64(const void* data, size_t size, uint64_t h = 0xcbf29ce484222325u
 /// loader falls back to the material's factor with a warning).
 uint64_t sceneContentHash(const std::filesystem::path& scene);
 
+/// `h` with the texels of the rig's environment map folded in (`h` itself when it has none).
+/// A rig names its map by path only, so cache keys fold this in: a map edited in place must
+/// miss. Throws ps::FileError when the map cannot be read.
+uint64_t foldEnvironmentTexels(uint64_t h, const LightingRig& rig);
+
 /// 16 lowercase hex digits, or "unknown" for 0.
 std::string sceneHashText(uint64_t h);
 
