@@ -14,6 +14,7 @@
 #include "core/eval/Evaluate.h"
 #include "core/io/JsonFields.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
 #include "core/placement/Uniform.h"
 #include "core/tessellation/Tetrahedralization.h"
@@ -28,6 +29,8 @@ void registerEval(CLI::App& app) {
     std::string input;
     int queries = 256, referenceSpp = 1024, spp = 512;
     uint64_t seed = 7;
+    std::string cacheDir;
+    bool noCache = false;
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
@@ -40,6 +43,11 @@ void registerEval(CLI::App& app) {
   cmd->add_option("--spp", o->spp, "Samples per probe when a probe set must be captured")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--seed", o->seed, "Random seed");
+  cmd->add_option("--cache", o->cacheDir,
+                  "Reference cache folder (default: eval-reference-cache beside the input, shared "
+                  "by every set and volume there)");
+  cmd->add_flag("--no-cache", o->noCache,
+                "Trace the reference, neither reading nor writing the reference cache");
   cmd->add_flag("--json", o->json, "Print JSON");
   cmd->callback([o] {
     // Absurd requests get a message before anything is allocated or traced.
@@ -75,7 +83,15 @@ void registerEval(CLI::App& app) {
     es.queries = o->queries;
     es.referenceSpp = o->referenceSpp;
     es.seed = o->seed;
+    if (!o->noCache) {
+      es.sceneHash = sceneContentHash(scenePath);
+      es.cacheDir = o->cacheDir.empty()
+                        ? fs::absolute(o->input).parent_path() / "eval-reference-cache"
+                        : fs::path(o->cacheDir);
+    }
     const EvalResult r = evaluateVolume(tracer, rig, volume, es, terminalProgress("eval"));
+    // Notes go to stderr: with --json, stdout holds the JSON only.
+    for (const std::string& n : r.notes) std::cerr << "note: " << n << "\n";
     if (o->json) {
       ojson j;
       j["probes"] = r.probes;
@@ -85,13 +101,14 @@ void registerEval(CLI::App& app) {
       j["max_rel_error"] = r.maxRelError;
       j["leaking_fraction"] = r.leakingFraction;
       j["seconds"] = r.seconds;
+      j["reference_cached"] = r.referenceCached;
       std::cout << j.dump(2) << "\n";
     } else {
       std::printf(
           "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
-          "leaking %.4f (%.2f s)\n",
+          "leaking %.4f (%.2f s%s)\n",
           r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
-          r.seconds);
+          r.seconds, r.referenceCached ? ", reference from the cache" : "");
     }
   });
 }

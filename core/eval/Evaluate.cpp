@@ -12,6 +12,7 @@
 #include "core/capture/DirectLight.h"
 #include "core/common/Error.h"
 #include "core/common/Tolerances.h"
+#include "core/eval/ReferenceCache.h"
 #include "core/math/Random.h"
 
 namespace ps {
@@ -45,18 +46,20 @@ Rgb referenceIrradiance(const Tracer& tracer, const LightingRig& rig,
 
 }  // namespace
 
-EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const ProbeVolume& volume,
-                          const EvalSettings& s, const ProgressFn& progress) {
+EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, const EvalSettings& s,
+                               const ProgressFn& progress) {
   if (s.queries < 1) throw ParameterError("queries: expected at least 1");
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
-  const auto start = std::chrono::steady_clock::now();
   const Bounds3& bounds = tracer.scene().bounds;
   const std::vector<Light> lights = allLights(tracer.scene(), rig);
 
   // Query points: uniform in the scene bounds, keeping those in the domain of interest (not
   // inside geometry, Kontkanen & Laine sec. 5). Deterministic for the seed.
   const size_t M = size_t(s.queries);
-  std::vector<Vec3> points(M), normals(M);
+  EvalReference ref;
+  ref.points.resize(M);
+  ref.normals.resize(M);
+  ref.irradiance.resize(M);
   std::vector<char> found(M, 0);
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     uint64_t rng = streamSeed(s.seed, q);
@@ -66,8 +69,8 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
           bounds.lo + Vec3(e.x * uniform01(rng), e.y * uniform01(rng), e.z * uniform01(rng));
       if (backfaceFraction(tracer, p, 32, splitMix64(rng)) > tol::kDefaultInvalidBackfaceFraction)
         continue;
-      points[q] = p;
-      normals[q] = uniformSphere(uniform01(rng), uniform01(rng));
+      ref.points[q] = p;
+      ref.normals[q] = uniformSphere(uniform01(rng), uniform01(rng));
       found[q] = 1;
       return;
     }
@@ -76,16 +79,63 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     if (!found[q])
       throw ParameterError("eval: could not find points outside geometry in the scene bounds");
 
-  std::vector<double> ref(M), got(M);
-  std::vector<char> leaking(M, 0);
   std::atomic<size_t> done{0};
   std::atomic<bool> cancelled{false};
   std::mutex progressMutex;
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     if (cancelled.load(std::memory_order_relaxed)) return;
     uint64_t rng = streamSeed(s.seed ^ 0xE7A1ull, q);
-    ref[q] = luminance(
-        referenceIrradiance(tracer, rig, lights, points[q], normals[q], s.referenceSpp, rng));
+    ref.irradiance[q] = referenceIrradiance(tracer, rig, lights, ref.points[q], ref.normals[q],
+                                            s.referenceSpp, rng);
+    const size_t d = ++done;
+    if (progress) {
+      std::lock_guard lock(progressMutex);
+      if (!progress(double(d) / M)) cancelled = true;
+    }
+  });
+  if (cancelled) throw Cancelled();
+  return ref;
+}
+
+EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const ProbeVolume& volume,
+                          const EvalSettings& s, const ProgressFn& progress) {
+  if (s.queries < 1) throw ParameterError("queries: expected at least 1");
+  if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
+  const auto start = std::chrono::steady_clock::now();
+  EvalResult r;
+  const size_t M = size_t(s.queries);
+
+  // The reference: from the cache when it has one, else traced (and stored).
+  std::optional<ReferenceCache> cache;
+  uint64_t key = 0;
+  std::optional<EvalReference> reference;
+  if (s.cacheDir && s.sceneHash != 0) {
+    cache.emplace(*s.cacheDir);
+    key = ReferenceCache::key(s.sceneHash, rig, tracer.scene().bounds, s);
+    std::string problem;
+    reference = cache->find(key, M, &problem);
+    if (!problem.empty())
+      r.notes.push_back("damaged reference cache entry " + problem + "; recomputing it");
+  }
+  r.referenceCached = reference.has_value();
+  if (!reference) {
+    ProgressFn refProgress;
+    if (progress) refProgress = [&](double f) { return progress(0.95 * f); };
+    reference = computeReference(tracer, rig, s, refProgress);
+    if (cache) try {
+        cache->store(key, *reference);
+      } catch (const Error& e) {
+        r.notes.push_back(std::string("the reference could not be cached: ") + e.what());
+      }
+  }
+  const std::vector<Vec3>& points = reference->points;
+  const std::vector<Vec3>& normals = reference->normals;
+
+  // The volume at each query, and whether it interpolates a probe the query cannot see.
+  std::vector<double> ref(M), got(M);
+  std::vector<char> leaking(M, 0);
+  tbb::parallel_for(size_t(0), M, [&](size_t q) {
+    ref[q] = luminance(reference->irradiance[q]);
     const VolumeLocation loc = locate(volume, points[q]);
     got[q] = luminance(interpolate(volume, loc).irradiance(normals[q]));
     // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking).
@@ -100,15 +150,9 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
           break;
         }
       }
-    const size_t d = ++done;
-    if (progress) {
-      std::lock_guard lock(progressMutex);
-      if (!progress(double(d) / M)) cancelled = true;
-    }
   });
-  if (cancelled) throw Cancelled();
+  if (progress && !progress(1.0)) throw Cancelled();
 
-  EvalResult r;
   r.probes = volume.probeCount();
   r.queries = M;
   double num = 0, den = 0, mean = 0;

@@ -1,8 +1,14 @@
 #pragma once
 // Accuracy of an interpolated probe volume against a high-sample reference (DESIGN.md):
 // random valid points of the domain of interest, a random normal each; reference irradiance
-// path-traced directly (cosine-weighted) for that normal.
+// path-traced directly (cosine-weighted) for that normal. The reference (points, normals,
+// irradiance) is the expensive part and depends neither on the volume nor on how its probes were
+// placed: a reference cache on disk keeps it, so comparing methods does not recompute it.
 #include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "core/common/Progress.h"
 #include "core/scene/LightingRig.h"
@@ -15,6 +21,20 @@ struct EvalSettings {
   int queries = 256;
   int referenceSpp = 1024;
   uint64_t seed = 7;
+  /// Folder of the reference cache (see ReferenceCache); none = compute the reference every
+  /// time.
+  std::optional<std::filesystem::path> cacheDir;
+  /// sceneContentHash() of the scene the tracer was built from; part of the cache key. The
+  /// cache is used only when this is non-zero.
+  uint64_t sceneHash = 0;
+};
+
+/// The reference of an evaluation: query points (valid points of the domain of interest),
+/// a unit normal each, and the reference irradiance there for that normal.
+struct EvalReference {
+  std::vector<Vec3> points, normals;
+  std::vector<Rgb> irradiance;
+  bool operator==(const EvalReference&) const = default;
 };
 
 struct EvalResult {
@@ -30,8 +50,21 @@ struct EvalResult {
   /// there (Sukys 3.2.2).
   double leakingFraction = 0;
   double seconds = 0;
+  /// The reference came from the cache (nothing was traced for it).
+  bool referenceCached = false;
+  /// Things the user should know that did not stop the evaluation: a damaged cache entry
+  /// (recomputed), a cache entry that could not be written.
+  std::vector<std::string> notes;
 };
 
+/// The reference for `settings` (queries, referenceSpp, seed; not the cache fields), traced.
+/// Deterministic for the seed. Throws ps::ParameterError when the scene bounds hold no point
+/// outside geometry, ps::Cancelled when `progress` returns false.
+EvalReference computeReference(const Tracer& tracer, const LightingRig& rig,
+                               const EvalSettings& settings, const ProgressFn& progress = {});
+
+/// The volume's error against the reference for `settings`: read from settings.cacheDir when
+/// it holds one for the same scene, rig, domain and settings, else computed (and stored there).
 EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const ProbeVolume& volume,
                           const EvalSettings& settings, const ProgressFn& progress = {});
 

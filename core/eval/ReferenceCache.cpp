@@ -1,0 +1,86 @@
+#include "core/eval/ReferenceCache.h"
+
+#include <cstring>
+#include <nlohmann/json.hpp>
+
+#include "core/bake/CaptureCache.h"
+#include "core/io/JsonFields.h"
+#include "core/io/SceneHash.h"
+
+// Entries (KeyedFileCache): magic "PSEVREF1", payload u64 query count, then per query f64[9]:
+// point xyz, normal xyz, irradiance rgb.
+namespace ps {
+
+namespace {
+constexpr std::array<char, 8> kMagic = {'P', 'S', 'E', 'V', 'R', 'E', 'F', '1'};
+constexpr size_t kQueryBytes = 9 * 8;
+
+size_t payloadBytes(size_t queries) {
+  return 8 + queries * kQueryBytes;
+}
+}  // namespace
+
+ReferenceCache::ReferenceCache(std::filesystem::path dir)
+    : files_(std::move(dir), kMagic, ".psref", "eval reference cache") {}
+
+uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig, const Bounds3& domain,
+                             const EvalSettings& s) {
+  const uint32_t versions[2] = {kAlgorithmVersion, CaptureCache::kAlgorithmVersion};
+  uint64_t h = fnv1a64(versions, sizeof versions);
+  h = fnv1a64(&sceneHash, sizeof sceneHash, h);
+  h = foldEnvironmentTexels(h, rig);
+  const std::string r = rigToJson(rig).dump();  // shortest round-trip doubles: exact
+  h = fnv1a64(r.data(), r.size(), h);
+  const double box[6] = {domain.lo.x, domain.lo.y, domain.lo.z,
+                         domain.hi.x, domain.hi.y, domain.hi.z};
+  h = fnv1a64(box, sizeof box, h);
+  const int32_t counts[2] = {s.queries, s.referenceSpp};
+  h = fnv1a64(counts, sizeof counts, h);
+  return fnv1a64(&s.seed, sizeof s.seed, h);
+}
+
+std::optional<EvalReference> ReferenceCache::find(uint64_t key, size_t queries,
+                                                  std::string* problem) const {
+  const KeyedFileCache::Lookup e = files_.find(key, payloadBytes(queries));
+  if (e.status == KeyedFileCache::Status::Damaged && problem)
+    *problem = files_.entryPath(key).string() + ": " + e.problem;
+  if (e.status != KeyedFileCache::Status::Found) return std::nullopt;
+  uint64_t n;
+  std::memcpy(&n, e.payload.data(), 8);
+  if (n != queries) {  // a checksummed entry of the right size cannot say otherwise; be safe
+    if (problem)
+      *problem = files_.entryPath(key).string() + ": holds " + std::to_string(n) +
+                 " queries, expected " + std::to_string(queries);
+    return std::nullopt;
+  }
+  EvalReference ref;
+  ref.points.resize(queries);
+  ref.normals.resize(queries);
+  ref.irradiance.resize(queries);
+  const char* p = e.payload.data() + 8;
+  for (size_t q = 0; q < queries; ++q, p += kQueryBytes) {
+    double v[9];
+    std::memcpy(v, p, sizeof v);
+    ref.points[q] = {v[0], v[1], v[2]};
+    ref.normals[q] = {v[3], v[4], v[5]};
+    ref.irradiance[q] = {v[6], v[7], v[8]};
+  }
+  return ref;
+}
+
+void ReferenceCache::store(uint64_t key, const EvalReference& ref) const {
+  const size_t n = ref.points.size();
+  std::string buf(payloadBytes(n), '\0');
+  const uint64_t n64 = n;
+  std::memcpy(buf.data(), &n64, 8);
+  char* p = buf.data() + 8;
+  for (size_t q = 0; q < n; ++q, p += kQueryBytes) {
+    const Vec3 a = ref.points[q], b = ref.normals[q];
+    const Rgb c = ref.irradiance[q];
+    const double v[9] = {a.x, a.y, a.z, b.x, b.y, b.z, c.r, c.g, c.b};
+    std::memcpy(p, v, sizeof v);
+  }
+  files_.store(key, buf);
+}
+
+}  // namespace ps

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# eval's reference cache through the CLI on cornell: the first eval traces the reference and
+# stores it in eval-reference-cache beside the input; a second eval, of the same volume or of
+# another set placed with another method, reads it ("reference_cached": true) with identical
+# numbers; --no-cache and another seed trace it; a corrupted entry is reported on stderr and
+# recomputed to the same numbers.
+# Usage: test_eval_cache.sh PROBESTUDIO REPO_ROOT
+set -euo pipefail
+cli="$1"; root="$2"
+tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
+scene="$root/resources/scenes/cornell.gltf"
+eval_opts=(--queries 48 --reference-spp 64 --json)
+
+"$cli" place "$scene" --budget 16 --accept --no-leak-refine -o "$tmp/uniform.json"
+"$cli" place "$scene" --method greedy --budget 16 --accept --no-leak-refine -o "$tmp/greedy.json"
+"$cli" bake "$tmp/uniform.json" -o "$tmp/uniform.psv" --spp 64 --no-leak-refine --no-cache
+"$cli" bake "$tmp/greedy.json" -o "$tmp/greedy.psv" --spp 64 --no-leak-refine --no-cache
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" >"$tmp/first.json"
+ls "$tmp/eval-reference-cache/"*.psref >/dev/null
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" >"$tmp/second.json"
+"$cli" eval "$tmp/greedy.psv" "${eval_opts[@]}" >"$tmp/greedy-cached.json"
+"$cli" eval "$tmp/greedy.psv" "${eval_opts[@]}" --no-cache >"$tmp/greedy-nocache.json"
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --seed 8 >"$tmp/seed8.json"
+# Another cache folder starts empty.
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --cache "$tmp/other-cache" >"$tmp/other.json"
+[ "$(ls "$tmp/other-cache" | wc -l)" = 1 ]
+# Corrupt every entry of the default folder (flip one byte in the middle).
+for f in "$tmp/eval-reference-cache/"*.psref; do
+  python3 - "$f" <<'PY'
+import os, sys
+p = sys.argv[1]
+b = bytearray(open(p, "rb").read())
+b[len(b) // 2] ^= 0x10
+open(p, "wb").write(b)
+PY
+done
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" >"$tmp/repaired.json" 2>"$tmp/repaired.err"
+grep -q "note: damaged reference cache entry .*CRC-32 mismatch" "$tmp/repaired.err"
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" >"$tmp/after.json" 2>"$tmp/after.err"
+[ ! -s "$tmp/after.err" ] || ! grep -q "damaged" "$tmp/after.err"
+# The plain-text output says where the reference came from.
+"$cli" eval "$tmp/uniform.psv" --queries 48 --reference-spp 64 | grep -q "reference from the cache"
+
+python3 - "$tmp" <<'PY'
+import json, sys
+tmp = sys.argv[1]
+e = {n: json.load(open(f"{tmp}/{n}.json")) for n in
+     ("first", "second", "greedy-cached", "greedy-nocache", "seed8", "other", "repaired", "after")}
+cached = {n: v["reference_cached"] for n, v in e.items()}
+assert cached == {"first": False, "second": True, "greedy-cached": True,
+                  "greedy-nocache": False, "seed8": False, "other": False,
+                  "repaired": False, "after": True}, cached
+keys = ("probes", "queries", "rel_rmse", "p95_rel_error", "max_rel_error", "leaking_fraction")
+same = lambda a, b: all(e[a][k] == e[b][k] for k in keys)
+assert same("first", "second") and same("first", "other"), (e["first"], e["second"])
+assert same("first", "repaired") and same("first", "after"), (e["first"], e["repaired"])
+assert same("greedy-cached", "greedy-nocache"), (e["greedy-cached"], e["greedy-nocache"])
+assert e["seed8"]["rel_rmse"] != e["first"]["rel_rmse"], e["seed8"]
+print("eval reference cache ok: rel_rmse %.4f, cached eval %.3f s against %.3f s traced" %
+      (e["first"]["rel_rmse"], e["second"]["seconds"], e["first"]["seconds"]))
+PY

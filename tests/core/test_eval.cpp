@@ -1,0 +1,255 @@
+// eval's reference cache: a second evaluation with the same scene, rig and settings reads the
+// reference from disk (flagged cached) and gives bit-identical numbers, for another volume too;
+// any change of seed, rig, samples, queries or scene misses; a damaged entry is reported,
+// recomputed to the same numbers and replaced.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include "core/bake/Bake.h"
+#include "core/common/Error.h"
+#include "core/eval/Evaluate.h"
+#include "core/eval/ReferenceCache.h"
+#include "core/io/SceneHash.h"
+#include "core/scene/Scene.h"
+#include "core/trace/Tracer.h"
+#include "tests/core/TestFiles.h"
+
+namespace fs = std::filesystem;
+using namespace ps;
+
+namespace {
+
+const fs::path kScenes = fs::path(PS_SOURCE_DIR) / "resources" / "scenes";
+
+struct Fixture {
+  Scene scene = loadScene(kScenes / "cornell.gltf");
+  Tracer tracer{scene};
+  uint64_t sceneHash = sceneContentHash(kScenes / "cornell.gltf");
+  LightingRig rig;
+  Fixture() { rig.skyRadiance = {0.5, 0.5, 0.5}; }
+};
+
+Fixture& fixture() {
+  static Fixture f;
+  return f;
+}
+
+// An n x n x n grid of probes inside the Cornell box (x, z in [-2.85, 2.85], y in [0, 5.5]),
+// captured cheaply.
+ProbeVolume gridVolume(int n) {
+  std::vector<Vec3> pts;
+  for (int x = 0; x < n; ++x)
+    for (int y = 0; y < n; ++y)
+      for (int z = 0; z < n; ++z)
+        pts.push_back(
+            {-2.5 + 5.0 * x / (n - 1), 0.3 + 4.9 * y / (n - 1), -2.5 + 5.0 * z / (n - 1)});
+  CaptureSettings cs;
+  cs.samplesPerProbe = 32;
+  const auto captures = captureProbes(fixture().tracer, fixture().rig, pts, cs);
+  std::vector<ShRgb> sh;
+  for (const auto& c : captures) sh.push_back(c.sh);
+  return volumeFromProbes(pts, sh);
+}
+
+EvalSettings cachedSettings(const fs::path& dir) {
+  EvalSettings es;
+  es.queries = 48;
+  es.referenceSpp = 32;
+  es.seed = 11;
+  es.cacheDir = dir / "cache";
+  es.sceneHash = fixture().sceneHash;
+  return es;
+}
+
+void expectSameNumbers(const EvalResult& a, const EvalResult& b) {
+  EXPECT_EQ(a.probes, b.probes);
+  EXPECT_EQ(a.queries, b.queries);
+  EXPECT_EQ(a.relRmse, b.relRmse);
+  EXPECT_EQ(a.p95RelError, b.p95RelError);
+  EXPECT_EQ(a.maxRelError, b.maxRelError);
+  EXPECT_EQ(a.leakingFraction, b.leakingFraction);
+}
+
+std::vector<fs::path> filesIn(const fs::path& dir) {
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir)) files.push_back(e.path());
+  return files;
+}
+
+EvalResult eval(const ProbeVolume& v, const EvalSettings& es, const LightingRig* rig = nullptr) {
+  return evaluateVolume(fixture().tracer, rig ? *rig : fixture().rig, v, es);
+}
+
+}  // namespace
+
+TEST(EvalReferenceCache, SecondEvalReadsTheCacheWithIdenticalNumbers) {
+  const fs::path dir = test::testTempDir("ps_test_eval_");
+  const ProbeVolume coarse = gridVolume(2), fine = gridVolume(3);
+  const EvalSettings es = cachedSettings(dir);
+  EvalSettings noCache = es;
+  noCache.cacheDir.reset();
+
+  const EvalResult uncached = eval(coarse, noCache);
+  EXPECT_FALSE(uncached.referenceCached);
+  const EvalResult first = eval(coarse, es);
+  EXPECT_FALSE(first.referenceCached);
+  EXPECT_TRUE(first.notes.empty());
+  // One entry, no temporary file left beside it.
+  const auto files = filesIn(dir / "cache");
+  ASSERT_EQ(files.size(), 1u);
+  EXPECT_EQ(files[0].extension(), ".psref");
+  const EvalResult second = eval(coarse, es);
+  EXPECT_TRUE(second.referenceCached);
+  EXPECT_TRUE(second.notes.empty());
+  expectSameNumbers(first, uncached);
+  expectSameNumbers(second, first);
+  EXPECT_GT(first.relRmse, 0.0);
+
+  // Another volume (another placement) of the same scene and rig reuses the reference.
+  const EvalResult fineCached = eval(fine, es);
+  EXPECT_TRUE(fineCached.referenceCached);
+  expectSameNumbers(fineCached, eval(fine, noCache));
+  EXPECT_NE(fineCached.relRmse, first.relRmse);
+  EXPECT_EQ(filesIn(dir / "cache").size(), 1u);
+}
+
+TEST(EvalReferenceCache, AnotherSeedRigSampleCountQueryCountOrSceneMisses) {
+  const fs::path dir = test::testTempDir("ps_test_eval_");
+  const ProbeVolume v = gridVolume(2);
+  const EvalSettings es = cachedSettings(dir);
+  ASSERT_FALSE(eval(v, es).referenceCached);
+  ASSERT_TRUE(eval(v, es).referenceCached);
+
+  EvalSettings seed = es;
+  seed.seed += 1;
+  EXPECT_FALSE(eval(v, seed).referenceCached);
+  EvalSettings spp = es;
+  spp.referenceSpp += 1;
+  EXPECT_FALSE(eval(v, spp).referenceCached);
+  EvalSettings queries = es;
+  queries.queries += 1;
+  EXPECT_FALSE(eval(v, queries).referenceCached);
+  EvalSettings scene = es;
+  scene.sceneHash ^= 1;
+  EXPECT_FALSE(eval(v, scene).referenceCached);
+  LightingRig brighter = fixture().rig;
+  brighter.skyRadiance = {0.6, 0.5, 0.5};
+  EXPECT_FALSE(eval(v, es, &brighter).referenceCached);
+  LightingRig sun = fixture().rig;
+  Light l;
+  l.type = LightType::Directional;
+  sun.lights.push_back(l);
+  EXPECT_FALSE(eval(v, es, &sun).referenceCached);
+  EXPECT_EQ(filesIn(dir / "cache").size(), 7u);
+  // Each of them is cached now, and the first is still there.
+  EXPECT_TRUE(eval(v, seed).referenceCached);
+  EXPECT_TRUE(eval(v, es, &sun).referenceCached);
+  EXPECT_TRUE(eval(v, es).referenceCached);
+  // Without a scene hash the cache is not used at all.
+  EvalSettings unknownScene = es;
+  unknownScene.sceneHash = 0;
+  EXPECT_FALSE(eval(v, unknownScene).referenceCached);
+}
+
+TEST(EvalReferenceCache, KeyFollowsTheEnvironmentTexelsAndTheDomain) {
+  const EvalSettings es;
+  Bounds3 box;
+  box.extend({0, 0, 0});
+  box.extend({1, 2, 3});
+  auto map = std::make_shared<EnvironmentMap>();
+  map->path = "sky.hdr";
+  map->width = 2;
+  map->height = 1;
+  map->rgb = {1, 1, 1, 2, 2, 2};
+  LightingRig rig;
+  rig.envMapPath = "sky.hdr";
+  rig.envMap = map;
+  const uint64_t k = ReferenceCache::key(5, rig, box, es);
+  EXPECT_EQ(k, ReferenceCache::key(5, rig, box, es));
+  // The same path with other texels (a map edited in place).
+  auto edited = std::make_shared<EnvironmentMap>(*map);
+  edited->rgb[4] = 2.5f;
+  LightingRig rig2 = rig;
+  rig2.envMap = edited;
+  EXPECT_NE(k, ReferenceCache::key(5, rig2, box, es));
+  Bounds3 wider = box;
+  wider.extend({1, 2, 3.5});
+  EXPECT_NE(k, ReferenceCache::key(5, rig, wider, es));
+}
+
+TEST(EvalReferenceCache, DamagedEntryIsReportedAndRecomputedToTheSameNumbers) {
+  const fs::path dir = test::testTempDir("ps_test_eval_");
+  const ProbeVolume v = gridVolume(2);
+  const EvalSettings es = cachedSettings(dir);
+  const EvalResult first = eval(v, es);
+  ASSERT_FALSE(first.referenceCached);
+  const fs::path entry = filesIn(dir / "cache").at(0);
+  const uintmax_t size = fs::file_size(entry);
+
+  const auto expectRecomputed = [&](const char* what) {
+    SCOPED_TRACE(what);
+    const EvalResult r = eval(v, es);
+    EXPECT_FALSE(r.referenceCached);
+    ASSERT_EQ(r.notes.size(), 1u);
+    EXPECT_NE(r.notes[0].find("damaged reference cache entry"), std::string::npos) << r.notes[0];
+    EXPECT_NE(r.notes[0].find(entry.filename().string()), std::string::npos) << r.notes[0];
+    expectSameNumbers(r, first);
+    // The entry was replaced by a good one.
+    EXPECT_EQ(fs::file_size(entry), size);
+    const EvalResult again = eval(v, es);
+    EXPECT_TRUE(again.referenceCached);
+    EXPECT_TRUE(again.notes.empty());
+    expectSameNumbers(again, first);
+  };
+
+  {  // one byte of a reference irradiance flipped: the CRC no longer matches
+    std::fstream f(entry, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(std::streamoff(size / 2));
+    const char c = char(f.peek());
+    f.seekp(std::streamoff(size / 2));
+    f.put(char(c ^ 0x10));
+  }
+  expectRecomputed("flipped byte");
+  fs::resize_file(entry, size / 3);
+  expectRecomputed("truncated");
+  fs::resize_file(entry, 0);
+  expectRecomputed("empty");
+  {
+    std::ofstream f(entry, std::ios::app | std::ios::binary);
+    f << "more";
+  }
+  expectRecomputed("too long");
+}
+
+TEST(EvalReferenceCache, StoredReferenceReadsBackExactly) {
+  const fs::path dir = test::testTempDir("ps_test_eval_");
+  EvalSettings es;
+  es.queries = 16;
+  es.referenceSpp = 8;
+  const EvalReference ref = computeReference(fixture().tracer, fixture().rig, es);
+  ASSERT_EQ(ref.points.size(), 16u);
+  EXPECT_EQ(ref, computeReference(fixture().tracer, fixture().rig, es));  // deterministic
+  const ReferenceCache cache(dir / "cache");
+  std::string problem;
+  EXPECT_FALSE(cache.find(42, 16, &problem).has_value());
+  EXPECT_TRUE(problem.empty());  // missing, not damaged
+  cache.store(42, ref);
+  const auto back = cache.find(42, 16, &problem);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_TRUE(problem.empty());
+  EXPECT_EQ(*back, ref);
+  // Asked for another query count, the entry does not fit.
+  EXPECT_FALSE(cache.find(42, 17, &problem).has_value());
+  EXPECT_NE(problem.find("truncated"), std::string::npos) << problem;
+}
+
+TEST(EvalReferenceCache, UncreatableCacheFolderIsAFileError) {
+  const fs::path dir = test::testTempDir("ps_test_eval_");
+  { std::ofstream(dir / "file") << "x"; }
+  EvalSettings es = cachedSettings(dir);
+  es.cacheDir = dir / "file" / "cache";
+  EXPECT_THROW(eval(gridVolume(2), es), FileError);
+}
