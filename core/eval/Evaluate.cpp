@@ -122,11 +122,13 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     ProgressFn refProgress;
     if (progress) refProgress = [&](double f) { return progress(0.95 * f); };
     reference = computeReference(tracer, rig, s, refProgress);
-    if (cache) try {
+    if (cache) {
+      try {
         cache->store(key, *reference);
-      } catch (const Error& e) {
+      } catch (const Error& e) {  // the reference is good; only the next eval pays for it
         r.notes.push_back(std::string("the reference could not be cached: ") + e.what());
       }
+    }
   }
   const std::vector<Vec3>& points = reference->points;
   const std::vector<Vec3>& normals = reference->normals;
