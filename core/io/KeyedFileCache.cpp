@@ -35,6 +35,10 @@ KeyedFileCache::Lookup KeyedFileCache::find(uint64_t key, size_t payloadBytes) c
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return r;
   r.status = Status::Damaged;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    r.problem = "not a regular file";
+    return r;
+  }
   const size_t expected = kHeaderBytes + payloadBytes + kCrcBytes;
   const uintmax_t size = std::filesystem::file_size(path, ec);
   if (ec) {

@@ -38,6 +38,13 @@ done
 grep -q "note: damaged reference cache entry .*CRC-32 mismatch" "$tmp/repaired.err"
 "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" >"$tmp/after.json" 2>"$tmp/after.err"
 [ ! -s "$tmp/after.err" ] || ! grep -q "damaged" "$tmp/after.err"
+# A cache folder that cannot be created is an error naming it.
+echo x >"$tmp/a-file"
+if "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --cache "$tmp/a-file/cache" \
+    >/dev/null 2>"$tmp/bad.err"; then
+  echo "eval with an uncreatable cache folder succeeded" >&2; exit 1
+fi
+grep -q "a-file/cache: cannot create the eval reference cache folder" "$tmp/bad.err"
 # The plain-text output says where the reference came from.
 "$cli" eval "$tmp/uniform.psv" --queries 48 --reference-spp 64 | grep -q "reference from the cache"
 

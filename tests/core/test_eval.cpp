@@ -4,6 +4,7 @@
 // recomputed to the same numbers and replaced.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -252,4 +253,28 @@ TEST(EvalReferenceCache, UncreatableCacheFolderIsAFileError) {
   EvalSettings es = cachedSettings(dir);
   es.cacheDir = dir / "file" / "cache";
   EXPECT_THROW(eval(gridVolume(2), es), FileError);
+}
+
+TEST(EvalReferenceCache, UnwritableEntryIsANoteAndTheNumbersStandNotAnError) {
+  const fs::path dir = test::testTempDir("ps_test_eval_");
+  const ProbeVolume v = gridVolume(2);
+  const EvalSettings es = cachedSettings(dir);
+  EvalSettings noCache = es;
+  noCache.cacheDir.reset();
+  const EvalResult expected = eval(v, noCache);
+  // A folder where the entry should be: it can be neither read nor replaced.
+  const uint64_t key =
+      ReferenceCache::key(es.sceneHash, fixture().rig, fixture().tracer.scene().bounds, es);
+  const ReferenceCache cache(*es.cacheDir);
+  fs::create_directories(cache.entryPath(key) / "x");
+  const EvalResult r = eval(v, es);
+  EXPECT_FALSE(r.referenceCached);
+  expectSameNumbers(r, expected);
+  ASSERT_EQ(r.notes.size(), 2u);
+  EXPECT_NE(r.notes[0].find("damaged reference cache entry"), std::string::npos) << r.notes[0];
+  EXPECT_NE(r.notes[0].find("not a regular file"), std::string::npos) << r.notes[0];
+  EXPECT_NE(r.notes[1].find("could not be cached"), std::string::npos) << r.notes[1];
+  std::printf("%s\n%s\n", r.notes[0].c_str(), r.notes[1].c_str());
+  // No temporary file is left behind.
+  EXPECT_EQ(filesIn(*es.cacheDir).size(), 1u);
 }
