@@ -85,9 +85,20 @@ void registerEval(CLI::App& app) {
     es.seed = o->seed;
     if (!o->noCache) {
       es.sceneHash = sceneContentHash(scenePath);
-      es.cacheDir = o->cacheDir.empty()
-                        ? fs::absolute(o->input).parent_path() / "eval-reference-cache"
-                        : fs::path(o->cacheDir);
+      if (!o->cacheDir.empty()) {
+        es.cacheDir = fs::path(o->cacheDir);  // a folder asked for must work (else an error)
+      } else {
+        // The default folder is a convenience: where it cannot be made (a read-only folder),
+        // eval works as it did without a cache.
+        const fs::path dir = fs::absolute(o->input).parent_path() / "eval-reference-cache";
+        std::error_code ec;
+        fs::create_directories(dir, ec);
+        if (fs::is_directory(dir, ec))
+          es.cacheDir = dir;
+        else
+          std::cerr << "note: cannot create the reference cache folder " << dir.string()
+                    << "; tracing the reference without the cache (--cache DIR picks another)\n";
+      }
     }
     const EvalResult r = evaluateVolume(tracer, rig, volume, es, terminalProgress("eval"));
     // Notes go to stderr: with --json, stdout holds the JSON only.

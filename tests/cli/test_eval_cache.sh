@@ -45,6 +45,12 @@ if "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --cache "$tmp/a-file/cache" 
   echo "eval with an uncreatable cache folder succeeded" >&2; exit 1
 fi
 grep -q "a-file/cache: cannot create the eval reference cache folder" "$tmp/bad.err"
+# The default folder is a convenience: where it cannot be made, eval goes on without it.
+mkdir "$tmp/blocked"
+"$cli" bake "$tmp/uniform.json" -o "$tmp/blocked/uniform.psv" --spp 64 --no-leak-refine --no-cache
+echo x >"$tmp/blocked/eval-reference-cache"
+"$cli" eval "$tmp/blocked/uniform.psv" "${eval_opts[@]}" >"$tmp/blocked.json" 2>"$tmp/blocked.err"
+grep -q "note: cannot create the reference cache folder" "$tmp/blocked.err"
 # The plain-text output says where the reference came from.
 "$cli" eval "$tmp/uniform.psv" --queries 48 --reference-spp 64 | grep -q "reference from the cache"
 
@@ -52,15 +58,17 @@ python3 - "$tmp" <<'PY'
 import json, sys
 tmp = sys.argv[1]
 e = {n: json.load(open(f"{tmp}/{n}.json")) for n in
-     ("first", "second", "greedy-cached", "greedy-nocache", "seed8", "other", "repaired", "after")}
+     ("first", "second", "greedy-cached", "greedy-nocache", "seed8", "other", "repaired", "after",
+      "blocked")}
 cached = {n: v["reference_cached"] for n, v in e.items()}
 assert cached == {"first": False, "second": True, "greedy-cached": True,
                   "greedy-nocache": False, "seed8": False, "other": False,
-                  "repaired": False, "after": True}, cached
+                  "repaired": False, "after": True, "blocked": False}, cached
 keys = ("probes", "queries", "rel_rmse", "p95_rel_error", "max_rel_error", "leaking_fraction")
 same = lambda a, b: all(e[a][k] == e[b][k] for k in keys)
 assert same("first", "second") and same("first", "other"), (e["first"], e["second"])
 assert same("first", "repaired") and same("first", "after"), (e["first"], e["repaired"])
+assert same("first", "blocked"), (e["first"], e["blocked"])
 assert same("greedy-cached", "greedy-nocache"), (e["greedy-cached"], e["greedy-nocache"])
 assert e["seed8"]["rel_rmse"] != e["first"]["rel_rmse"], e["seed8"]
 print("eval reference cache ok: rel_rmse %.4f, cached eval %.3f s against %.3f s traced" %
