@@ -377,10 +377,16 @@ ChajdasResult placeChajdas(std::span<const FieldSample> samples, const ChajdasSe
 
   // One representative per cluster (sec. 2.3): the mean position, snapped to the nearest
   // sample; kept when that sample matches the cluster's seed, else the member nearest the mean.
+  auto nearLight = [&](size_t i) {
+    for (const Vec3& l : s.punctualLights)
+      if (length(samples[i].position - l) < s.lightClearanceMeters) return true;
+    return false;
+  };
   auto nearestSample = [&](Vec3 p, const std::vector<size_t>* among) {
     size_t best = n;
     double bestD = std::numeric_limits<double>::infinity();
     auto consider = [&](size_t i) {
+      if (nearLight(i)) return;
       const double d = length(samples[i].position - p);
       if (d < bestD) {
         bestD = d;
@@ -407,8 +413,9 @@ ChajdasResult placeChajdas(std::span<const FieldSample> samples, const ChajdasSe
     for (size_t i : m) mean += samples[i].position;
     mean = mean / double(m.size());
     size_t rep = nearestSample(mean, nullptr);
-    if (dist(rep, m.front()) > thr / importanceWeight(s.importanceVolumes, mean))
+    if (rep == n || dist(rep, m.front()) > thr / importanceWeight(s.importanceVolumes, mean))
       rep = nearestSample(mean, &m);
+    if (rep == n) continue;  // every sample of the cluster is next to a light
     addProbe(rep, double(m.size()), false);
   }
 
@@ -468,7 +475,7 @@ ChajdasResult placeChajdas(std::span<const FieldSample> samples, const ChajdasSe
         if (assign[j] == c) members.push_back(unlit[j]);
       if (members.empty()) continue;
       const size_t rep = nearestSample(centres[c], &members);
-      addProbe(rep, double(members.size()), true);
+      if (rep != n) addProbe(rep, double(members.size()), true);
     }
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

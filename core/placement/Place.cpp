@@ -198,6 +198,10 @@ using Method = PlaceOutcome (*)(const Context&);
 
 /// `chajdas` (Chajdas et al.): the dense field, particles traced to its sinks, clusters cleaned
 /// by probe matching, one representative each; k-means over unlit samples (Chajdas.h).
+// How far a chajdas probe stays from a point or spot light, in base field spacings (see
+// ChajdasSettings::lightClearanceMeters).
+constexpr double kLightClearance = 0.5;
+
 PlaceOutcome placeWithChajdas(const Context& c) {
   const PlaceRequest& r = c.request;
   if (r.spacingMeters != 0 || r.maxError != 0)
@@ -221,6 +225,9 @@ PlaceOutcome placeWithChajdas(const Context& c) {
   fs.seed = r.seed;
   fs.importanceVolumes = cs.importanceVolumes;
   const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
+  for (const Light& l : allLights(c.tracer.scene(), c.rig))
+    if (l.type != LightType::Directional) cs.punctualLights.push_back(l.position);
+  cs.lightClearanceMeters = kLightClearance * field.baseSpacingMeters;
   PlaceOutcome out;
   ChajdasResult ch;
   if (r.budget != 0) {

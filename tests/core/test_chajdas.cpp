@@ -96,6 +96,26 @@ TEST(Chajdas, SinksAreTheSamplesNextToTheLights) {
   EXPECT_TRUE(at1 && at2);
 }
 
+TEST(Chajdas, ProbesKeepTheirClearanceFromPointLights) {
+  // The same sinks as above, now with the lights given: no representative within the clearance
+  // (a capture next to a bulb is the 1/r^2 singularity), yet both lights' halves get probes.
+  const Vec3 l1{2.3, 2.2, 2.1}, l2{12.6, 2.1, 1.8};
+  const auto field = gridField(16, 5, 5, {{l1, {1, 1, 1}}, {l2, {1, 1, 1}}});
+  ChajdasSettings s;
+  s.aggressiveness = 0.01;
+  s.punctualLights = {l1, l2};
+  s.lightClearanceMeters = 1.5;
+  const ChajdasResult r = placeChajdas(field, s);
+  bool near1 = false, near2 = false;
+  for (const ChajdasProbe& p : r.probes) {
+    EXPECT_GE(length(p.position - l1), 1.5);
+    EXPECT_GE(length(p.position - l2), 1.5);
+    near1 |= p.position.x < 8;
+    near2 |= p.position.x >= 8;
+  }
+  EXPECT_TRUE(near1 && near2);
+}
+
 TEST(Chajdas, AggressivenessMergesMore) {
   const auto field =
       gridField(12, 4, 4, {{{2.2, 2.5, 1.4}, {1, 0.8, 0.6}}, {{9.1, 1.2, 2.3}, {0.3, 0.5, 1}}});
