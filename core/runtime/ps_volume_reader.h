@@ -529,7 +529,7 @@ inline Location locate(const Volume& v, double x, double y, double z, int32_t hi
   if (r.kind == WalkKind::Inside) {
     Location loc;
     loc.tet = r.tet;
-    if (frameWeights(v, r.tet, p, loc.weights)) return loc;
+    if (hinted && frameWeights(v, r.tet, p, loc.weights)) return loc;  // as the core does
     bool flat = false;
     const auto w = orientWeights(v, r.tet, p, flat);
     cleanWeights(flat ? r.w : w, loc.weights);
