@@ -23,6 +23,13 @@ inline constexpr float kBarycentricSlack = 1e-5f;
 inline constexpr double kThinTetRelativeVolume = 1e-2;
 inline constexpr double kFlatTetRelativeVolume = 1e-12;
 
+/// locate()'s fast path returns the weights of the hint tet directly when all four, from its
+/// double-precision frame, are at least this (the point is clearly inside, away from faces,
+/// edges and vertices); otherwise the full walk and the exact weights run. Equal to
+/// kBarycentricSlack so that the walk's float-matrix test (error <= ~6e-6 outside thin tets)
+/// would have stopped in the same tet.
+inline constexpr double kFastPathMargin = double(kBarycentricSlack);
+
 /// Leak refinement (Sukys 3.2.2): an edge that meets a surface at |cos| below this (runs along
 /// it, e.g. between two probes on a floor) does not cross it. The paper's check is the sign of
 /// the dot product of the ray direction and the surface normal; this leaves out grazing hits.

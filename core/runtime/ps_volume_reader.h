@@ -34,7 +34,9 @@
 // "Traversal", "Drawbacks"), as ProbeStudio's core does (core/traversal/ProbeVolume.cpp): walk
 // from a start tetrahedron towards the most negative barycentric coordinate using the stored
 // float matrices (double orientations in thin tetrahedra), and clamp a point outside the hull to
-// the nearest point of the hull surface. The answers equal the core's (tests/runtime).
+// the nearest point of the hull surface. A query clearly inside its hint tetrahedron is answered
+// from that tetrahedron's double-precision matrix without a walk. The answers equal the core's
+// (tests/runtime).
 //
 // Loading validates everything before allocating: the header's counts must match the file's
 // size exactly, the CRC-32 must match, and every index must be in range; a bad file gives
@@ -62,8 +64,15 @@ struct Volume {
   std::vector<std::array<float, 9>> matrices;     // (w0, w1, w2) = M (p - v3)
   std::vector<std::array<int32_t, 2>> hullFaces;  // (tet, local vertex opposite the face)
   std::string metadataJson;
-  // Derived at load: thin tets (walk with double orientations) and a cold-start grid.
+  // Derived at load: thin tets (walk with double orientations), per tet the double-precision
+  // barycentric matrix with its origin v3 (the fast path of locate(); NaN for thin tets) and a
+  // cold-start grid.
   std::vector<uint8_t> thin;
+  struct alignas(32) Frame {
+    double m[9];       // (w0, w1, w2) = m (p - origin), w3 = 1 - sum
+    double origin[3];  // v3
+  };
+  std::vector<Frame> frames;
   std::vector<int32_t> grid;
   float gridLo[3] = {0, 0, 0}, gridCell[3] = {1, 1, 1};
   int32_t gridDims[3] = {0, 0, 0};
@@ -82,6 +91,7 @@ namespace detail {
 constexpr double kBarycentricSlack = double(1e-5f);
 constexpr double kThinRelativeVolume = 1e-2;
 constexpr double kFlatRelativeVolume = 1e-12;
+constexpr double kFastPathMargin = kBarycentricSlack;
 
 struct V3 {
   double x, y, z;
@@ -168,6 +178,27 @@ inline std::array<double, 4> orientWeights(const Volume& v, int32_t t, V3 p, boo
     o[i] = n > 0 ? o[i] / n : 0.0;
   }
   return o;
+}
+
+// Fast path (Sukys 3.2.1 "Drawbacks": the precomputed matrix, here in double): the weights from
+// tet t's double frame when all four are >= kFastPathMargin (p is clearly inside t, so the walk
+// would stop there); false near a face, edge or vertex, in a thin tet, or for a non-finite p.
+// Rounded to float they are within 1e-7 of the exact barycentrics and sum to 1 within 1e-7.
+inline bool frameWeights(const Volume& v, int32_t t, V3 p, float out[4]) {
+  if (v.frames.size() != v.tets.size()) return false;
+  const Volume::Frame& f = v.frames[size_t(t)];
+  const double dx = p.x - f.origin[0], dy = p.y - f.origin[1], dz = p.z - f.origin[2];
+  const double w0 = f.m[0] * dx + f.m[1] * dy + f.m[2] * dz;
+  const double w1 = f.m[3] * dx + f.m[4] * dy + f.m[5] * dz;
+  const double w2 = f.m[6] * dx + f.m[7] * dy + f.m[8] * dz;
+  const double w3 = 1.0 - w0 - w1 - w2;
+  const double e = kFastPathMargin;
+  if (!((w0 >= e) & (w1 >= e) & (w2 >= e) & (w3 >= e))) return false;
+  out[0] = static_cast<float>(w0);
+  out[1] = static_cast<float>(w1);
+  out[2] = static_cast<float>(w2);
+  out[3] = static_cast<float>(w3);
+  return true;
 }
 
 inline int argMin(const std::array<double, 4>& w) {
@@ -325,6 +356,7 @@ inline int32_t coldStart(const Volume& v, V3 p) {
 // one cell per probe whose cells hold the tet found at their centre.
 inline void buildLocator(Volume& v) {
   v.thin.assign(v.tets.size(), 0);
+  v.frames.assign(v.tets.size(), Volume::Frame{});
   v.grid.clear();
   for (int a = 0; a < 3; ++a) v.gridDims[a] = 0;
   if (v.tets.empty()) return;
@@ -336,7 +368,18 @@ inline void buildLocator(Volume& v) {
       for (int j = i + 1; j < 4; ++j) l2 = std::max(l2, dot(q[i] - q[j], q[i] - q[j]));
     const double l = std::sqrt(l2);
     const double rel = std::abs(orient(q[0], q[1], q[2], q[3])) / (l * l * l);
-    v.thin[k] = !(rel >= kThinRelativeVolume);
+    const bool thin = !(rel >= kThinRelativeVolume);
+    v.thin[k] = thin;
+    // Frame: [v0 - v3, v1 - v3, v2 - v3]^-1 in double, origin v3.
+    Volume::Frame& f = v.frames[k];
+    const V3 a = q[0] - q[3], b = q[1] - q[3], c = q[2] - q[3];
+    const V3 rows[3] = {cross(b, c), cross(c, a), cross(a, b)};
+    const double det = dot(a, rows[0]);
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j)
+        f.m[3 * i + j] = thin ? std::numeric_limits<double>::quiet_NaN() : rows[i][j] / det;
+      f.origin[i] = q[3][i];
+    }
   }
   double lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
@@ -465,6 +508,15 @@ inline Location locate(const Volume& v, double x, double y, double z, int32_t hi
   using namespace detail;
   if (v.tets.empty()) return {};
   const V3 p = {x, y, z};
+  const int32_t n = static_cast<int32_t>(v.tets.size());
+  const bool hinted = hintTet >= 0 && hintTet < n;
+  if (hinted) {  // clearly inside the hint tet: no walk (rejects a non-finite p)
+    Location loc;
+    if (frameWeights(v, hintTet, p, loc.weights)) {
+      loc.tet = hintTet;
+      return loc;
+    }
+  }
   if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
     Location loc;
     loc.tet = 0;
@@ -472,12 +524,12 @@ inline Location locate(const Volume& v, double x, double y, double z, int32_t hi
     loc.outside = true;
     return loc;
   }
-  const int32_t n = static_cast<int32_t>(v.tets.size());
-  const int32_t start = (hintTet >= 0 && hintTet < n) ? hintTet : coldStart(v, p);
+  const int32_t start = hinted ? hintTet : coldStart(v, p);
   const Walk r = walk(v, p, start);
   if (r.kind == WalkKind::Inside) {
     Location loc;
     loc.tet = r.tet;
+    if (hinted && frameWeights(v, r.tet, p, loc.weights)) return loc;  // as the core does
     bool flat = false;
     const auto w = orientWeights(v, r.tet, p, flat);
     cleanWeights(flat ? r.w : w, loc.weights);

@@ -32,6 +32,16 @@ struct ProbeVolume {
   /// 1 when the tet is thin (relative volume below tol::kThinTetRelativeVolume): the float
   /// matrix is then too ill-conditioned to decide the walk, which uses double orientations.
   std::vector<uint8_t> thinTets;
+  /// Per tet, for locate()'s fast path: the barycentric matrix in double with its origin v3
+  /// next to it (w0..2 = m (p - origin), w3 = 1 - sum), one contiguous 96-byte record. Computed
+  /// in double from the float positions, so its weights are within ~1e-14 of the exact
+  /// barycentrics outside thin tets. Thin and flat tets get NaN (never taken: the walk and the
+  /// orientation weights handle them).
+  struct alignas(32) Frame {
+    double m[9];
+    double origin[3];
+  };
+  std::vector<Frame> frames;
   /// Cold-start locator: a uniform grid of locatorDims cells of size locatorCellSize from
   /// locatorLo over the probes' bounding box; cell (x, y, z), at index
   /// x + dims[0] * (y + dims[1] * z), holds the tet containing (or, outside the hull, the hull
@@ -51,8 +61,8 @@ struct ProbeVolume {
 /// Builds the runtime volume. `shOfVertex` has one entry per tetrahedralization vertex.
 ProbeVolume buildProbeVolume(const Tetrahedralization& t, std::span<const ShRgb> shOfVertex);
 
-/// (Re)builds the derived search data (thinTets, locator grid) of `v` from its positions, tets,
-/// neighbours and matrices.
+/// (Re)builds the derived search data (thinTets, frames, locator grid) of `v` from its positions,
+/// tets, neighbours and matrices.
 void buildLocator(ProbeVolume& v);
 
 struct VolumeLocation {
@@ -66,10 +76,14 @@ struct VolumeLocation {
 /// (Sukys 3.2.1, "Traversal"). Weights >= -tol::kBarycentricSlack count as inside. A point
 /// outside the hull is clamped to the nearest point of the hull surface (outside = true).
 /// Terminates for every input: a walk that cycles or exceeds 4 * tets + 100 steps falls back to
-/// a brute-force scan. The walk decides with the float matrices (as a renderer would); the
-/// returned weights are recomputed from double orientations of the positions. They are finite,
-/// in [0, 1] and sum to 1. An out-of-range hint counts as -1. A non-finite p gives tet 0 with
-/// equal weights and outside = true; an empty volume (no tets) gives tet = -1.
+/// a brute-force scan. The walk decides with the float matrices (as a renderer would).
+/// Weights: when all four barycentrics from the tet's double frame are >= tol::kFastPathMargin
+/// (the point is clearly inside; tried on the hint tet before any walk), those rounded to float:
+/// within 1e-7 of the exact barycentrics of p in the tet of the float positions, summing to 1
+/// within 1e-7. Otherwise (near a face, edge or vertex, in a thin tet) they are recomputed from
+/// double orientations of the positions, clamped to [0, 1] and renormalised. Always finite, in
+/// [0, 1], summing to 1 within 1e-7. An out-of-range hint counts as -1. A non-finite p gives tet
+/// 0 with equal weights and outside = true; an empty volume (no tets) gives tet = -1.
 VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet = -1);
 
 /// locate() for each point. A point within one locator cell of the previous one walks from the
@@ -82,6 +96,10 @@ void locateBatch(const ProbeVolume& v, std::span<const Vec3> points, std::span<V
 ShRgb interpolate(const ProbeVolume& v, const VolumeLocation& loc);
 
 namespace detail {
+/// locate()'s fast path on its own: true, with the weights, when p is inside tet t by at least
+/// tol::kFastPathMargin in every barycentric of t's frame; false otherwise (also when the
+/// frames are not built, or t is thin or flat). For tests.
+bool fastWeights(const ProbeVolume& v, int32_t t, Vec3 p, std::array<float, 4>& weights);
 /// How many locate() calls (process-wide) fell back to the brute-force scan; for tests.
 uint64_t locateBruteForceCount();
 }  // namespace detail

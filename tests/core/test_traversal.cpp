@@ -2,6 +2,7 @@
 // (CGAL orientation of the float positions), on-boundary queries, termination from every hint,
 // continuity across the hull, slivers, linear reproduction and clamping outside the hull.
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Exact_rational.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -116,6 +117,24 @@ class ExactTetIndex {
   Bounds3 box_;
   std::vector<std::vector<int32_t>> cells_;
 };
+
+// The exact barycentrics of p in tet t of the float positions (rational arithmetic), rounded to
+// double once at the end.
+std::array<double, 4> exactBarycentrics(const ProbeVolume& v, int32_t t, Vec3 p) {
+  using Q = CGAL::Exact_rational;
+  auto o = [](Vec3 a, Vec3 b, Vec3 c, Vec3 d) -> Q {  // not an expression template of locals
+    const Q bx = Q(b.x) - Q(a.x), by = Q(b.y) - Q(a.y), bz = Q(b.z) - Q(a.z);
+    const Q cx = Q(c.x) - Q(a.x), cy = Q(c.y) - Q(a.y), cz = Q(c.z) - Q(a.z);
+    const Q dx = Q(d.x) - Q(a.x), dy = Q(d.y) - Q(a.y), dz = Q(d.z) - Q(a.z);
+    return bx * (cy * dz - cz * dy) + by * (cz * dx - cx * dz) + bz * (cx * dy - cy * dx);
+  };
+  Vec3 q[4];
+  for (int i = 0; i < 4; ++i) q[i] = v.position(v.tets[t][i]);
+  const Q vol = o(q[0], q[1], q[2], q[3]);
+  return {
+      CGAL::to_double(o(p, q[1], q[2], q[3]) / vol), CGAL::to_double(o(q[0], p, q[2], q[3]) / vol),
+      CGAL::to_double(o(q[0], q[1], p, q[3]) / vol), CGAL::to_double(o(q[0], q[1], q[2], p) / vol)};
+}
 
 void expectValidWeights(const VolumeLocation& loc, double tolerance = 1e-6) {
   ASSERT_GE(loc.tet, 0);
@@ -469,6 +488,130 @@ TEST(ProbeVolume, CyclingWalkFallsBackToBruteForce) {
     expectFound(v, p, in, nearMisses);
   }
   EXPECT_LT(relDiff(interpolate(v, in), linearSh(p)), 2e-6);
+}
+
+TEST(ProbeVolume, FastPathWeightsAreExactWithinTolerance) {
+  // locate()'s fast path (a hint tet that clearly contains p) against exact barycentrics: taken
+  // exactly when every exact barycentric is clearly above tol::kFastPathMargin in a tet that is
+  // not thin, never below it; its weights are in [0, 1], within 1e-7 of the exact ones, sum to
+  // 1 within 1e-7, and are what locate() returns from that hint.
+  const ProbeVolume v = buildLinear(randomFloatPoints(2000, 47));
+  uint64_t s = streamSeed(47, 1);
+  int taken = 0, declined = 0;
+  double maxFloatError = 0;
+  const double margin = tol::kFastPathMargin;
+  for (int32_t k = 0; k < int32_t(v.tets.size()); k += 2 * kScale) {
+    Vec3 q[4];
+    for (int i = 0; i < 4; ++i) q[i] = v.position(v.tets[k][i]);
+    for (int sample = 0; sample < 4; ++sample) {
+      // Random barycentrics, some of them tiny (near a face, edge or vertex) or slightly negative.
+      std::array<double, 4> b;
+      double sum = 0;
+      for (double& x : b) sum += (x = -std::log(1 - uniform01(s)));
+      for (double& x : b) x /= sum;
+      if (sample == 3) b[k % 4] = std::pow(10.0, -3 - 5 * uniform01(s)) * (k % 3 ? 1 : -1);
+      const Vec3 p = q[0] * b[0] + q[1] * b[1] + q[2] * b[2] + q[3] * (1 - b[0] - b[1] - b[2]);
+      const std::array<double, 4> exact = exactBarycentrics(v, k, p);
+      const double minExact = *std::min_element(exact.begin(), exact.end());
+      std::array<float, 4> w;
+      const bool fast = detail::fastWeights(v, k, p, w);
+      if (minExact < margin * (1 - 1e-6)) {
+        EXPECT_FALSE(fast) << "taken at exact barycentric " << minExact << " for " << p;
+      } else if (!v.thinTets[k] && minExact > margin * (1 + 1e-6)) {
+        EXPECT_TRUE(fast) << p;
+      }
+      if (!fast) {
+        ++declined;
+        continue;
+      }
+      ++taken;
+      double wsum = 0;
+      for (int i = 0; i < 4; ++i) {
+        EXPECT_GE(w[i], 0.0f);
+        EXPECT_LE(w[i], 1.0f);
+        EXPECT_NEAR(w[i], exact[i], 1e-7) << p;
+        wsum += w[i];
+      }
+      EXPECT_NEAR(wsum, 1.0, 1e-7) << p;
+      // The walk's own test in k (float matrix, as a renderer's) also says "inside": from hint
+      // k the walk would have stopped at k, so the fast path does not change the tet found.
+      const auto& m = v.matrices[k];
+      const Vec3 d = p - q[3];
+      double fw[4];
+      for (int r = 0; r < 3; ++r) fw[r] = m[3 * r] * d.x + m[3 * r + 1] * d.y + m[3 * r + 2] * d.z;
+      fw[3] = 1 - fw[0] - fw[1] - fw[2];
+      for (int i = 0; i < 4; ++i) {
+        EXPECT_GE(fw[i], -tol::kBarycentricSlack) << p;
+        maxFloatError = std::max(maxFloatError, std::abs(fw[i] - exact[i]));
+      }
+      const VolumeLocation loc = locate(v, p, k);
+      ASSERT_EQ(loc.tet, k);
+      EXPECT_FALSE(loc.outside);
+      EXPECT_EQ(loc.weights, w);
+      // From a cold start the walk may stop in a neighbour within its slack (p can be 1e-5 of
+      // a small tet's height from a face, much less in a big neighbour's barycentrics).
+      const VolumeLocation cold = locate(v, p);
+      if (cold.tet != k) {
+        EXPECT_GE(minBarycentric(v, cold.tet, p), -tol::kBarycentricSlack) << p;
+      }
+    }
+  }
+  std::printf("fast path taken %d times, declined %d times; float-matrix weights off by <= %.2g\n",
+              taken, declined, maxFloatError);
+  EXPECT_GT(taken, 2 * declined);
+  EXPECT_GT(declined, 0);
+}
+
+TEST(ProbeVolume, PointsWithin1e7OfAFaceEdgeOrVertexGetExactWeights) {
+  // Points at most 1e-7 from a face, an edge or a vertex of their hint tet (inside it, on its
+  // boundary, or just outside): the fast path declines them, and locate() returns a tet that
+  // contains them exactly (or within the walk's slack) with the exact barycentrics of that tet
+  // (negative ones, within the slack, clamped to 0 and the rest renormalised) to within 1e-7.
+  const ProbeVolume v = buildLinear(randomFloatPoints(1000, 53));
+  const ExactTetIndex oracle(v);
+  const uint64_t fallbacksBefore = detail::locateBruteForceCount();
+  uint64_t s = streamSeed(53, 1);
+  int checked = 0, inTheOraclesTet = 0;
+  for (int32_t k = 0; k < int32_t(v.tets.size()); k += 3 * kScale) {
+    if (v.matrices[k] == std::array<float, 9>{}) continue;  // flat: no interior
+    Vec3 q[4];
+    for (int i = 0; i < 4; ++i) q[i] = v.position(v.tets[k][i]);
+    const Vec3 centroid = (q[0] + q[1] + q[2] + q[3]) / 4.0;
+    const int i = k % 4;
+    const Vec3 a = q[(i + 1) & 3], b = q[(i + 2) & 3], c = q[(i + 3) & 3];
+    const double u = 0.2 + 0.3 * uniform01(s), t = 0.2 + 0.3 * uniform01(s);
+    const Vec3 onFace = a + (b - a) * u + (c - a) * (t * (1 - u));
+    const Vec3 onEdge = a + (b - a) * u;
+    const Vec3 toCentre = normalize(centroid - onFace);
+    for (const Vec3& base : {onFace, onEdge, q[i]}) {
+      const Vec3 in = normalize(centroid - base);
+      for (double d : {1e-7, 3e-8, 0.0, -3e-8, -1e-7}) {
+        const Vec3 p = base + (&base == &onFace ? toCentre : in) * d;
+        std::array<float, 4> w;
+        EXPECT_FALSE(detail::fastWeights(v, k, p, w)) << p;
+        const VolumeLocation loc = locate(v, p, k);
+        if (loc.outside) {
+          EXPECT_TRUE(oracle.containing(p).empty()) << p;
+          continue;
+        }
+        expectValidWeights(loc);
+        const std::vector<int32_t> found = oracle.containing(p);
+        inTheOraclesTet += std::find(found.begin(), found.end(), loc.tet) != found.end();
+        std::array<double, 4> exact = exactBarycentrics(v, loc.tet, p);
+        const double minExact = *std::min_element(exact.begin(), exact.end());
+        EXPECT_GE(minExact, -tol::kBarycentricSlack) << p;
+        double sum = 0;
+        for (double& x : exact) sum += (x = std::max(x, 0.0));
+        for (int j = 0; j < 4; ++j) EXPECT_NEAR(loc.weights[j], exact[j] / sum, 1e-7) << p;
+        ++checked;
+      }
+    }
+  }
+  std::printf("%d near-boundary points checked, %d in a tet that contains them exactly\n", checked,
+              inTheOraclesTet);
+  EXPECT_GT(checked, 1000 / kScale);
+  EXPECT_GT(inTheOraclesTet, checked / 2);
+  EXPECT_EQ(detail::locateBruteForceCount(), fallbacksBefore);
 }
 
 TEST(ProbeVolume, LocateBatchMatchesLocate) {
