@@ -25,16 +25,26 @@ namespace ps {
 namespace {
 
 struct VertexInfo {
-  int32_t refs = 0;    ///< live probe ids at this position (exact duplicates share a vertex)
-  int32_t index = -1;  ///< scratch: vertex index during snapshot()
+  std::vector<int32_t> ids;  ///< live probe ids at this position, ascending (exact duplicates)
+  int32_t index = -1;        ///< the vertex's slot in the dense mesh
+};
+
+struct CellInfo {
+  int32_t slot = -1;  ///< the finite cell's slot in the dense mesh; -1 for a cell not yet slotted
 };
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Vb = CGAL::Triangulation_vertex_base_with_info_3<VertexInfo, K>;
-using Cb = CGAL::Triangulation_cell_base_with_info_3<int32_t, K,
+using Cb = CGAL::Triangulation_cell_base_with_info_3<CellInfo, K,
                                                      CGAL::Delaunay_triangulation_cell_base_3<K>>;
 using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb, CGAL::Sequential_tag>;
-using Delaunay = CGAL::Delaunay_triangulation_3<K, Tds>;
+// CGAL's test of whether removing a vertex lowers the dimension is protected; it is cheap (it
+// stops at the first finite cell without the vertex), so we ask it before a removal rather
+// than repair the mesh after one.
+using DelaunayBase = CGAL::Delaunay_triangulation_3<K, Tds>;
+struct Delaunay : DelaunayBase {
+  using DelaunayBase::test_dim_down;
+};
 using Point = K::Point_3;
 using VertexHandle = Delaunay::Vertex_handle;
 using CellHandle = Delaunay::Cell_handle;
@@ -55,10 +65,144 @@ struct EditableTetrahedralization::Impl {
   std::vector<VertexHandle> vertexOfId;  ///< null for removed ids
   CellHandle hint;                       ///< a cell near the last edit, to start locate from
 
+  // The dense mesh and its slot maps. Invariants between edits: cellOfSlot[s]->info().slot == s
+  // for every tet slot, vertexOfSlot[k]->info().index == k for every vertex slot, and the rows
+  // of `mesh` equal what the cells say.
+  Tetrahedralization mesh;
+  std::vector<CellHandle> cellOfSlot;
+  std::vector<VertexHandle> vertexOfSlot;
+
+  // The edit under way: slots freed and not yet reused, rows to rewrite, vertices changed.
+  std::vector<int32_t> freeSlots;
+  std::vector<int32_t> touchedTets, touchedVertices;
+  size_t tetCountBefore = 0, vertexCountBefore = 0;
+
   struct Change {
     VertexHandle vertex;
     size_t removed = 0, created = 0;
   };
+
+  void beginEdit() {
+    freeSlots.clear();
+    touchedTets.clear();
+    touchedVertices.clear();
+    tetCountBefore = mesh.tets.size();
+    vertexCountBefore = mesh.vertices.size();
+  }
+
+  // Cells about to be destroyed: their slots become free (handles are not used afterwards).
+  void releaseCells(const std::vector<CellHandle>& cells) {
+    for (CellHandle c : cells) {
+      const int32_t s = c->info().slot;
+      if (s < 0) continue;  // an infinite cell
+      cellOfSlot[s] = CellHandle();
+      freeSlots.push_back(s);
+      touchedTets.push_back(s);
+    }
+  }
+
+  // New cells: finite ones take a free slot or a new one at the end; their rows, and those of
+  // their finite neighbours (whose neighbour pointers changed), are rewritten at the end.
+  void slotCells(const std::vector<CellHandle>& cells) {
+    for (CellHandle c : cells) {
+      if (dt.is_infinite(c)) continue;
+      int32_t s;
+      if (!freeSlots.empty()) {
+        s = freeSlots.back();
+        freeSlots.pop_back();
+      } else {
+        s = static_cast<int32_t>(cellOfSlot.size());
+        cellOfSlot.emplace_back();
+      }
+      cellOfSlot[s] = c;
+      c->info().slot = s;
+      touchedTets.push_back(s);
+    }
+    for (CellHandle c : cells)
+      for (int i = 0; i < 4; ++i) {
+        const CellHandle n = c->neighbor(i);
+        if (dt.is_infinite(n)) continue;
+        PS_CHECK(n->info().slot >= 0);
+        touchedTets.push_back(n->info().slot);
+      }
+  }
+
+  void addVertex(VertexHandle v) {
+    v->info().index = static_cast<int32_t>(vertexOfSlot.size());
+    vertexOfSlot.push_back(v);
+    const Point& p = v->point();
+    mesh.vertices.push_back({p.x(), p.y(), p.z()});
+    touchedVertices.push_back(v->info().index);
+  }
+
+  // Vertex slot k lost its vertex: the last vertex moves into it, and the cells around that
+  // vertex get their rows rewritten.
+  void dropVertexSlot(int32_t k) {
+    const int32_t last = static_cast<int32_t>(vertexOfSlot.size()) - 1;
+    if (k != last) {
+      const VertexHandle v = vertexOfSlot[last];
+      vertexOfSlot[k] = v;
+      v->info().index = k;
+      mesh.vertices[k] = mesh.vertices[last];
+      for (int32_t id : v->info().ids) mesh.vertexOfInput[id] = k;
+      std::vector<CellHandle> star;
+      dt.finite_incident_cells(v, std::back_inserter(star));
+      for (CellHandle c : star) touchedTets.push_back(c->info().slot);
+      touchedVertices.push_back(k);
+    }
+    vertexOfSlot.pop_back();
+    mesh.vertices.pop_back();
+  }
+
+  // Fills the slots left free from the end of the arrays, then rewrites the touched rows.
+  void finishEdit(TetEditReport& r) {
+    std::sort(freeSlots.begin(), freeSlots.end());
+    while (!freeSlots.empty()) {
+      const int32_t last = static_cast<int32_t>(cellOfSlot.size()) - 1;
+      if (freeSlots.back() == last) {
+        freeSlots.pop_back();
+      } else {
+        const int32_t s = freeSlots.front();
+        freeSlots.erase(freeSlots.begin());
+        const CellHandle c = cellOfSlot[last];
+        cellOfSlot[s] = c;
+        c->info().slot = s;
+        touchedTets.push_back(s);
+        for (int i = 0; i < 4; ++i) {
+          const CellHandle n = c->neighbor(i);
+          if (!dt.is_infinite(n)) touchedTets.push_back(n->info().slot);
+        }
+      }
+      cellOfSlot.pop_back();
+    }
+    const int32_t tetCount = static_cast<int32_t>(cellOfSlot.size());
+    mesh.tets.resize(tetCount);
+    mesh.neighbors.resize(tetCount);
+    std::sort(touchedTets.begin(), touchedTets.end());
+    touchedTets.erase(std::unique(touchedTets.begin(), touchedTets.end()), touchedTets.end());
+    touchedTets.erase(std::lower_bound(touchedTets.begin(), touchedTets.end(), tetCount),
+                      touchedTets.end());
+    // CGAL keeps every finite cell positively oriented, neighbour i opposite vertex i.
+    for (int32_t s : touchedTets) {
+      const CellHandle c = cellOfSlot[s];
+      for (int i = 0; i < 4; ++i) {
+        mesh.tets[s][i] = c->vertex(i)->info().index;
+        const CellHandle n = c->neighbor(i);
+        mesh.neighbors[s][i] = dt.is_infinite(n) ? -1 : n->info().slot;
+      }
+    }
+    const int32_t vertexCount = static_cast<int32_t>(vertexOfSlot.size());
+    std::sort(touchedVertices.begin(), touchedVertices.end());
+    touchedVertices.erase(std::unique(touchedVertices.begin(), touchedVertices.end()),
+                          touchedVertices.end());
+    touchedVertices.erase(
+        std::lower_bound(touchedVertices.begin(), touchedVertices.end(), vertexCount),
+        touchedVertices.end());
+    r.changedTets = touchedTets;
+    r.tetCountBefore = tetCountBefore;
+    r.changedVertices = touchedVertices;
+    r.vertexCountBefore = vertexCountBefore;
+  }
 
   // Watson insertion: the cavity (cells in conflict with p) is replaced by the star of p.
   Change insertPoint(const Point& p) {
@@ -73,30 +217,60 @@ struct EditableTetrahedralization::Impl {
     std::vector<CellHandle> cavity;
     dt.find_conflicts(p, c, CGAL::Emptyset_iterator(), std::back_inserter(cavity));
     ch.removed = cavity.size();
+    releaseCells(cavity);
     ch.vertex = dt.insert(p, lt, c, li, lj);
     std::vector<CellHandle> star;
     dt.incident_cells(ch.vertex, std::back_inserter(star));
     ch.created = star.size();
+    slotCells(star);
+    addVertex(ch.vertex);
     hint = ch.vertex->cell();
     return ch;
   }
 
-  // Removal re-triangulates the star of v; the cells outside it are untouched.
+  // Removal re-triangulates the star of v; the cells outside it are untouched. The caller has
+  // checked that the removal keeps the mesh 3-dimensional.
   Change removeVertex(VertexHandle v) {
     Change ch;
     std::vector<CellHandle> star;
     dt.incident_cells(v, std::back_inserter(star));
     ch.removed = star.size();
-    const size_t before = dt.number_of_cells();
     // A neighbour of v outside its star survives the removal: the next locate starts there.
     VertexHandle keep;
     for (CellHandle c : star)
       for (int i = 0; i < 4 && keep == VertexHandle(); ++i)
         if (c->vertex(i) != v && !dt.is_infinite(c->vertex(i))) keep = c->vertex(i);
-    dt.remove(v);
-    ch.created = dt.number_of_cells() + ch.removed - before;
+    const int32_t index = v->info().index;
+    releaseCells(star);
+    std::vector<CellHandle> created;
+    dt.remove_and_give_new_cells(v, std::back_inserter(created));
+    ch.created = created.size();
+    slotCells(created);
+    dropVertexSlot(index);
     hint = keep != VertexHandle() ? keep->cell() : CellHandle();
     return ch;
+  }
+
+  // Slots every finite cell and vertex from scratch (after construction).
+  void slotAll() {
+    beginEdit();
+    mesh.vertices.clear();
+    vertexOfSlot.clear();
+    cellOfSlot.clear();
+    for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v)
+      v->info().index = -1;
+    // Vertices in order of first appearance by id, as tetrahedralize() numbers them.
+    for (VertexHandle v : vertexOfId)
+      if (v != VertexHandle() && v->info().index < 0) addVertex(v);
+    PS_CHECK_EQ(vertexOfSlot.size(), dt.number_of_vertices());
+    mesh.vertexOfInput.assign(vertexOfId.size(), -1);
+    for (size_t id = 0; id < vertexOfId.size(); ++id)
+      if (vertexOfId[id] != VertexHandle()) mesh.vertexOfInput[id] = vertexOfId[id]->info().index;
+    std::vector<CellHandle> cells;
+    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) cells.push_back(c);
+    slotCells(cells);
+    TetEditReport unused;
+    finishEdit(unused);
   }
 };
 
@@ -124,16 +298,17 @@ EditableTetrahedralization::EditableTetrahedralization(std::span<const Vec3> poi
   }
   impl_->vertexOfId.reserve(points.size());
   CellHandle hint;
-  for (const Point& p : pts) {
+  for (size_t id = 0; id < pts.size(); ++id) {
     Delaunay::Locate_type lt;
     int li = 0, lj = 0;
-    const CellHandle c = impl_->dt.locate(p, lt, li, lj, hint);
+    const CellHandle c = impl_->dt.locate(pts[id], lt, li, lj, hint);
     PS_CHECK(lt == Delaunay::VERTEX);
     const VertexHandle v = c->vertex(li);
-    ++v->info().refs;
+    v->info().ids.push_back(static_cast<int32_t>(id));
     impl_->vertexOfId.push_back(v);
     hint = c;
   }
+  impl_->slotAll();
 }
 
 EditableTetrahedralization::~EditableTetrahedralization() = default;
@@ -142,16 +317,34 @@ EditableTetrahedralization::EditableTetrahedralization(EditableTetrahedralizatio
 EditableTetrahedralization& EditableTetrahedralization::operator=(
     EditableTetrahedralization&&) noexcept = default;
 
+namespace {
+
+void addId(std::vector<int32_t>& ids, int32_t id) {
+  ids.insert(std::lower_bound(ids.begin(), ids.end(), id), id);
+}
+
+void removeId(std::vector<int32_t>& ids, int32_t id) {
+  ids.erase(std::lower_bound(ids.begin(), ids.end(), id));
+}
+
+}  // namespace
+
 TetEditReport EditableTetrahedralization::insert(Vec3 p) {
   requireFinite(p, "insert");
   const auto t0 = Clock::now();
-  const Impl::Change ch = impl_->insertPoint(Point(p.x, p.y, p.z));
-  ++ch.vertex->info().refs;
-  impl_->vertexOfId.push_back(ch.vertex);
+  Impl& m = *impl_;
+  m.beginEdit();
+  const Impl::Change ch = m.insertPoint(Point(p.x, p.y, p.z));
+  const int32_t id = static_cast<int32_t>(m.vertexOfId.size());
+  addId(ch.vertex->info().ids, id);
+  m.vertexOfId.push_back(ch.vertex);
+  m.mesh.vertexOfInput.push_back(ch.vertex->info().index);
+  m.touchedVertices.push_back(ch.vertex->info().index);
   TetEditReport r;
-  r.probe = static_cast<int32_t>(impl_->vertexOfId.size() - 1);
+  r.probe = id;
   r.tetsRemoved = ch.removed;
   r.tetsCreated = ch.created;
+  m.finishEdit(r);
   r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return r;
 }
@@ -159,26 +352,26 @@ TetEditReport EditableTetrahedralization::insert(Vec3 p) {
 TetEditReport EditableTetrahedralization::remove(int32_t id) {
   if (!isLive(id)) throw ParameterError("remove: probe " + std::to_string(id) + " is not live");
   const auto t0 = Clock::now();
+  Impl& m = *impl_;
   TetEditReport r;
   r.probe = id;
-  const VertexHandle v = impl_->vertexOfId[id];
-  if (v->info().refs > 1) {  // an exact duplicate keeps the vertex
-    --v->info().refs;
-    impl_->vertexOfId[id] = VertexHandle();
-  } else {
-    const Point p = v->point();
-    const Impl::Change ch = impl_->removeVertex(v);
-    if (impl_->dt.dimension() < 3) {
-      const Impl::Change back = impl_->insertPoint(p);
-      back.vertex->info().refs = 1;
-      impl_->vertexOfId[id] = back.vertex;
-      throw ParameterError("remove: probe " + std::to_string(id) +
-                           " is needed: the other probes lie in one plane");
-    }
-    impl_->vertexOfId[id] = VertexHandle();
+  const VertexHandle v = m.vertexOfId[id];
+  const bool last = v->info().ids.size() == 1;  // else an exact duplicate keeps the vertex
+  if (last && m.dt.test_dim_down(v))
+    throw ParameterError("remove: probe " + std::to_string(id) +
+                         " is needed: the other probes lie in one plane");
+  m.beginEdit();
+  removeId(v->info().ids, id);
+  m.vertexOfId[id] = VertexHandle();
+  m.mesh.vertexOfInput[id] = -1;
+  if (last) {
+    const Impl::Change ch = m.removeVertex(v);
     r.tetsRemoved = ch.removed;
     r.tetsCreated = ch.created;
+  } else {
+    m.touchedVertices.push_back(v->info().index);
   }
+  m.finishEdit(r);
   r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return r;
 }
@@ -187,33 +380,45 @@ TetEditReport EditableTetrahedralization::move(int32_t id, Vec3 p) {
   if (!isLive(id)) throw ParameterError("move: probe " + std::to_string(id) + " is not live");
   requireFinite(p, "move");
   const auto t0 = Clock::now();
+  Impl& m = *impl_;
   TetEditReport r;
   r.probe = id;
-  const VertexHandle old = impl_->vertexOfId[id];
+  const VertexHandle old = m.vertexOfId[id];
   const Point target(p.x, p.y, p.z);
-  if (old->point() == target) return r;
+  if (old->point() == target) {
+    r.tetCountBefore = m.mesh.tets.size();
+    r.vertexCountBefore = m.mesh.vertices.size();
+    return r;
+  }
+  const bool last = old->info().ids.size() == 1;
   // Insert first, then remove: the probes span 3 dimensions throughout unless the old vertex
-  // was the only one off a plane that the new position lies in.
-  const Impl::Change in = impl_->insertPoint(target);
-  ++in.vertex->info().refs;
-  impl_->vertexOfId[id] = in.vertex;
-  r.tetsRemoved = in.removed;
-  r.tetsCreated = in.created;
-  if (--old->info().refs == 0) {
-    const Point from = old->point();
-    const Impl::Change out = impl_->removeVertex(old);
-    if (impl_->dt.dimension() < 3) {
-      // Undo: put the old vertex back and take the new one out again.
-      const Impl::Change back = impl_->insertPoint(from);
-      back.vertex->info().refs = 1;
-      impl_->vertexOfId[id] = back.vertex;
-      if (--in.vertex->info().refs == 0) impl_->removeVertex(in.vertex);
+  // is the only one off the plane of all the others and the target lies in that plane. Every
+  // finite cell then contains the old vertex; the face opposite it spans the plane.
+  if (last && m.dt.test_dim_down(old)) {
+    const CellHandle c = m.dt.finite_cells_begin();
+    const int i = c->index(old);
+    if (CGAL::coplanar(c->vertex((i + 1) & 3)->point(), c->vertex((i + 2) & 3)->point(),
+                       c->vertex((i + 3) & 3)->point(), target))
       throw ParameterError("move: probe " + std::to_string(id) +
                            " cannot move there: all probes would lie in one plane");
-    }
+  }
+  m.beginEdit();
+  const Impl::Change in = m.insertPoint(target);
+  removeId(old->info().ids, id);
+  addId(in.vertex->info().ids, id);
+  m.vertexOfId[id] = in.vertex;
+  m.touchedVertices.push_back(in.vertex->info().index);
+  r.tetsRemoved = in.removed;
+  r.tetsCreated = in.created;
+  if (last) {
+    const Impl::Change out = m.removeVertex(old);
     r.tetsRemoved += out.removed;
     r.tetsCreated += out.created;
+  } else {
+    m.touchedVertices.push_back(old->info().index);
   }
+  m.mesh.vertexOfInput[id] = in.vertex->info().index;
+  m.finishEdit(r);
   r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return r;
 }
@@ -237,39 +442,36 @@ size_t EditableTetrahedralization::tetCount() const {
   return impl_->dt.number_of_finite_cells();
 }
 
+const Tetrahedralization& EditableTetrahedralization::mesh() const {
+  return impl_->mesh;
+}
+
+std::span<const int32_t> EditableTetrahedralization::idsAt(int32_t vertex) const {
+  PS_CHECK(vertex >= 0 && size_t(vertex) < impl_->vertexOfSlot.size());
+  return impl_->vertexOfSlot[vertex]->info().ids;
+}
+
 Tetrahedralization EditableTetrahedralization::snapshot() const {
-  Delaunay& dt = impl_->dt;
+  // The dense mesh, renumbered: vertices in order of first appearance by id.
+  const Tetrahedralization& mesh = impl_->mesh;
+  std::vector<int32_t> renumber(mesh.vertices.size(), -1);
   Tetrahedralization out;
-  for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v)
-    v->info().index = -1;
-  out.vertexOfInput.assign(impl_->vertexOfId.size(), -1);
-  out.vertices.reserve(dt.number_of_vertices());
-  for (size_t id = 0; id < impl_->vertexOfId.size(); ++id) {
-    const VertexHandle v = impl_->vertexOfId[id];
-    if (v == VertexHandle()) continue;
-    if (v->info().index < 0) {
-      v->info().index = static_cast<int32_t>(out.vertices.size());
-      const Point& p = v->point();
-      out.vertices.push_back({p.x(), p.y(), p.z()});
+  out.vertexOfInput.assign(mesh.vertexOfInput.size(), -1);
+  out.vertices.reserve(mesh.vertices.size());
+  for (size_t id = 0; id < mesh.vertexOfInput.size(); ++id) {
+    const int32_t v = mesh.vertexOfInput[id];
+    if (v < 0) continue;
+    if (renumber[v] < 0) {
+      renumber[v] = static_cast<int32_t>(out.vertices.size());
+      out.vertices.push_back(mesh.vertices[v]);
     }
-    out.vertexOfInput[id] = v->info().index;
+    out.vertexOfInput[id] = renumber[v];
   }
-  PS_CHECK_EQ(out.vertices.size(), dt.number_of_vertices());
-  int32_t next = 0;
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) c->info() = next++;
-  out.tets.reserve(next);
-  out.neighbors.reserve(next);
-  // CGAL keeps every finite cell positively oriented, neighbour i opposite vertex i.
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-    std::array<int32_t, 4> tet{}, nb{};
-    for (int i = 0; i < 4; ++i) {
-      tet[i] = c->vertex(i)->info().index;
-      const auto n = c->neighbor(i);
-      nb[i] = dt.is_infinite(n) ? -1 : n->info();
-    }
-    out.tets.push_back(tet);
-    out.neighbors.push_back(nb);
-  }
+  PS_CHECK_EQ(out.vertices.size(), mesh.vertices.size());
+  out.tets = mesh.tets;
+  for (auto& tet : out.tets)
+    for (int32_t& v : tet) v = renumber[v];
+  out.neighbors = mesh.neighbors;
   return out;
 }
 

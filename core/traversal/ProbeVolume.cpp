@@ -270,7 +270,63 @@ int32_t coldStart(const ProbeVolume& v, Vec3 p) {
   return v.locatorGrid[c[0] + v.locatorDims[0] * (c[1] + v.locatorDims[1] * c[2])];
 }
 
+// Sukys 3.2.1 "Drawbacks": per tet, the 3x3 matrix M = [v0 - v3, v1 - v3, v2 - v3]^-1 (in
+// double, from the float positions the renderer sees), so (w0, w1, w2) = M (p - v3).
+std::array<float, 9> tetMatrix(const ProbeVolume& v, int32_t t) {
+  Vec3 q[4];
+  tetVertices(v, t, q);
+  const Vec3 a = q[0] - q[3], b = q[1] - q[3], c = q[2] - q[3];
+  const Vec3 r0 = cross(b, c), r1 = cross(c, a), r2 = cross(a, b);
+  const double det = dot(a, r0);
+  const double l = longestEdge(q);
+  std::array<float, 9> m{};
+  if (std::abs(det) > tol::kFlatTetRelativeVolume * l * l * l) {
+    const Vec3 rows[3] = {r0 / det, r1 / det, r2 / det};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) m[3 * i + j] = static_cast<float>(rows[i][j]);
+  }
+  return m;
+}
+
+// Sets thinTets[t] and frames[t] (the arrays are sized by the caller).
+void tetFrame(ProbeVolume& v, int32_t t) {
+  Vec3 q[4];
+  tetVertices(v, t, q);
+  const double l = longestEdge(q);
+  const double relVolume = std::abs(orient(q[0], q[1], q[2], q[3])) / (l * l * l);
+  const bool thin = !(relVolume >= tol::kThinTetRelativeVolume);
+  v.thinTets[t] = thin;
+  // The fast path's frame: M = [v0 - v3, v1 - v3, v2 - v3]^-1 in double (the differences of
+  // float positions are exact in double), origin v3.
+  ProbeVolume::Frame& f = v.frames[t];
+  const Vec3 a = q[0] - q[3], b = q[1] - q[3], c = q[2] - q[3];
+  const Vec3 rows[3] = {cross(b, c), cross(c, a), cross(a, b)};
+  const double det = dot(a, rows[0]);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j)
+      f.m[3 * i + j] = thin ? std::numeric_limits<double>::quiet_NaN() : rows[i][j] / det;
+    f.origin[i] = q[3][i];
+  }
+}
+
 }  // namespace
+
+namespace detail {
+void updateTet(ProbeVolume& v, int32_t t) {
+  v.matrices[t] = tetMatrix(v, t);
+  tetFrame(v, t);
+}
+
+int32_t locatorCellTet(const ProbeVolume& v, size_t cell, int32_t start) {
+  const size_t nx = size_t(v.locatorDims[0]), ny = size_t(v.locatorDims[1]);
+  const size_t c[3] = {cell % nx, (cell / nx) % ny, cell / (nx * ny)};
+  Vec3 centre;
+  for (int a = 0; a < 3; ++a)
+    centre[a] = v.locatorLo[a] + (double(c[a]) + 0.5) * double(v.locatorCellSize[a]);
+  const WalkResult r = walk(v, centre, start);
+  return r.kind != WalkResult::kFailed ? r.tet : start;
+}
+}  // namespace detail
 
 ShRgb ProbeVolume::probeSh(int32_t i) const {
   ShRgb out;
@@ -293,23 +349,9 @@ ProbeVolume buildProbeVolume(const Tetrahedralization& t, std::span<const ShRgb>
   v.tets = t.tets;
   v.neighbors = t.neighbors;
 
-  // Sukys 3.2.1 "Drawbacks": per tet, the 3x3 matrix M = [v0 - v3, v1 - v3, v2 - v3]^-1 (in
-  // double, from the float positions the renderer sees), so (w0, w1, w2) = M (p - v3).
   v.matrices.resize(v.tets.size());
   for (size_t k = 0; k < v.tets.size(); ++k) {
-    Vec3 q[4];
-    tetVertices(v, static_cast<int32_t>(k), q);
-    const Vec3 a = q[0] - q[3], b = q[1] - q[3], c = q[2] - q[3];
-    const Vec3 r0 = cross(b, c), r1 = cross(c, a), r2 = cross(a, b);
-    const double det = dot(a, r0);
-    const double l = longestEdge(q);
-    std::array<float, 9> m{};
-    if (std::abs(det) > tol::kFlatTetRelativeVolume * l * l * l) {
-      const Vec3 rows[3] = {r0 / det, r1 / det, r2 / det};
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) m[3 * i + j] = static_cast<float>(rows[i][j]);
-    }
-    v.matrices[k] = m;
+    v.matrices[k] = tetMatrix(v, static_cast<int32_t>(k));
     for (int i = 0; i < 4; ++i)
       if (v.neighbors[k][i] < 0) v.hullFaces.push_back({static_cast<int32_t>(k), i});
   }
@@ -323,25 +365,7 @@ void buildLocator(ProbeVolume& v) {
   v.locatorGrid.clear();
   v.locatorDims = {0, 0, 0};
   if (v.tets.empty()) return;
-  for (size_t k = 0; k < v.tets.size(); ++k) {
-    Vec3 q[4];
-    tetVertices(v, static_cast<int32_t>(k), q);
-    const double l = longestEdge(q);
-    const double relVolume = std::abs(orient(q[0], q[1], q[2], q[3])) / (l * l * l);
-    const bool thin = !(relVolume >= tol::kThinTetRelativeVolume);
-    v.thinTets[k] = thin;
-    // The fast path's frame: M = [v0 - v3, v1 - v3, v2 - v3]^-1 in double (the differences of
-    // float positions are exact in double), origin v3.
-    ProbeVolume::Frame& f = v.frames[k];
-    const Vec3 a = q[0] - q[3], b = q[1] - q[3], c = q[2] - q[3];
-    const Vec3 rows[3] = {cross(b, c), cross(c, a), cross(a, b)};
-    const double det = dot(a, rows[0]);
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j)
-        f.m[3 * i + j] = thin ? std::numeric_limits<double>::quiet_NaN() : rows[i][j] / det;
-      f.origin[i] = q[3][i];
-    }
-  }
+  for (size_t k = 0; k < v.tets.size(); ++k) tetFrame(v, static_cast<int32_t>(k));
 
   Bounds3 box;
   for (size_t i = 0; i < v.probeCount(); ++i) box.extend(v.position(static_cast<int32_t>(i)));
@@ -361,19 +385,10 @@ void buildLocator(ProbeVolume& v) {
     cells *= n;
   }
   v.locatorGrid.assign(cells, 0);
-  // Each cell centre is found by walking from the previous cell's tet (coherent, cheap).
+  // Each cell centre is found by walking from the previous cell's tet (coherent, cheap); the
+  // cells are in index order.
   int32_t t = 0;
-  for (int32_t z = 0; z < v.locatorDims[2]; ++z)
-    for (int32_t y = 0; y < v.locatorDims[1]; ++y)
-      for (int32_t x = 0; x < v.locatorDims[0]; ++x) {
-        const int32_t c[3] = {x, y, z};
-        Vec3 centre;
-        for (int a = 0; a < 3; ++a)
-          centre[a] = v.locatorLo[a] + (c[a] + 0.5) * double(v.locatorCellSize[a]);
-        const WalkResult r = walk(v, centre, t);
-        if (r.kind != WalkResult::kFailed) t = r.tet;
-        v.locatorGrid[x + v.locatorDims[0] * (y + size_t(v.locatorDims[1]) * z)] = t;
-      }
+  for (size_t c = 0; c < cells; ++c) v.locatorGrid[c] = t = detail::locatorCellTet(v, c, t);
 }
 
 VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet) {

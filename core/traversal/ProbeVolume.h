@@ -102,6 +102,12 @@ namespace detail {
 bool fastWeights(const ProbeVolume& v, int32_t t, Vec3 p, std::array<float, 4>& weights);
 /// How many locate() calls (process-wide) fell back to the brute-force scan; for tests.
 uint64_t locateBruteForceCount();
+/// Recomputes tet t's matrix, thin flag and frame from its row and the positions, exactly as
+/// buildProbeVolume() and buildLocator() do (the arrays must already hold slot t).
+void updateTet(ProbeVolume& v, int32_t t);
+/// The tet for locator cell `cell` (index as in locatorGrid): the walk from `start` to the
+/// cell's centre, as buildLocator() does; `start` when the walk fails.
+int32_t locatorCellTet(const ProbeVolume& v, size_t cell, int32_t start);
 }  // namespace detail
 
 }  // namespace ps

@@ -12,6 +12,7 @@
 
 #include "core/tessellation/EditableTetrahedralization.h"
 #include "core/tessellation/Tetrahedralization.h"
+#include "core/traversal/EditableProbeVolume.h"
 #include "core/traversal/ProbeVolume.h"
 #include "tests/core/PointSets.h"
 
@@ -336,8 +337,8 @@ void BM_EditMoveOneProbeVsRebuild10k(benchmark::State& state) {
 }
 BENCHMARK(BM_EditMoveOneProbeVsRebuild10k)->UseManualTime()->Unit(benchmark::kMicrosecond);
 
-// Moving one probe of 10k and then bringing the runtime volume up to date: the edit plus
-// snapshot() and buildProbeVolume() (matrices, hull faces, locator), which are O(n) today.
+// Moving one probe of 10k and then bringing the runtime volume up to date by a rebuild: the edit
+// plus snapshot() and buildProbeVolume() (matrices, hull faces, locator), O(n).
 void BM_EditMoveOneProbeAndRuntimeVolume10k(benchmark::State& state) {
   const auto pts = randomPoints(10000, 43);
   EditableTetrahedralization e(pts);
@@ -362,6 +363,33 @@ void BM_EditMoveOneProbeAndRuntimeVolume10k(benchmark::State& state) {
   state.counters["build_volume_ms"] = 1e3 * build / n;
 }
 BENCHMARK(BM_EditMoveOneProbeAndRuntimeVolume10k)->UseManualTime()->Unit(benchmark::kMillisecond);
+
+// The same moves (same seed) with EditableProbeVolume: the edit and the local update of the
+// runtime arrays. Counters: slots rewritten per move; a full rebuild of the final volume
+// (snapshot + buildProbeVolume, timed once at the end) over one incremental move.
+void BM_EditMoveOneProbeIncrementalVolume10k(benchmark::State& state) {
+  const auto pts = randomPoints(10000, 43);
+  EditableProbeVolume e(pts, std::vector<ShRgb>(pts.size()));
+  uint64_t s = streamSeed(43, 2);
+  double total = 0, changed = 0;
+  for (auto _ : state) {
+    const int32_t id = int32_t(uniform01(s) * pts.size());
+    const TetEditReport r = e.move(id, {uniform01(s), uniform01(s), uniform01(s)});
+    state.SetIterationTime(r.seconds);
+    total += r.seconds;
+    changed += double(r.changedTets.size());
+  }
+  const double n = double(state.iterations());
+  const auto t0 = Clock::now();
+  const Tetrahedralization t = e.tetrahedralization().snapshot();
+  const ProbeVolume v = buildProbeVolume(t, std::vector<ShRgb>(t.vertices.size()));
+  benchmark::DoNotOptimize(v.tets.data());
+  const double rebuild = secondsSince(t0);
+  state.counters["tet_slots_rewritten"] = changed / n;
+  state.counters["rebuild_ms"] = 1e3 * rebuild;
+  state.counters["rebuild_over_move"] = rebuild / (total / n);
+}
+BENCHMARK(BM_EditMoveOneProbeIncrementalVolume10k)->UseManualTime()->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 
