@@ -1,11 +1,13 @@
 #include "ui/LightingField.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "core/bake/Bake.h"
 #include "core/common/Error.h"
 #include "core/trace/Tracer.h"
+#include "core/traversal/EditableProbeVolume.h"
 
 namespace ps::ui {
 
@@ -41,6 +43,125 @@ std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
   } catch (const ParameterError&) {
     return std::nullopt;  // flat or collinear: no volume
   }
+}
+
+namespace {
+bool inPreview(const Probe& p, PreviewSource source) {
+  if (!p.sh) return false;
+  return source == PreviewSource::Accepted ? p.state == ProbeState::Accepted
+                                           : p.state != ProbeState::Rejected;
+}
+
+bool sameSh(const ShRgb& a, const ShRgb& b) {
+  for (int k = 0; k < kShCoeffCount; ++k)
+    if (!(a.c[k] == b.c[k])) return false;
+  return true;
+}
+}  // namespace
+
+PreviewVolumeMirror::PreviewVolumeMirror() = default;
+PreviewVolumeMirror::~PreviewVolumeMirror() = default;
+
+const ProbeVolume* PreviewVolumeMirror::volume() const {
+  return volume_ ? &volume_->volume() : nullptr;
+}
+
+void PreviewVolumeMirror::clear() {
+  volume_.reset();
+  entries_.clear();
+  source_.reset();
+}
+
+PreviewVolumeMirror::SyncReport PreviewVolumeMirror::rebuild(
+    const std::vector<const Probe*>& wanted) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SyncReport r;
+  r.rebuilt = true;
+  volume_.reset();
+  entries_.clear();
+  std::vector<Vec3> positions;
+  std::vector<ShRgb> sh;
+  for (const Probe* p : wanted) {
+    entries_[p->id] = {static_cast<int32_t>(positions.size()), p->position, *p->sh};
+    positions.push_back(p->position);
+    sh.push_back(*p->sh);
+  }
+  if (positions.size() >= 4) {
+    try {
+      volume_ = std::make_unique<EditableProbeVolume>(positions, sh);
+    } catch (const ParameterError&) {
+      // flat or collinear: no volume; the entries stay so that the next sync edits from here
+    }
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+PreviewVolumeMirror::SyncReport PreviewVolumeMirror::sync(const std::vector<Probe>& probes,
+                                                          PreviewSource source) {
+  std::vector<const Probe*> wanted;
+  if (source != PreviewSource::Baked)
+    for (const Probe& p : probes)
+      if (inPreview(p, source)) wanted.push_back(&p);
+  if (source_ != source) {
+    source_ = source;
+    return rebuild(wanted);
+  }
+  // What changed, by document id.
+  std::unordered_map<uint64_t, const Probe*> now;
+  now.reserve(wanted.size());
+  for (const Probe* p : wanted) now.emplace(p->id, p);
+  std::vector<uint64_t> gone;
+  for (const auto& [id, e] : entries_)
+    if (!now.count(id)) gone.push_back(id);
+  std::vector<const Probe*> added, moved, recoloured;
+  for (const Probe* p : wanted) {
+    const auto it = entries_.find(p->id);
+    if (it == entries_.end()) {
+      added.push_back(p);
+      continue;
+    }
+    if (!(it->second.position == p->position)) moved.push_back(p);
+    if (!sameSh(it->second.sh, *p->sh)) recoloured.push_back(p);
+  }
+  const size_t changes = gone.size() + added.size() + moved.size() + recoloured.size();
+  if (changes == 0) return {};
+  if (!volume_ || changes > std::max<size_t>(16, wanted.size() / 8)) return rebuild(wanted);
+  SyncReport r;
+  try {
+    // Inserts first, so that removals never leave fewer than 4 probes on the way.
+    for (const Probe* p : added) {
+      const TetEditReport e = volume_->insert(p->position, *p->sh);
+      entries_[p->id] = {e.probe, p->position, *p->sh};
+      r.seconds += e.seconds;
+      r.tetsRewritten += e.changedTets.size();
+      ++r.inserted;
+    }
+    for (const Probe* p : moved) {
+      Entry& entry = entries_.at(p->id);
+      const TetEditReport e = volume_->move(entry.probe, p->position);
+      entry.position = p->position;
+      r.seconds += e.seconds;
+      r.tetsRewritten += e.changedTets.size();
+      ++r.moved;
+    }
+    for (const Probe* p : recoloured) {
+      Entry& entry = entries_.at(p->id);
+      volume_->setSh(entry.probe, *p->sh);
+      entry.sh = *p->sh;
+      ++r.recoloured;
+    }
+    for (uint64_t id : gone) {
+      const TetEditReport e = volume_->remove(entries_.at(id).probe);
+      entries_.erase(id);
+      r.seconds += e.seconds;
+      r.tetsRewritten += e.changedTets.size();
+      ++r.removed;
+    }
+  } catch (const ParameterError&) {
+    return rebuild(wanted);  // an edit would flatten the volume: start over from the probes
+  }
+  return r;
 }
 
 Vec3 ShGrid::centre(size_t index) const {

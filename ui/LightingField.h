@@ -7,7 +7,9 @@
 // the ones that cross geometry (light leaks, Sukys 2014 sec. 3.3).
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "core/io/ProbeSet.h"
@@ -15,7 +17,8 @@
 
 namespace ps {
 class Tracer;
-}
+class EditableProbeVolume;
+}  // namespace ps
 
 namespace ps::ui {
 
@@ -38,6 +41,46 @@ enum class PreviewSource {
 /// of them span 3D.
 std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
                                               PreviewSource source);
+
+/// The preview volume kept in step with the document by local edits (EditableProbeVolume,
+/// Sukys 3.2.1 after Cupisz): sync() compares the probes with what the volume holds and inserts,
+/// removes, moves or re-colours only the probes that changed, so one edit costs microseconds
+/// instead of a rebuild. It rebuilds when the source changes, when more than an eighth of the
+/// probes changed, or when a local edit is refused (the probes would span fewer than 3D). The
+/// volume holds the probes buildPreviewVolume() takes; its tets are the same, numbered by the
+/// edit history. Exact duplicates take the SH of the one the volume met first.
+class PreviewVolumeMirror {
+ public:
+  PreviewVolumeMirror();
+  ~PreviewVolumeMirror();
+  PreviewVolumeMirror(const PreviewVolumeMirror&) = delete;
+  PreviewVolumeMirror& operator=(const PreviewVolumeMirror&) = delete;
+
+  struct SyncReport {
+    size_t inserted = 0, removed = 0, moved = 0, recoloured = 0;
+    bool rebuilt = false;      ///< built from scratch instead of edited
+    size_t tetsRewritten = 0;  ///< by the local edits
+    double seconds = 0;        ///< wall time of the local edits (or of the rebuild)
+    bool changed() const { return rebuilt || inserted + removed + moved + recoloured > 0; }
+  };
+  SyncReport sync(const std::vector<Probe>& probes, PreviewSource source);
+  /// The volume, or nullptr when fewer than 4 probes span 3D (or the source is Baked).
+  const ProbeVolume* volume() const;
+  /// Forgets everything (the next sync rebuilds).
+  void clear();
+
+ private:
+  struct Entry {
+    int32_t probe = -1;  ///< id in the EditableProbeVolume
+    Vec3 position;
+    ShRgb sh;
+  };
+  SyncReport rebuild(const std::vector<const Probe*>& wanted);
+
+  std::unique_ptr<EditableProbeVolume> volume_;
+  std::unordered_map<uint64_t, Entry> entries_;  ///< document probe id -> its probe in volume_
+  std::optional<PreviewSource> source_;
+};
 
 /// SH sampled from a volume at the centres of a regular grid over a box.
 struct ShGrid {

@@ -119,6 +119,13 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   connect(viewport_, &Viewport::boxSelected, this, &MainWindow::onBoxSelected);
   connect(viewport_, &Viewport::addProbeRequested, this,
           [this](const PickRay& ray) { addProbeOnSurface(ray); });
+  // While a probe is dragged, the test object's volume is edited in place: say how long it took.
+  connect(viewport_, &Viewport::previewVolumeEdited, this, [this](double seconds, qsizetype tets) {
+    statusBar()->showMessage(tr("Preview volume updated in place: %1 tetrahedra in %2 µs")
+                                 .arg(tets)
+                                 .arg(seconds * 1e6, 0, 'f', 0),
+                             3000);
+  });
   connect(doc_, &Document::modifiedChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateStatus);

@@ -1026,7 +1026,7 @@ void Viewport::mousePressEvent(QMouseEvent* e) {
       return;
     }
   }
-  if (tool_ == Tool::Select && overlay(Overlay::TestObject) && previewVolume_) {
+  if (tool_ == Tool::Select && overlay(Overlay::TestObject) && drawnPreviewVolume()) {
     // Press on the test object: drag it in the plane facing the camera.
     const PickRay ray = pickRay(e->position());
     const QVector3D oc = ray.origin - toQ(testObject_);
@@ -1075,6 +1075,11 @@ void Viewport::mouseMoveEvent(QMouseEvent* e) {
       targets.reserve(dragStart_.size());
       for (const auto& [id, from] : dragStart_) targets.emplace_back(id, from + dv);
       doc_->moveProbes(targets, dragKey_);  // merges: the whole drag is one undo step
+      // The test object follows the drag in the preview volume, edited in place.
+      if (overlay(Overlay::TestObject)) {
+        syncMirror();
+        mirrorAhead_ = true;
+      }
       return;
     }
     case Drag::Box: {

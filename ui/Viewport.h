@@ -8,6 +8,7 @@
 #include <QOpenGLWidget>
 #include <QSet>
 #include <QSurfaceFormat>
+#include <memory>
 #include <optional>
 #include <unordered_map>
 #include <vector>
@@ -134,6 +135,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void startFieldsRebuild();
   /// The preview volume as it is now, without bringing it up to date.
   bool hasPreviewVolume() const { return previewVolume_.has_value(); }
+  /// The preview volume the test object is lit by now, without bringing it up to date: during
+  /// and after a handle drag, until the next fields, the volume edited in place at each step;
+  /// else the last fields' (nullptr when there is none).
+  const ProbeVolume* drawnPreviewVolume() const;
 
   /// The slice's texture (size x size, u along sliceCorners()[0] -> [1], v along [0] -> [3]):
   /// luminance distance to the selected probe (or the volume's mean when none is selected), blue
@@ -183,6 +188,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void volumeDrawn(const ps::Bounds3& box);
   /// A background rebuild of the lighting fields arrived.
   void fieldsUpdated();
+  /// The preview volume was brought up to date with the document by local edits
+  /// (EditableProbeVolume) rather than rebuilt: the wall time of the edits and the tet slots
+  /// they rewrote.
+  void previewVolumeEdited(double seconds, qsizetype tetsRewritten);
 
  protected:
   void initializeGL() override;
@@ -212,6 +221,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void updateFields();
 
   void applyFields(Fields&& f);
+  /// Brings mirror_ up to date with the document (local edits); emits previewVolumeEdited.
+  void syncMirror();
+  /// syncMirror(), then a copy of its volume for the fields (nullptr when there is none).
+  std::shared_ptr<const ProbeVolume> previewForFields();
   void uploadOverlays();
   void drawOverlays(const QMatrix4x4& vp);
   void drawLines(const std::vector<float>& xyzrgba, GLenum mode, const QMatrix4x4& vp);
@@ -240,6 +253,12 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   // Derived lighting data (LightingField.h), rebuilt when fieldsDirty_.
   bool fieldsDirty_ = true, overlaysDirty_ = true;
   std::optional<ProbeVolume> previewVolume_, referenceVolume_;
+  // The preview volume kept in step with the document by local edits; the fields take a copy
+  // of it instead of rebuilding it. A handle drag syncs it at every step (the fields are
+  // rebuilt only when the drag ends), and it is drawn for the test object until the next
+  // fields arrive (mirrorAhead_).
+  PreviewVolumeMirror mirror_;
+  bool mirrorAhead_ = false;
   ShGrid glyphGrid_, previewGrid_;
   std::vector<std::array<int32_t, 2>> edges_;
   std::vector<uint8_t> leaks_;

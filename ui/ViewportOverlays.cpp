@@ -204,8 +204,9 @@ std::vector<Viewport::GlyphSample> Viewport::glyphSamples(double* arrowMeters) {
 
 int32_t Viewport::testObjectTet() {
   updateFields();
-  if (!previewVolume_) return -1;
-  const VolumeLocation loc = locate(*previewVolume_, testObject_, testTetHint_);
+  const ProbeVolume* volume = drawnPreviewVolume();
+  if (!volume) return -1;
+  const VolumeLocation loc = locate(*volume, testObject_, testTetHint_);
   testTetHint_ = loc.tet;
   return loc.tet;
 }
@@ -235,7 +236,8 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 PreviewSource source, Bounds3 bounds,
                                                 int glyphResolution, int previewResolution,
                                                 std::shared_ptr<const Tracer> tracer,
-                                                std::shared_ptr<const ProbeVolume> baked);
+                                                std::shared_ptr<const ProbeVolume> baked,
+                                                std::shared_ptr<const ProbeVolume> preview);
 }  // namespace
 
 namespace {
@@ -259,9 +261,9 @@ void Viewport::updateFields() {
   }
   if (!fieldsDirty_) return;
   fieldsDirty_ = false;
-  auto f =
-      computeFields(doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
-                    glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume());
+  auto f = computeFields(doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
+                         glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume(),
+                         previewForFields());
   applyFields(std::move(*f));
 }
 
@@ -281,12 +283,14 @@ void Viewport::startFieldsRebuild() {
       update();  // shows the new fields; starts another rebuild if the probes moved meanwhile
     });
   }
-  fieldsWatcher_->setFuture(QtConcurrent::run(
-      computeFields, doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
-      glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume()));
+  fieldsWatcher_->setFuture(QtConcurrent::run(computeFields, doc_->probes(), previewSource_,
+                                              scene ? scene->bounds : Bounds3(), glyphResolution_,
+                                              previewResolution_, doc_->tracerShared(),
+                                              doc_->volume(), previewForFields()));
 }
 
 void Viewport::applyFields(Fields&& f) {
+  mirrorAhead_ = false;
   overlaysDirty_ = true;
   testTetHint_ = -1;
   previewVolume_ = std::move(f.preview);
@@ -298,17 +302,34 @@ void Viewport::applyFields(Fields&& f) {
   edgeStops_ = std::move(f.edgeStops);
 }
 
+const ProbeVolume* Viewport::drawnPreviewVolume() const {
+  if (mirrorAhead_) return mirror_.volume();
+  return previewVolume_ ? &*previewVolume_ : nullptr;
+}
+
+void Viewport::syncMirror() {
+  const PreviewVolumeMirror::SyncReport r = mirror_.sync(doc_->probes(), previewSource_);
+  if (r.changed() && !r.rebuilt) emit previewVolumeEdited(r.seconds, qsizetype(r.tetsRewritten));
+}
+
+std::shared_ptr<const ProbeVolume> Viewport::previewForFields() {
+  syncMirror();
+  const ProbeVolume* v = mirror_.volume();
+  return v ? std::make_shared<const ProbeVolume>(*v) : nullptr;
+}
+
 namespace {
 std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes,
                                                 PreviewSource source, Bounds3 bounds,
                                                 int glyphResolution, int previewResolution,
                                                 std::shared_ptr<const Tracer> tracer,
-                                                std::shared_ptr<const ProbeVolume> baked) {
+                                                std::shared_ptr<const ProbeVolume> baked,
+                                                std::shared_ptr<const ProbeVolume> preview) {
   auto f = std::make_shared<Viewport::Fields>();
   if (source == PreviewSource::Baked) {
     if (baked) f->preview = *baked;
-  } else {
-    f->preview = buildPreviewVolume(probes, source);
+  } else if (preview) {
+    f->preview = *preview;  // the mirror's, kept up to date by local edits
   }
   f->reference = source == PreviewSource::AllCaptured
                      ? f->preview
@@ -605,10 +626,10 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
     glDisable(GL_BLEND);
   }
 
-  if (overlay(Overlay::TestObject) && previewVolume_) {
-    const VolumeLocation loc = locate(*previewVolume_, testObject_, testTetHint_);
+  if (const ProbeVolume* volume = drawnPreviewVolume(); overlay(Overlay::TestObject) && volume) {
+    const VolumeLocation loc = locate(*volume, testObject_, testTetHint_);
     testTetHint_ = loc.tet;
-    const ShRgb sh = interpolate(*previewVolume_, loc);
+    const ShRgb sh = interpolate(*volume, loc);
     std::vector<float> inst = {float(testObject_.x),
                                float(testObject_.y),
                                float(testObject_.z),
@@ -643,12 +664,12 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
     glDisable(GL_CULL_FACE);
     // Its tetrahedron, drawn over everything.
     if (loc.tet >= 0) {
-      const auto& t = previewVolume_->tets[size_t(loc.tet)];
+      const auto& t = volume->tets[size_t(loc.tet)];
       std::vector<float> v;
       for (int a = 0; a < 4; ++a)
         for (int b = a + 1; b < 4; ++b)
           for (int e : {a, b}) {
-            const Vec3 p = previewVolume_->position(t[size_t(e)]);
+            const Vec3 p = volume->position(t[size_t(e)]);
             v.insert(v.end(), {float(p.x), float(p.y), float(p.z), 1.0f, 0.85f, 0.1f, 1.0f});
           }
       glDisable(GL_DEPTH_TEST);

@@ -446,6 +446,110 @@ class TestEditing : public QObject {
     QVERIFY(any);
   }
 
+  void previewVolumeFollowsEditsInPlace() {
+    // The preview volume follows the document by local edits (EditableProbeVolume), not
+    // rebuilds: a drag step (the moved probe loses its capture, so it leaves the preview), a
+    // rejection, and each reports its time; the result is always the volume a rebuild gives.
+    MainWindow w;
+    quiet(w);
+    Document* doc = w.document();
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(900, 700);
+    const Bounds3 b = doc->scene()->bounds;
+    std::vector<Probe> ps;
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> jitter(-0.05, 0.05);
+    for (int i = 0; i < 5; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 4; ++k) {
+          Probe p;
+          p.position = b.lo + Vec3((i + 0.5 + jitter(rng)) * b.extent().x / 5,
+                                   (j + 0.5 + jitter(rng)) * b.extent().y / 3,
+                                   (k + 0.5 + jitter(rng)) * b.extent().z / 4);
+          ShRgb sh;
+          sh.c[0] = Rgb(1, 1, 1) * (1 + i + 2 * k);
+          p.sh = sh;
+          ps.push_back(p);
+        }
+    const std::vector<uint64_t> ids = doc->addProbes(ps, "Add");
+    vp->frameAll();
+    vp->setOverlay(Viewport::Overlay::TestObject, true);
+    QVERIFY(vp->previewVolume().has_value());
+
+    // The same tets (by vertex positions) and the same light at the test object as a rebuild.
+    auto tetKeys = [](const ProbeVolume& v) {
+      std::vector<std::array<std::array<float, 3>, 4>> keys;
+      for (const auto& t : v.tets) {
+        std::array<std::array<float, 3>, 4> k;
+        for (size_t i = 0; i < 4; ++i)
+          for (size_t a = 0; a < 3; ++a) k[i][a] = v.positions[3 * size_t(t[i]) + a];
+        std::sort(k.begin(), k.end());
+        keys.push_back(k);
+      }
+      std::sort(keys.begin(), keys.end());
+      return keys;
+    };
+    auto sameAsRebuild = [&](const ProbeVolume& live) {
+      const auto rebuilt = buildPreviewVolume(doc->probes(), vp->previewSource());
+      if (!rebuilt || live.probeCount() != rebuilt->probeCount()) return false;
+      if (tetKeys(live) != tetKeys(*rebuilt)) return false;
+      const Vec3 q = vp->testObjectPosition();
+      const ShRgb x = interpolate(live, locate(live, q));
+      const ShRgb y = interpolate(*rebuilt, locate(*rebuilt, q));
+      return std::abs(x.c[0].r - y.c[0].r) < 1e-5;
+    };
+    QSignalSpy edited(vp, &Viewport::previewVolumeEdited);
+    auto editsSince = [&](int from, double& seconds, qsizetype& tets) {
+      seconds = 0;
+      tets = 0;
+      for (int i = from; i < edited.count(); ++i) {
+        seconds += edited.at(i).at(0).toDouble();
+        tets += edited.at(i).at(1).value<qsizetype>();
+      }
+      return edited.count() - from;
+    };
+
+    // A drag: the first step takes the probe out of the preview, in place.
+    const uint64_t id = ids.at(27);  // an inner probe (i = 2, j = 0, k = 3)
+    vp->setSelection({id});
+    const QVector3D o = *vp->handleOrigin();
+    const QPointF from =
+        toPoint(vp->project(toV(o + QVector3D(vp->handleArmMeters() * 0.6f, 0, 0))));
+    QCOMPARE(vp->handlePartAt(from), HandlePart::AxisX);
+    const Vec3 start = doc->probe(id)->position;
+    drag(vp, from, from + QPointF(90, 0));
+    QVERIFY(length(doc->probe(id)->position - start) > 0.05);
+    QVERIFY(!doc->probe(id)->sh);  // its capture is stale now
+    double seconds = 0;
+    qsizetype tets = 0;
+    QCOMPARE(editsSince(0, seconds, tets), 1);
+    QVERIFY(seconds > 0);
+    QVERIFY(tets > 0);
+    const ProbeVolume* live = vp->drawnPreviewVolume();
+    QVERIFY(live);
+    QCOMPARE(live->probeCount(), size_t(59));
+    QVERIFY(sameAsRebuild(*live));
+    // The next fields take the edited volume (no further edit), and replace it as drawn.
+    const auto& fresh = vp->previewVolume();
+    QVERIFY(fresh.has_value());
+    QCOMPARE(vp->drawnPreviewVolume(), &*fresh);
+    QCOMPARE(edited.count(), 1);
+    QVERIFY(sameAsRebuild(*fresh));
+
+    // Rejecting two probes removes them in place; undo puts them back in place.
+    doc->setStates({ids.at(5), ids.at(40)}, ProbeState::Rejected);
+    QVERIFY(vp->previewVolume().has_value());
+    QCOMPARE(editsSince(1, seconds, tets), 1);
+    QVERIFY(tets > 0);
+    QCOMPARE(vp->previewVolume()->probeCount(), size_t(57));
+    QVERIFY(sameAsRebuild(*vp->previewVolume()));
+    doc->undoStack()->undo();
+    QCOMPARE(vp->previewVolume()->probeCount(), size_t(59));
+    QCOMPARE(editsSince(2, seconds, tets), 1);
+    QVERIFY(sameAsRebuild(*vp->previewVolume()));
+  }
+
   void overlaysToggleFromTheMenuAndTheTestObjectDrags() {
     MainWindow w;
     quiet(w);
