@@ -107,23 +107,26 @@ PreviewVolumeMirror::SyncReport PreviewVolumeMirror::sync(const std::vector<Prob
     source_ = source;
     return rebuild(wanted);
   }
-  // What changed, by document id.
-  std::unordered_map<uint64_t, const Probe*> now;
-  now.reserve(wanted.size());
-  for (const Probe* p : wanted) now.emplace(p->id, p);
-  std::vector<uint64_t> gone;
-  for (const auto& [id, e] : entries_)
-    if (!now.count(id)) gone.push_back(id);
+  // What changed, by document id: one lookup per wanted probe; the entries it did not meet are
+  // the probes that left.
+  ++stamp_;
   std::vector<const Probe*> added, moved, recoloured;
+  size_t met = 0;
   for (const Probe* p : wanted) {
     const auto it = entries_.find(p->id);
     if (it == entries_.end()) {
       added.push_back(p);
       continue;
     }
+    it->second.stamp = stamp_;
+    ++met;
     if (!(it->second.position == p->position)) moved.push_back(p);
     if (!sameSh(it->second.sh, *p->sh)) recoloured.push_back(p);
   }
+  std::vector<uint64_t> gone;
+  if (met != entries_.size())
+    for (const auto& [id, e] : entries_)
+      if (e.stamp != stamp_) gone.push_back(id);
   const size_t changes = gone.size() + added.size() + moved.size() + recoloured.size();
   if (changes == 0) return {};
   if (!volume_ || changes > std::max<size_t>(16, wanted.size() / 8)) return rebuild(wanted);

@@ -74,12 +74,14 @@ class PreviewVolumeMirror {
     int32_t probe = -1;  ///< id in the EditableProbeVolume
     Vec3 position;
     ShRgb sh;
+    uint64_t stamp = 0;  ///< the sync that last met it
   };
   SyncReport rebuild(const std::vector<const Probe*>& wanted);
 
   std::unique_ptr<EditableProbeVolume> volume_;
   std::unordered_map<uint64_t, Entry> entries_;  ///< document probe id -> its probe in volume_
   std::optional<PreviewSource> source_;
+  uint64_t stamp_ = 0;
 };
 
 /// SH sampled from a volume at the centres of a regular grid over a box.

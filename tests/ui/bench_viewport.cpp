@@ -150,6 +150,49 @@ void BM_OverlayRebuild10kProbes100kGlyphs(benchmark::State& state) {
 }  // namespace
 
 // Real time: the GPU work (Mesa's llvmpipe runs it on its own threads) is in the frame.
+/// The preview volume after one probe of 10k moves (keeping its SH): the editor's
+/// PreviewVolumeMirror (a diff of the probes, then one local move in an EditableProbeVolume)
+/// against buildPreviewVolume() from scratch, which the editor did before. Arg 0: mirror, 1:
+/// rebuild. No GL.
+void BM_PreviewVolumeAfterMove10k(benchmark::State& state) {
+  const bool mirror = state.range(0) == 0;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<Probe> probes;
+  for (int i = 0; i < 10000; ++i) {
+    Probe p;
+    p.id = uint64_t(i + 1);
+    p.position = Vec3(u(rng) * 10, u(rng) * 3, u(rng) * 8);
+    ShRgb sh;
+    sh.c[0] = Rgb(1, 1, 1) * (0.5 + u(rng));
+    p.sh = sh;
+    probes.push_back(p);
+  }
+  PreviewVolumeMirror m;
+  m.sync(probes, PreviewSource::AllCaptured);
+  double edits = 0;
+  size_t tets = 0;
+  for (auto _ : state) {
+    Probe& p = probes[size_t(u(rng) * probes.size())];
+    p.position = Vec3(u(rng) * 10, u(rng) * 3, u(rng) * 8);
+    if (mirror) {
+      const PreviewVolumeMirror::SyncReport r = m.sync(probes, PreviewSource::AllCaptured);
+      if (r.rebuilt || r.moved != 1) state.SkipWithError("the mirror did not move one probe");
+      edits += r.seconds;
+      tets += r.tetsRewritten;
+      benchmark::DoNotOptimize(m.volume());
+    } else {
+      const auto v = buildPreviewVolume(probes, PreviewSource::AllCaptured);
+      benchmark::DoNotOptimize(v->tets.data());
+    }
+  }
+  if (mirror) {
+    state.counters["edit_us"] = 1e6 * edits / double(state.iterations());
+    state.counters["tets_rewritten"] = double(tets) / double(state.iterations());
+  }
+}
+
+BENCHMARK(BM_PreviewVolumeAfterMove10k)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ViewportFrameSceneOnly)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
 BENCHMARK(BM_ViewportFrame1kProbes)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
 BENCHMARK(BM_ViewportFrame10kProbes)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
