@@ -55,6 +55,9 @@ void registerPlace(CLI::App& app) {
   cmd->add_option("--field-spp", o->request.field.samplesPerProbe,
                   "Samples per cheap probe (dense field, ascent, spawn-merge)")
       ->check(CLI::PositiveNumber);
+  cmd->add_flag("--prefilter", o->request.field.prefilter,
+                "Pre-filtered dense field: each sample averages the light over its cell's "
+                "trilinear support, from origins inside the domain (Kontkanen & Laine sec. 4, 6)");
   cmd->add_option("--field-max-samples", o->request.field.maxSamples,
                   "Dense field sample limit: a base grid above it is an error, a refinement level "
                   "above it is skipped");

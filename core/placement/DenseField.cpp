@@ -9,6 +9,7 @@
 #include <string>
 #include <unordered_map>
 
+#include "core/capture/PrefilteredCapture.h"
 #include "core/common/Check.h"
 #include "core/common/Error.h"
 #include "core/math/Random.h"
@@ -156,13 +157,14 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
     // neighbours, each stopped at the cell's boundary (t = h / 2 for the unnormalized direction).
     std::vector<Vec3> centres(m);
     std::vector<char> valid(m, 0), crossed(m, 0);
+    std::vector<double> validity(m, 0.0);
     tbb::parallel_for(size_t(0), m, [&](size_t c) {
       const Cell& cell = level[c];
       centres[c] = cellCentre(cell);
       const uint64_t key = packCell(cell.i, cell.j, cell.k);
       const uint64_t seed = streamSeed(s.seed ^ (uint64_t(depth + 1) * 0x9E3779B97F4A7C15ull), key);
-      valid[c] =
-          backfaceFraction(tracer, centres[c], s.validityRays, seed) <= s.invalidBackfaceFraction;
+      validity[c] = backfaceFraction(tracer, centres[c], s.validityRays, seed);
+      valid[c] = validity[c] <= s.invalidBackfaceFraction;
       for (const Vec3& d : dirs) {
         Ray r;
         r.origin = centres[c];
@@ -190,21 +192,34 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
     ProgressFn captureProgress;
     if (progress)
       captureProgress = [&](double f) { return progress((depth + 0.2 + 0.8 * f) / levels); };
-    const std::vector<ProbeCapture> caps =
-        points.empty() ? std::vector<ProbeCapture>{}
-                       : captureProbes(tracer, rig, points, cs, captureProgress);
+    std::vector<ProbeCapture> caps;
+    if (points.empty()) {
+    } else if (s.prefilter) {
+      // Kontkanen & Laine sec. 4, eq. 5: the cell's node averages the light over its trilinear
+      // support (half-width h, the spacing of this level's nodes), from origins in the domain
+      // of interest only (sec. 5-6).
+      std::vector<PrefilterNode> nodes;
+      nodes.reserve(points.size());
+      for (Vec3 p : points) nodes.push_back({p, h});
+      caps = capturePrefiltered(tracer, rig, nodes, cs, captureProgress);
+    } else {
+      caps = captureProbes(tracer, rig, points, cs, captureProgress);
+    }
 
     auto& map = cellsAt[size_t(depth)];
     std::vector<int64_t> sampleOfCell(m, -1);
     for (size_t q = 0; q < caps.size(); ++q) {
-      // The capture's own rays are a second, larger validity test.
-      if (caps[q].backfaceFraction > s.invalidBackfaceFraction) continue;
+      // The capture's own rays are a second, larger validity test. A pre-filtered capture drops
+      // the origins outside the domain instead: its centre's test decides, and a sample keeps
+      // at least one ray.
+      if (s.prefilter ? caps[q].samples == 0 : caps[q].backfaceFraction > s.invalidBackfaceFraction)
+        continue;
       FieldSample fs;
       fs.position = points[q];
       fs.sh = caps[q].sh;
       fs.shStdError = caps[q].shStdError;
       fs.f = luminanceDirection(fs.sh);  // Chajdas sec. 2.1, eq. 1
-      fs.backfaceFraction = caps[q].backfaceFraction;
+      fs.backfaceFraction = s.prefilter ? validity[cellOfPoint[q]] : caps[q].backfaceFraction;
       fs.depth = depth;
       fs.cellSize = h;
       sampleOfCell[cellOfPoint[q]] = int64_t(field.samples.size());

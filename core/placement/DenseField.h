@@ -45,6 +45,10 @@ struct DenseFieldSettings {
   /// noise alone must not refine).
   double refineSignificance = 3.0;
   int validityRays = 32;  ///< rays per point for the validity test before capture
+  /// Pre-filtered capture (Kontkanen & Laine sec. 4 and 6; PrefilteredCapture.h): each sample
+  /// integrates the radiance over its cell's trilinear support (half-width = the cell size)
+  /// from origins inside the domain of interest, instead of point-sampling at the centre.
+  bool prefilter = false;
 };
 
 struct DenseField {

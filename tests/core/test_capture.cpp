@@ -12,66 +12,15 @@
 
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
+#include "tests/core/SceneBuilders.h"
 
 namespace ps {
 namespace {
 
-// ---- Scene builders ------------------------------------------------------------------------
-
-uint32_t addMaterial(Scene& s, Rgb albedo, Rgb emission = {}, bool doubleSided = false) {
-  Material m;
-  m.albedo = albedo;
-  m.emission = emission;
-  m.doubleSided = doubleSided;
-  s.materials.push_back(m);
-  return static_cast<uint32_t>(s.materials.size() - 1);
-}
-
-/// The parallelogram corner, corner + e1, corner + e1 + e2, corner + e2; its front side faces
-/// cross(e1, e2).
-void addQuad(Scene& s, Vec3 corner, Vec3 e1, Vec3 e2, uint32_t material) {
-  const auto base = static_cast<uint32_t>(s.vertexCount());
-  const Vec3 n = normalize(cross(e1, e2));
-  for (Vec3 p : {corner, corner + e1, corner + e1 + e2, corner + e2}) {
-    s.positions.insert(s.positions.end(),
-                       {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)});
-    s.normals.insert(s.normals.end(),
-                     {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)});
-    s.bounds.extend(p);
-  }
-  s.indices.insert(s.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
-  s.triangleMaterial.insert(s.triangleMaterial.end(), {material, material});
-}
-
-/// An axis-aligned box from lo to hi; front faces inside (a room) or outside (a solid).
-void addBox(Scene& s, Vec3 lo, Vec3 hi, uint32_t material, bool inward) {
-  const Vec3 d = hi - lo;
-  const Vec3 x{d.x, 0, 0}, y{0, d.y, 0}, z{0, 0, d.z};
-  struct Face {
-    Vec3 corner, e1, e2;  // cross(e1, e2) points inwards
-  };
-  const Face faces[] = {
-      {lo, z, x},                  // y = lo: +y
-      {{lo.x, hi.y, lo.z}, x, z},  // y = hi: -y
-      {lo, y, z},                  // x = lo: +x
-      {{hi.x, lo.y, lo.z}, z, y},  // x = hi: -x
-      {lo, x, y},                  // z = lo: +z
-      {{lo.x, lo.y, hi.z}, y, x},  // z = hi: -z
-  };
-  for (const Face& f : faces)
-    inward ? addQuad(s, f.corner, f.e1, f.e2, material)
-           : addQuad(s, f.corner, f.e2, f.e1, material);
-}
-
-/// A black (or given albedo), single-sided, up-facing floor of half-size 1000 at y = 0: an
-/// "infinite" ground (probes stand 1 m above it; the horizon gap is under 0.1 % of the sphere).
-Scene floorScene(Rgb albedo = {0, 0, 0}) {
-  Scene s;
-  const uint32_t m = addMaterial(s, albedo);
-  const double h = 1000;
-  addQuad(s, {-h, 0, -h}, {0, 0, 2 * h}, {2 * h, 0, 0}, m);
-  return s;
-}
+using testing::addBox;
+using testing::addMaterial;
+using testing::addQuad;
+using testing::floorScene;
 
 const std::array<Vec3, 6> kAxes = {Vec3{1, 0, 0},  Vec3{-1, 0, 0}, Vec3{0, 1, 0},
                                    Vec3{0, -1, 0}, Vec3{0, 0, 1},  Vec3{0, 0, -1}};

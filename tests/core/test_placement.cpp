@@ -20,6 +20,7 @@
 #include "core/tessellation/Tetrahedralization.h"
 #include "core/trace/Tracer.h"
 #include "core/traversal/ProbeVolume.h"
+#include "tests/core/SceneBuilders.h"
 
 namespace fs = std::filesystem;
 using namespace ps;
@@ -157,6 +158,35 @@ TEST(DenseField, UniformSkyInAnEmptyBoxIsNotRefined) {
   EXPECT_EQ(f.samples.size(), 64u);
   for (size_t splits : f.splitsPerLevel) EXPECT_EQ(splits, 0u);
   for (const FieldSample& fs : f.samples) EXPECT_EQ(fs.depth, 0);
+}
+
+TEST(DenseField, PrefilteredSamplesIntegrateOnlyTheRoomTheyAreIn) {
+  // A closed room of black walls emitting le inward: from inside, every ray sees exactly le.
+  // Pre-filtered samples (Kontkanen & Laine sec. 4-6) average over their cell's trilinear
+  // support, which for the cells along the walls reaches outside the room; those origins see
+  // back faces and are dropped, so every sample is exactly 2 sqrt(pi) le, as point sampling
+  // gives. The cells and their validity are the point-sampled field's.
+  Scene scene;
+  const Rgb le{1, 0.5, 0.25};
+  ps::testing::addBox(scene, {-1, -1, -1}, {1, 1, 1},
+                      ps::testing::addMaterial(scene, {0, 0, 0}, le),
+                      /*inward=*/true);
+  const Tracer tracer(scene);
+  const LightingRig rig;
+  DenseFieldSettings s = smallField(0);
+  s.baseSpacingMeters = 0.5;
+  s.samplesPerProbe = 512;
+  const DenseField point = buildDenseField(tracer, rig, s);
+  s.prefilter = true;
+  const DenseField pre = buildDenseField(tracer, rig, s);
+  ASSERT_EQ(pre.samples.size(), point.samples.size());
+  ASSERT_EQ(pre.samples.size(), 64u);
+  for (size_t i = 0; i < pre.samples.size(); ++i) {
+    EXPECT_EQ(pre.samples[i].position, point.samples[i].position);
+    EXPECT_EQ(pre.samples[i].backfaceFraction, point.samples[i].backfaceFraction);
+    for (int ch = 0; ch < 3; ++ch)
+      EXPECT_NEAR(pre.samples[i].sh.c[0][ch], 2 * std::sqrt(kPi) * le[ch], 1e-9) << i;
+  }
 }
 
 TEST(DenseField, MaxSamplesGuardsBeforeCapture) {
