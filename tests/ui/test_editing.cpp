@@ -66,6 +66,26 @@ void drag(QWidget* w, QPointF from, QPointF to, Qt::MouseButton button = Qt::Lef
   send(w, QEvent::MouseButtonRelease, to, button, Qt::NoButton, mods);
 }
 
+/// Captured probes on a jittered nx x ny x nz grid through the box; `sh(i, j, k)` gives each
+/// one's SH.
+template <class ShOf>
+std::vector<Probe> jitteredGrid(const Bounds3& b, int nx, int ny, int nz, unsigned seed, ShOf sh) {
+  std::vector<Probe> ps;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(-0.05, 0.05);
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j)
+      for (int k = 0; k < nz; ++k) {
+        Probe p;
+        p.position = b.lo + Vec3((i + 0.5 + jitter(rng)) * b.extent().x / nx,
+                                 (j + 0.5 + jitter(rng)) * b.extent().y / ny,
+                                 (k + 0.5 + jitter(rng)) * b.extent().z / nz);
+        p.sh = sh(i, j, k);
+        ps.push_back(p);
+      }
+  return ps;
+}
+
 QPointF toPoint(std::optional<QPointF> p) {
   return p ? *p : QPointF(-1, -1);
 }
@@ -456,22 +476,12 @@ class TestEditing : public QObject {
     QVERIFY(w.openScene(kScene));
     Viewport* vp = w.viewport();
     vp->resize(900, 700);
-    const Bounds3 b = doc->scene()->bounds;
-    std::vector<Probe> ps;
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<double> jitter(-0.05, 0.05);
-    for (int i = 0; i < 5; ++i)
-      for (int j = 0; j < 3; ++j)
-        for (int k = 0; k < 4; ++k) {
-          Probe p;
-          p.position = b.lo + Vec3((i + 0.5 + jitter(rng)) * b.extent().x / 5,
-                                   (j + 0.5 + jitter(rng)) * b.extent().y / 3,
-                                   (k + 0.5 + jitter(rng)) * b.extent().z / 4);
+    const std::vector<Probe> ps =
+        jitteredGrid(doc->scene()->bounds, 5, 3, 4, 5, [](int i, int, int k) {
           ShRgb sh;
           sh.c[0] = Rgb(1, 1, 1) * (1 + i + 2 * k);
-          p.sh = sh;
-          ps.push_back(p);
-        }
+          return sh;
+        });
     const std::vector<uint64_t> ids = doc->addProbes(ps, "Add");
     vp->frameAll();
     vp->setOverlay(Viewport::Overlay::TestObject, true);
@@ -559,22 +569,12 @@ class TestEditing : public QObject {
     vp->resize(800, 600);
     // Captured probes on a jittered grid through both rooms.
     const Bounds3 b = doc->scene()->bounds;
-    std::vector<Probe> ps;
-    std::mt19937 rng(4);
-    std::uniform_real_distribution<double> jitter(-0.05, 0.05);
-    for (int i = 0; i < 6; ++i)
-      for (int j = 0; j < 3; ++j)
-        for (int k = 0; k < 4; ++k) {
-          Probe p;
-          p.position = b.lo + Vec3((i + 0.5 + jitter(rng)) * b.extent().x / 6,
-                                   (j + 0.5 + jitter(rng)) * b.extent().y / 3,
-                                   (k + 0.5 + jitter(rng)) * b.extent().z / 4);
-          ShRgb sh;
-          sh.c[0] = Rgb(1, 1, 1) * (1 + i);  // brighter towards +X
-          sh.c[3] = Rgb(1, 1, 1) * 0.5;      // light from +X
-          p.sh = sh;
-          ps.push_back(p);
-        }
+    const std::vector<Probe> ps = jitteredGrid(b, 6, 3, 4, 4, [](int i, int, int) {
+      ShRgb sh;
+      sh.c[0] = Rgb(1, 1, 1) * (1 + i);  // brighter towards +X
+      sh.c[3] = Rgb(1, 1, 1) * 0.5;      // light from +X
+      return sh;
+    });
     doc->addProbes(ps, "Add");
     vp->frameAll();
     // Each overlay has a checkable action in the View menu (and the toolbar).
