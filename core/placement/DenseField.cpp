@@ -219,6 +219,8 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
       fs.sh = caps[q].sh;
       fs.shStdError = caps[q].shStdError;
       fs.f = luminanceDirection(fs.sh);  // Chajdas sec. 2.1, eq. 1
+      fs.luminanceHistogram = caps[q].luminanceHistogram;
+      fs.hueHistogram = caps[q].hueHistogram;
       fs.backfaceFraction = s.prefilter ? validity[cellOfPoint[q]] : caps[q].backfaceFraction;
       fs.depth = depth;
       fs.cellSize = h;

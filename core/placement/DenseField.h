@@ -4,6 +4,7 @@
 // Laine sec. 5), refined adaptively where geometry is near and where neighbouring samples
 // differ, so that empty space and uniform lighting cost little.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -24,9 +25,13 @@ struct FieldSample {
   ShRgb shStdError;             ///< standard error of each coefficient
   Vec3 f;                       ///< luminanceDirection(sh) (Chajdas sec. 2.1, eq. 1)
   double backfaceFraction = 0;  ///< validity (Kontkanen & Laine sec. 5); invalid ones are dropped
-  int depth = 0;                ///< octree level the sample was made at (0 = base grid)
-  double cellSize = 0;          ///< edge of the octree cell the sample is the centre of, metres
-  bool refined = false;         ///< the cell was split: samples of the next level cover it
+  /// Luminance and hue histograms of the sample's rays (ProbeCapture's layout, Capture.h), for
+  /// probe matching (Chajdas sec. 4.3).
+  std::array<double, kLuminanceBins> luminanceHistogram{};
+  std::array<double, kHueBins> hueHistogram{};
+  int depth = 0;         ///< octree level the sample was made at (0 = base grid)
+  double cellSize = 0;   ///< edge of the octree cell the sample is the centre of, metres
+  bool refined = false;  ///< the cell was split: samples of the next level cover it
 };
 
 struct DenseFieldSettings {

@@ -80,6 +80,16 @@ TEST(DenseField, IsDeterministicForASeed) {
     EXPECT_EQ(a.samples[i].position, b.samples[i].position);
     EXPECT_EQ(a.samples[i].sh, b.samples[i].sh);
     EXPECT_EQ(a.samples[i].depth, b.samples[i].depth);
+    EXPECT_EQ(a.samples[i].luminanceHistogram, b.samples[i].luminanceHistogram);
+  }
+  // Every sample keeps its rays' histograms: luminance sums to 1, hue to 1 (or 0 when no ray
+  // had a hue).
+  for (const FieldSample& fs : a.samples) {
+    double lum = 0, hue = 0;
+    for (double x : fs.luminanceHistogram) lum += x;
+    for (double x : fs.hueHistogram) hue += x;
+    EXPECT_NEAR(lum, 1.0, 1e-12);
+    EXPECT_TRUE(std::abs(hue - 1.0) < 1e-12 || hue == 0.0) << hue;
   }
 }
 
