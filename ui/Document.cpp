@@ -586,11 +586,14 @@ bool Document::evaluate(const EvalRequest& request) {
     source = tr("preview (accepted probes)");
   }
   const LightingRig rig = set_.rig;
+  std::vector<Bounds3> domain;  // the importance volumes: the queries go where probes are wanted
+  for (const ImportanceVolume& v : set_.importanceVolumes) domain.push_back({v.lo, v.hi});
   std::shared_ptr<const Tracer> tracer = tracer_;
   startJob("eval", tr("Evaluating…"), [=](JobResult& result, const auto& report) {
     EvalSettings es;
     es.queries = request.queries;
     es.referenceSpp = request.referenceSpp;
+    es.domain = domain;
     const EvalResult r = evaluateVolume(*tracer, rig, *volume, es, [&](double f) {
       return report(tr("Evaluating against the reference…"), f);
     });

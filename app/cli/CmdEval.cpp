@@ -60,16 +60,19 @@ void registerEval(CLI::App& app) {
     LightingRig rig;
     ProbeVolume volume;
     std::optional<ProbeSet> set;
+    std::vector<Bounds3> domain;  // the set's importance volumes: where the queries go
     if (isVolumePath(o->input)) {
       VolumeFile vf = loadVolume(o->input);
       const VolumeSource src = volumeSource(vf, o->input);
       scenePath = src.scenePath;
       rig = src.rig;
+      domain = src.domain;
       volume = std::move(vf.volume);
     } else {
       set = loadProbeSet(o->input);
       scenePath = set->scenePath;
       rig = set->rig;
+      for (const ImportanceVolume& v : set->importanceVolumes) domain.push_back({v.lo, v.hi});
     }
     const Scene scene = loadScene(scenePath);
     for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
@@ -83,6 +86,7 @@ void registerEval(CLI::App& app) {
     es.queries = o->queries;
     es.referenceSpp = o->referenceSpp;
     es.seed = o->seed;
+    es.domain = domain;
     if (!o->noCache) {
       es.sceneHash = sceneContentHash(scenePath);
       if (!o->cacheDir.empty()) {

@@ -42,6 +42,18 @@ VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& vol
   if (scene.is_relative()) scene = std::filesystem::absolute(volumePath).parent_path() / scene;
   s.scenePath = scene.lexically_normal().string();
   s.rig = rigFromJson(root.at("rig"));
+  if (root.has("domain")) {
+    const JsonField domain = root.at("domain");
+    for (size_t i = 0; i < domain.arraySize(); ++i) {
+      const JsonField box = domain.index(i);
+      Bounds3 b;
+      b.lo = box.at("min").vec3();
+      b.hi = box.at("max").vec3();
+      if (!(b.lo.x <= b.hi.x && b.lo.y <= b.hi.y && b.lo.z <= b.hi.z))
+        box.fail("expected min <= max on every axis");
+      s.domain.push_back(b);
+    }
+  }
   return s;
 }
 

@@ -63,6 +63,8 @@ bool isVolumePath(const std::filesystem::path& p);
 struct VolumeSource {
   std::string scenePath;
   LightingRig rig;
+  /// The baked set's importance volumes (metadata "domain"; empty when it had none).
+  std::vector<Bounds3> domain;
 };
 /// Throws ps::FileError naming the volume and the metadata field.
 VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& volumePath);

@@ -109,6 +109,14 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   meta["capture_spp"] = settings.capture.samplesPerProbe;
   meta["probe_ids"] = probes.ids;
   meta["leak_probes_added"] = r.leakProbesAdded;
+  // The set's domain of interest, so that eval of the volume draws its queries where eval of
+  // the set does.
+  if (!set.importanceVolumes.empty()) {
+    nlohmann::ordered_json domain = nlohmann::ordered_json::array();
+    for (const ImportanceVolume& v : set.importanceVolumes)
+      domain.push_back({{"min", {v.lo.x, v.lo.y, v.lo.z}}, {"max", {v.hi.x, v.hi.y, v.hi.z}}});
+    meta["domain"] = std::move(domain);
+  }
   r.file.metadataJson = meta.dump();
   if (progress && !progress(1.0)) throw Cancelled();
   return r;

@@ -50,11 +50,24 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
                                const ProgressFn& progress) {
   if (s.queries < 1) throw ParameterError("queries: expected at least 1");
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
-  const Bounds3& bounds = tracer.scene().bounds;
+  const std::vector<Bounds3> boxes =
+      s.domain.empty() ? std::vector<Bounds3>{tracer.scene().bounds} : s.domain;
+  // Each box by its share of the total volume (a flat one never: it holds no volume).
+  std::vector<double> cumulative;
+  double total = 0;
+  for (const Bounds3& b : boxes) {
+    const Vec3 e = b.extent();
+    total += b.empty() ? 0.0 : std::max(0.0, e.x) * std::max(0.0, e.y) * std::max(0.0, e.z);
+    cumulative.push_back(total);
+  }
+  if (!s.domain.empty() && !(total > 0))
+    throw ParameterError("eval: the importance volumes have no volume");
   const std::vector<Light> lights = allLights(tracer.scene(), rig);
 
-  // Query points: uniform in the scene bounds, keeping those in the domain of interest (not
-  // inside geometry, Kontkanen & Laine sec. 5). Deterministic for the seed.
+  // Query points: uniform in the domain (the union of its boxes: a box by its volume, a point
+  // in it kept with probability 1 / the number of boxes holding it), keeping those in the
+  // domain of interest (not inside geometry, Kontkanen & Laine sec. 5). With one box this is
+  // the plain uniform draw, as before boxes were possible. Deterministic for the seed.
   const size_t M = size_t(s.queries);
   EvalReference ref;
   ref.points.resize(M);
@@ -64,9 +77,19 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     uint64_t rng = streamSeed(s.seed, q);
     for (int attempt = 0; attempt < 1000; ++attempt) {
-      const Vec3 e = bounds.extent();
-      const Vec3 p =
-          bounds.lo + Vec3(e.x * uniform01(rng), e.y * uniform01(rng), e.z * uniform01(rng));
+      size_t k = 0;
+      if (boxes.size() > 1) {
+        const double u = uniform01(rng) * total;
+        while (k + 1 < boxes.size() && cumulative[k] <= u) ++k;
+      }
+      const Bounds3& b = boxes[k];
+      const Vec3 e = b.extent();
+      const Vec3 p = b.lo + Vec3(e.x * uniform01(rng), e.y * uniform01(rng), e.z * uniform01(rng));
+      if (boxes.size() > 1) {
+        int holding = 0;
+        for (const Bounds3& o : boxes) holding += o.contains(p) ? 1 : 0;
+        if (uniform01(rng) * std::max(holding, 1) >= 1.0) continue;
+      }
       if (backfaceFraction(tracer, p, 32, splitMix64(rng)) > tol::kDefaultInvalidBackfaceFraction)
         continue;
       ref.points[q] = p;
@@ -77,7 +100,10 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   });
   for (size_t q = 0; q < M; ++q)
     if (!found[q])
-      throw ParameterError("eval: could not find points outside geometry in the scene bounds");
+      throw ParameterError(s.domain.empty()
+                               ? "eval: could not find points outside geometry in the scene bounds"
+                               : "eval: could not find points outside geometry in the importance "
+                                 "volumes");
 
   std::atomic<size_t> done{0};
   std::atomic<bool> cancelled{false};
@@ -111,7 +137,9 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   std::optional<EvalReference> reference;
   if (s.cacheDir && s.sceneHash != 0) {
     cache.emplace(*s.cacheDir);
-    key = ReferenceCache::key(s.sceneHash, rig, tracer.scene().bounds, s);
+    key = ReferenceCache::key(
+        s.sceneHash, rig,
+        s.domain.empty() ? std::span<const Bounds3>(&tracer.scene().bounds, 1) : s.domain, s);
     std::string problem;
     reference = cache->find(key, M, &problem);
     if (!problem.empty())

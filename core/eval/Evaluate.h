@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ struct EvalSettings {
   /// sceneContentHash() of the scene the tracer was built from; part of the cache key. The
   /// cache is used only when this is non-zero.
   uint64_t sceneHash = 0;
+  /// The domain of interest: the probe set's importance volumes (their boxes; queries are
+  /// uniform over their union). Empty: the scene bounds. Part of the cache key.
+  std::vector<Bounds3> domain;
 };
 
 /// The reference of an evaluation: query points (valid points of the domain of interest),
@@ -58,8 +62,8 @@ struct EvalResult {
 };
 
 /// The reference for `settings` (queries, referenceSpp, seed; not the cache fields), traced.
-/// Deterministic for the seed. Throws ps::ParameterError when the scene bounds hold no point
-/// outside geometry, ps::Cancelled when `progress` returns false.
+/// Deterministic for the seed. Throws ps::ParameterError when the domain has no volume or holds
+/// no point outside geometry, ps::Cancelled when `progress` returns false.
 EvalReference computeReference(const Tracer& tracer, const LightingRig& rig,
                                const EvalSettings& settings, const ProgressFn& progress = {});
 

@@ -23,17 +23,18 @@ size_t payloadBytes(size_t queries) {
 ReferenceCache::ReferenceCache(std::filesystem::path dir)
     : files_(std::move(dir), kMagic, ".psref", "eval reference cache") {}
 
-uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig, const Bounds3& domain,
-                             const EvalSettings& s) {
+uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig,
+                             std::span<const Bounds3> domain, const EvalSettings& s) {
   const uint32_t versions[2] = {kAlgorithmVersion, CaptureCache::kAlgorithmVersion};
   uint64_t h = fnv1a64(versions, sizeof versions);
   h = fnv1a64(&sceneHash, sizeof sceneHash, h);
   h = foldEnvironmentTexels(h, rig);
   const std::string r = rigToJson(rig).dump();  // shortest round-trip doubles: exact
   h = fnv1a64(r.data(), r.size(), h);
-  const double box[6] = {domain.lo.x, domain.lo.y, domain.lo.z,
-                         domain.hi.x, domain.hi.y, domain.hi.z};
-  h = fnv1a64(box, sizeof box, h);
+  for (const Bounds3& b : domain) {  // one box hashes as before there could be several
+    const double box[6] = {b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z};
+    h = fnv1a64(box, sizeof box, h);
+  }
   const int32_t counts[2] = {s.queries, s.referenceSpp};
   h = fnv1a64(counts, sizeof counts, h);
   return fnv1a64(&s.seed, sizeof s.seed, h);

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 
 #include "core/eval/Evaluate.h"
@@ -22,11 +23,16 @@ class ReferenceCache {
   explicit ReferenceCache(std::filesystem::path dir);
 
   /// The key of one reference. Changes with any bit of the scene hash, the rig (its JSON and its
-  /// environment map's texels), the domain the queries are drawn from (today the scene bounds),
+  /// environment map's texels), the domain the queries are drawn from (its boxes in order: the
+  /// scene bounds, or the importance volumes),
   /// queries, referenceSpp or seed, and with kAlgorithmVersion or the capture integrator's
   /// CaptureCache::kAlgorithmVersion. Throws ps::FileError when the rig's map cannot be read.
-  static uint64_t key(uint64_t sceneHash, const LightingRig& rig, const Bounds3& domain,
+  static uint64_t key(uint64_t sceneHash, const LightingRig& rig, std::span<const Bounds3> domain,
                       const EvalSettings& settings);
+  static uint64_t key(uint64_t sceneHash, const LightingRig& rig, const Bounds3& domain,
+                      const EvalSettings& settings) {
+    return key(sceneHash, rig, std::span<const Bounds3>(&domain, 1), settings);
+  }
 
   /// The reference stored for `key` with `queries` queries, or nothing. A damaged entry
   /// (truncated, bad CRC, another key, another query count) counts as absent and says what is

@@ -51,6 +51,21 @@ mkdir "$tmp/blocked"
 echo x >"$tmp/blocked/eval-reference-cache"
 "$cli" eval "$tmp/blocked/uniform.psv" "${eval_opts[@]}" >"$tmp/blocked.json" 2>"$tmp/blocked.err"
 grep -q "note: cannot create the reference cache folder" "$tmp/blocked.err"
+# A set's importance volumes are eval's domain, for the set and for its baked volume (which
+# carries them in its metadata): the second eval reads the reference the first one traced.
+mkdir "$tmp/boxed"
+python3 - "$tmp/uniform.json" "$tmp/boxed/boxed.json" <<'PY'
+import json, os, sys
+s = json.load(open(sys.argv[1]))
+s["importance_volumes"] = [{"name": "left", "min": [-2.5, 3.5, -2.5], "max": [0, 5, 2.5],
+                            "weight": 1.0}]
+s["scene"] = os.path.relpath(os.path.join(os.path.dirname(sys.argv[1]), s["scene"]),
+                             os.path.dirname(sys.argv[2]))
+json.dump(s, open(sys.argv[2], "w"))
+PY
+"$cli" eval "$tmp/boxed/boxed.json" "${eval_opts[@]}" --spp 64 >"$tmp/boxed-set.json"
+"$cli" bake "$tmp/boxed/boxed.json" -o "$tmp/boxed/boxed.psv" --spp 64 --no-leak-refine --no-cache
+"$cli" eval "$tmp/boxed/boxed.psv" "${eval_opts[@]}" >"$tmp/boxed-volume.json"
 # The plain-text output says where the reference came from.
 "$cli" eval "$tmp/uniform.psv" --queries 48 --reference-spp 64 | grep -q "reference from the cache"
 
@@ -59,11 +74,12 @@ import json, sys
 tmp = sys.argv[1]
 e = {n: json.load(open(f"{tmp}/{n}.json")) for n in
      ("first", "second", "greedy-cached", "greedy-nocache", "seed8", "other", "repaired", "after",
-      "blocked")}
+      "blocked", "boxed-set", "boxed-volume")}
 cached = {n: v["reference_cached"] for n, v in e.items()}
 assert cached == {"first": False, "second": True, "greedy-cached": True,
                   "greedy-nocache": False, "seed8": False, "other": False,
-                  "repaired": False, "after": True, "blocked": False}, cached
+                  "repaired": False, "after": True, "blocked": False, "boxed-set": False,
+                  "boxed-volume": True}, cached
 keys = ("probes", "queries", "rel_rmse", "p95_rel_error", "max_rel_error", "leaking_fraction")
 same = lambda a, b: all(e[a][k] == e[b][k] for k in keys)
 assert same("first", "second") and same("first", "other"), (e["first"], e["second"])

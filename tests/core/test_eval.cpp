@@ -181,6 +181,36 @@ TEST(EvalReferenceCache, KeyFollowsTheEnvironmentTexelsAndTheDomain) {
   EXPECT_NE(k, ReferenceCache::key(5, rig, wider, es));
 }
 
+TEST(Eval, QueriesAreUniformOverTheImportanceVolumes) {
+  // Two overlapping boxes high in the Cornell box (above the blocks): their union is
+  // x in [-2, 1], and the overlap x in [-1, 0] holds a third of it, so a third of the queries
+  // (not half, as drawing a box and then a point in it would give).
+  EvalSettings es;
+  es.queries = 600;
+  es.referenceSpp = 1;
+  Bounds3 a, b;
+  a.extend({-2, 4, -1});
+  a.extend({0, 5, 1});
+  b.extend({-1, 4, -1});
+  b.extend({1, 5, 1});
+  es.domain = {a, b};
+  const EvalReference ref = computeReference(fixture().tracer, fixture().rig, es);
+  int overlap = 0;
+  for (Vec3 p : ref.points) {
+    EXPECT_TRUE(a.contains(p) || b.contains(p)) << p;
+    overlap += a.contains(p) && b.contains(p) ? 1 : 0;
+  }
+  EXPECT_NEAR(overlap, 200, 5 * std::sqrt(600 * (1.0 / 3) * (2.0 / 3)));  // 5 sigma: +-58
+  // Another domain is another cache key; a flat one is an error.
+  EXPECT_NE(ReferenceCache::key(1, fixture().rig, es.domain, es),
+            ReferenceCache::key(1, fixture().rig, std::vector<Bounds3>{a}, es));
+  Bounds3 flat;
+  flat.extend({0, 4, 0});
+  flat.extend({1, 4, 1});
+  es.domain = {flat};
+  EXPECT_THROW(computeReference(fixture().tracer, fixture().rig, es), ParameterError);
+}
+
 TEST(EvalReferenceCache, DamagedEntryIsReportedAndRecomputedToTheSameNumbers) {
   const fs::path dir = test::testTempDir("ps_test_eval_");
   const ProbeVolume v = gridVolume(2);
