@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "core/common/Check.h"
 #include "core/common/Error.h"
@@ -76,6 +77,9 @@ void alphaMaskFilter(const RTCFilterFunctionNArguments* args) {
 struct Tracer::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  /// Per triangle, the unit geometric normal from the counter-clockwise winding, computed in
+  /// double once here instead of per hit; (0, 0, 0) for a degenerate triangle.
+  std::vector<Vec3> faceNormals;
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
@@ -139,6 +143,16 @@ Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>
   rtcCommitScene(impl_->scene);
   impl_->throwIfError("rtcCommitScene");
 
+  // Geometric normals in double (Embree's Ng has its own sign convention and float precision).
+  impl_->faceNormals.resize(triangleCount);
+  for (size_t t = 0; t < triangleCount; ++t) {
+    const uint32_t* tri = &scene.indices[3 * t];
+    const Vec3 p0 = scene.vertex(tri[0]), p1 = scene.vertex(tri[1]), p2 = scene.vertex(tri[2]);
+    const Vec3 n = cross(p1 - p0, p2 - p0);
+    const double len = length(n);
+    impl_->faceNormals[t] = len > 0 ? n / len : Vec3{};
+  }
+
   rayEpsilon_ = tol::kRayOffsetRelative * scene.bounds.diagonal() + tol::kRayOffsetAbsolute;
 }
 
@@ -161,14 +175,9 @@ std::optional<Hit> Tracer::intersect(const Ray& ray) const {
   hit.triangle = rh.hit.primID;
   hit.u = rh.hit.u;
   hit.v = rh.hit.v;
-  // Geometric normal from the counter-clockwise winding, in double (Embree's Ng has its own
-  // sign convention and float precision).
-  const uint32_t* tri = &scene_.indices[3 * static_cast<size_t>(hit.triangle)];
-  const Vec3 p0 = scene_.vertex(tri[0]), p1 = scene_.vertex(tri[1]), p2 = scene_.vertex(tri[2]);
-  const Vec3 n = cross(p1 - p0, p2 - p0);
-  const double len = length(n);
+  const Vec3 n = impl_->faceNormals[hit.triangle];
   // A degenerate triangle Embree still reported: face the ray.
-  hit.geometricNormal = len > 0 ? n / len : normalize(-ray.direction);
+  hit.geometricNormal = n == Vec3{} ? normalize(-ray.direction) : n;
   hit.frontFace = dot(ray.direction, hit.geometricNormal) < 0;
   return hit;
 }
