@@ -246,7 +246,8 @@ class PathTracer {
       // Lambertian bounce, cosine-weighted: f cos / pdf = albedo.
       const double u1 = uniform01(rng), u2 = uniform01(rng);
       d = cosineHemisphere(n, u1, u2);
-      bouncePdf = std::max(0.0, dot(n, d)) / kPi;
+      // Only the environment map's MIS weight reads it: skip the division otherwise.
+      if (envNee_) bouncePdf = std::max(0.0, dot(n, d)) / kPi;
       o = p;
       beta = beta * albedo;
       if (bounce + 1 >= kRussianRouletteStartBounce) {
