@@ -50,6 +50,7 @@
 
 #include "core/common/Check.h"
 #include "core/common/Error.h"
+#include "core/math/SinCos.h"
 
 namespace ps {
 
@@ -102,22 +103,22 @@ void r2Point(uint64_t j, const double offset[2], double& u, double& v) {
 
 // ---- Sampling ------------------------------------------------------------------------------
 
-/// Equal-area map of [0,1)^2 to the unit sphere (pdf 1 / 4 pi).
+/// Equal-area map of [0,1)^2 to the unit sphere (pdf 1 / 4 pi); azimuth 2 pi v.
 Vec3 uniformSphere(double u, double v) {
   const double z = 1.0 - 2.0 * u;
   const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-  const double phi = 2.0 * kPi * v;
-  return {r * std::cos(phi), r * std::sin(phi), z};
+  const SinCos phi = sinCos2Pi(v);
+  return {r * phi.cos, r * phi.sin, z};
 }
 
 /// Cosine-weighted direction around the unit normal n (pdf cos / pi), Malley's method.
 Vec3 cosineHemisphere(Vec3 n, double u, double v) {
   const double r = std::sqrt(u);
-  const double phi = 2.0 * kPi * v;
+  const SinCos phi = sinCos2Pi(v);  // azimuth 2 pi v
   const double z = std::sqrt(std::max(0.0, 1.0 - u));
   Vec3 t, b;
   orthonormalBasis(n, t, b);
-  return normalize(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * z);
+  return normalize(t * (r * phi.cos) + b * (r * phi.sin) + n * z);
 }
 
 bool isFinite(Rgb c) {
