@@ -111,14 +111,15 @@ Vec3 uniformSphere(double u, double v) {
   return {r * phi.cos, r * phi.sin, z};
 }
 
-/// Cosine-weighted direction around the unit normal n (pdf cos / pi), Malley's method.
+/// Cosine-weighted direction around the unit normal n (pdf cos / pi), Malley's method. Unit by
+/// construction (r^2 + z^2 = 1 in the orthonormal frame t, b, n), to rounding: not renormalised.
 Vec3 cosineHemisphere(Vec3 n, double u, double v) {
   const double r = std::sqrt(u);
   const SinCos phi = sinCos2Pi(v);  // azimuth 2 pi v
   const double z = std::sqrt(std::max(0.0, 1.0 - u));
   Vec3 t, b;
   orthonormalBasis(n, t, b);
-  return normalize(t * (r * phi.cos) + b * (r * phi.sin) + n * z);
+  return t * (r * phi.cos) + b * (r * phi.sin) + n * z;
 }
 
 bool isFinite(Rgb c) {
