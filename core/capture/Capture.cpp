@@ -285,29 +285,37 @@ class PathTracer {
 
 /// Sums and sums of squares of the 27 per-sample estimators 4 pi L Y_i (in double: the
 /// cancellation in sumSq - sum^2 / n loses ~1e-16 of the second moment, far below any standard
-/// error we report; a negative difference is clamped to 0).
+/// error we report; a negative difference is clamped to 0). Flat arrays, index 3 i + channel, so
+/// that the per-sample update is one loop over 27 doubles the compiler can vectorise.
 struct ShAccumulator {
-  std::array<Rgb, kShCoeffCount> sum{};
-  std::array<Rgb, kShCoeffCount> sumSq{};
+  static constexpr int kCount = 3 * kShCoeffCount;
+  std::array<double, kCount> sum{};
+  std::array<double, kCount> sumSq{};
   int n = 0;
 
   void add(Vec3 d, Rgb radiance) {
     ++n;
     const auto y = shBasis(d);
     const Rgb l = radiance * (4.0 * kPi);
-    for (int i = 0; i < kShCoeffCount; ++i) {
-      const Rgb x = l * y[i];
-      sum[i] += x;
-      sumSq[i] += x * x;
+    const double lc[3] = {l.r, l.g, l.b};
+    for (int k = 0; k < kCount; ++k) {
+      const double x = lc[k % 3] * y[size_t(k / 3)];
+      sum[size_t(k)] += x;
+      sumSq[size_t(k)] += x * x;
     }
   }
-  Rgb mean(int i) const { return n > 0 ? sum[i] / n : Rgb{}; }
+  Rgb mean(int i) const {
+    if (n <= 0) return Rgb{};
+    const size_t k = 3 * size_t(i);
+    return Rgb{sum[k], sum[k + 1], sum[k + 2]} / n;
+  }
   /// The standard error of mean(i) per channel: sample standard deviation / sqrt(n).
   Rgb standardError(int i) const {
     Rgb se;
     if (n < 2) return se;
     for (int ch = 0; ch < 3; ++ch) {
-      const double var = (sumSq[i][ch] - sum[i][ch] * sum[i][ch] / n) / (n - 1);
+      const size_t k = 3 * size_t(i) + size_t(ch);
+      const double var = (sumSq[k] - sum[k] * sum[k] / n) / (n - 1);
       se[ch] = std::sqrt(std::max(0.0, var) / n);
     }
     return se;
