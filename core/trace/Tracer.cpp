@@ -41,17 +41,18 @@ float toFloat(double x) {
   return static_cast<float>(x);
 }
 
-void fillRay(const Ray& ray, RTCRay& r) {
-  r.org_x = toFloat(ray.origin.x);
-  r.org_y = toFloat(ray.origin.y);
-  r.org_z = toFloat(ray.origin.z);
-  r.dir_x = toFloat(ray.direction.x);
-  r.dir_y = toFloat(ray.direction.y);
-  r.dir_z = toFloat(ray.direction.z);
-  r.tnear = toFloat(ray.tMin);
-  r.tfar = ray.tMax >= static_cast<double>(std::numeric_limits<float>::max())
+void fillRay(double ox, double oy, double oz, double dx, double dy, double dz, double tMin,
+             double tMax, RTCRay& r) {
+  r.org_x = toFloat(ox);
+  r.org_y = toFloat(oy);
+  r.org_z = toFloat(oz);
+  r.dir_x = toFloat(dx);
+  r.dir_y = toFloat(dy);
+  r.dir_z = toFloat(dz);
+  r.tnear = toFloat(tMin);
+  r.tfar = tMax >= static_cast<double>(std::numeric_limits<float>::max())
                ? std::numeric_limits<float>::infinity()
-               : toFloat(ray.tMax);
+               : toFloat(tMax);
   r.time = 0.0f;
   r.mask = 0xFFFFFFFFu;
   r.id = 0;
@@ -158,12 +159,13 @@ Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>
 
 Tracer::~Tracer() = default;
 
-std::optional<Hit> Tracer::intersect(const Ray& ray) const {
-  if (rayLog_) rayLog_->push_back({ray, false});
+std::optional<Hit> Tracer::intersect(double ox, double oy, double oz, double dx, double dy,
+                                     double dz, double tMin, double tMax) const {
+  if (rayLog_) rayLog_->push_back({Ray{{ox, oy, oz}, {dx, dy, dz}, tMin, tMax}, false});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
-  fillRay(ray, rh.ray);
+  fillRay(ox, oy, oz, dx, dy, dz, tMin, tMax, rh.ray);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -177,17 +179,19 @@ std::optional<Hit> Tracer::intersect(const Ray& ray) const {
   hit.v = rh.hit.v;
   const Vec3 n = impl_->faceNormals[hit.triangle];
   // A degenerate triangle Embree still reported: face the ray.
-  hit.geometricNormal = n == Vec3{} ? normalize(-ray.direction) : n;
-  hit.frontFace = dot(ray.direction, hit.geometricNormal) < 0;
+  const Vec3 direction{dx, dy, dz};
+  hit.geometricNormal = n == Vec3{} ? normalize(-direction) : n;
+  hit.frontFace = dot(direction, hit.geometricNormal) < 0;
   return hit;
 }
 
-bool Tracer::occluded(const Ray& ray) const {
-  if (rayLog_) rayLog_->push_back({ray, true});
+bool Tracer::occluded(double ox, double oy, double oz, double dx, double dy, double dz, double tMin,
+                      double tMax) const {
+  if (rayLog_) rayLog_->push_back({Ray{{ox, oy, oz}, {dx, dy, dz}, tMin, tMax}, true});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay r;
-  fillRay(ray, r);
+  fillRay(ox, oy, oz, dx, dy, dz, tMin, tMax, r);
   rtcOccluded1(impl_->scene, &context, &r);
   // Embree sets tfar to -inf when something is hit.
   return r.tfar < 0.0f && std::isinf(r.tfar);
