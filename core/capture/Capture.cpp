@@ -285,37 +285,39 @@ class PathTracer {
 
 /// Sums and sums of squares of the 27 per-sample estimators 4 pi L Y_i (in double: the
 /// cancellation in sumSq - sum^2 / n loses ~1e-16 of the second moment, far below any standard
-/// error we report; a negative difference is clamped to 0). Flat arrays, index 3 i + channel, so
-/// that the per-sample update is one loop over 27 doubles the compiler can vectorise.
+/// error we report; a negative difference is clamped to 0). Stored per channel, so that the
+/// per-sample update is three loops over the 9 basis values that the compiler vectorises.
 struct ShAccumulator {
-  static constexpr int kCount = 3 * kShCoeffCount;
-  std::array<double, kCount> sum{};
-  std::array<double, kCount> sumSq{};
+  std::array<std::array<double, kShCoeffCount>, 3> sum{};  ///< [channel][coefficient]
+  std::array<std::array<double, kShCoeffCount>, 3> sumSq{};
   int n = 0;
 
   void add(Vec3 d, Rgb radiance) {
     ++n;
     const auto y = shBasis(d);
     const Rgb l = radiance * (4.0 * kPi);
-    const double lc[3] = {l.r, l.g, l.b};
-    for (int k = 0; k < kCount; ++k) {
-      const double x = lc[k % 3] * y[size_t(k / 3)];
-      sum[size_t(k)] += x;
-      sumSq[size_t(k)] += x * x;
+    for (int ch = 0; ch < 3; ++ch) {
+      const double lc = l[ch];
+      auto& s = sum[size_t(ch)];
+      auto& s2 = sumSq[size_t(ch)];
+      for (size_t i = 0; i < kShCoeffCount; ++i) {
+        const double x = lc * y[i];
+        s[i] += x;
+        s2[i] += x * x;
+      }
     }
   }
   Rgb mean(int i) const {
     if (n <= 0) return Rgb{};
-    const size_t k = 3 * size_t(i);
-    return Rgb{sum[k], sum[k + 1], sum[k + 2]} / n;
+    return Rgb{sum[0][size_t(i)], sum[1][size_t(i)], sum[2][size_t(i)]} / n;
   }
   /// The standard error of mean(i) per channel: sample standard deviation / sqrt(n).
   Rgb standardError(int i) const {
     Rgb se;
     if (n < 2) return se;
     for (int ch = 0; ch < 3; ++ch) {
-      const size_t k = 3 * size_t(i) + size_t(ch);
-      const double var = (sumSq[k] - sum[k] * sum[k] / n) / (n - 1);
+      const double s = sum[size_t(ch)][size_t(i)], s2 = sumSq[size_t(ch)][size_t(i)];
+      const double var = (s2 - s * s / n) / (n - 1);
       se[ch] = std::sqrt(std::max(0.0, var) / n);
     }
     return se;
