@@ -1,8 +1,11 @@
 #pragma once
 // sin and cos of 2 pi v for a fraction of a turn v, inline and without a library call: the
-// samplers' azimuths. Exact reduction to a quarter turn, then the fdlibm kernels on
-// [-pi/4, pi/4] (Sun Microsystems 1993, k_sin.c and k_cos.c: minimax polynomials, error below
-// one ulp there).
+// samplers' azimuths. v is split exactly into k / kTurnSteps plus a remainder of at most half a
+// step; sin and cos of the step come from a table (long double, rounded once), those of the
+// remainder b (|b| <= pi / kTurnSteps) from their Taylor series to b^7 and b^6 (the next terms
+// are below 1e-20), and the angle-addition formulas join them.
+#include <array>
+#include <cmath>
 
 namespace ps {
 
@@ -10,44 +13,54 @@ struct SinCos {
   double sin = 0, cos = 1;
 };
 
+namespace detail {
+
+inline constexpr int kTurnSteps = 256;
+
+struct TurnTable {
+  std::array<double, kTurnSteps + 1> sin, cos;  ///< of 2 pi k / kTurnSteps, k = 0..kTurnSteps
+};
+
+inline const TurnTable& turnTable() {
+  static const TurnTable table = [] {
+    // The first quarter turn in long double, the others by exact quarter-turn rotations, so
+    // that whole quarter turns are exactly 0 and +-1.
+    constexpr int kQuarter = kTurnSteps / 4;
+    TurnTable t;
+    for (int k = 0; k <= kTurnSteps; ++k) {
+      const long double a = 6.283185307179586476925286766559005768L * (k % kQuarter) / kTurnSteps;
+      const double s = static_cast<double>(std::sin(a)), c = static_cast<double>(std::cos(a));
+      const int quadrant = (k / kQuarter) % 4;
+      t.sin[size_t(k)] = quadrant == 0 ? s : quadrant == 1 ? c : quadrant == 2 ? -s : -c;
+      t.cos[size_t(k)] = quadrant == 0 ? c : quadrant == 1 ? -s : quadrant == 2 ? -c : s;
+    }
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace detail
+
 /// sin(2 pi v) and cos(2 pi v) for 0 <= v <= 1 (other v: unspecified), each within
 /// tol::kSinCos2PiAbsolute of the exact value. Faster than std::sin and std::cos of 2 pi v
-/// (no argument reduction for arbitrary angles, no errno), and more accurate near whole
-/// quarter turns, where the rounding of 2 pi v is left out.
+/// (no argument reduction for arbitrary angles, no errno) and more accurate, since the
+/// rounding of 2 pi v is left out.
 inline SinCos sinCos2Pi(double v) {
-  // 2 pi v = (pi / 2) (q + f), q a whole number of quarter turns, |f| <= 1/2 (up to an ulp).
-  // 4 v and 4 v - q are exact.
-  const double x = 4.0 * v;
-  const int q = static_cast<int>(x + 0.5);
-  const double f = x - q;
-  constexpr double kHalfPi = 1.57079632679489661923;
-  const double t = f * kHalfPi;  // |t| <= pi / 4
-  const double z = t * t;
-  const double w = z * z;
-  // k_sin.c: sin t = t + t^3 (S1 + z (S2 + ...)).
-  constexpr double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
-                   S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
-                   S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
-  const double rs = S2 + z * (S3 + z * S4) + z * w * (S5 + z * S6);
-  const double s = t + z * t * (S1 + z * rs);
-  // k_cos.c: cos t = 1 - z / 2 + z^2 (C1 + z (C2 + ...)), with 1 - z / 2 summed in two parts.
-  constexpr double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
-                   C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
-                   C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
-  const double rc = z * (C1 + z * (C2 + z * C3)) + w * w * (C4 + z * (C5 + z * C6));
-  const double hz = 0.5 * z;
-  const double oneMinusHz = 1.0 - hz;
-  const double c = oneMinusHz + (((1.0 - oneMinusHz) - hz) + z * rc);
-  switch (q & 3) {
-    case 0:
-      return {s, c};
-    case 1:
-      return {c, -s};
-    case 2:
-      return {-s, -c};
-    default:
-      return {-c, s};
-  }
+  const detail::TurnTable& table = detail::turnTable();
+  // v = (k + f) / kTurnSteps with |f| <= 1/2 (up to an ulp); the scaling and x - k are exact.
+  const double x = detail::kTurnSteps * v;
+  const int k = static_cast<int>(x + 0.5);
+  const double f = x - k;
+  constexpr double kStep = 6.283185307179586476925286766559005768 / detail::kTurnSteps;
+  const double b = f * kStep;
+  const double z = b * b;
+  // sin b = b - b^3/3! + b^5/5! - b^7/7!, cos b - 1 = -b^2/2! + b^4/4! - b^6/6!.
+  const double sinB =
+      b + b * z * (-0.16666666666666666 + z * (0.008333333333333333 - z * 1.984126984126984e-4));
+  const double cosBMinus1 = z * (-0.5 + z * (0.041666666666666664 - z * 0.001388888888888889));
+  const double sinA = table.sin[size_t(k)], cosA = table.cos[size_t(k)];
+  // sin(a + b) = sin a + (sin a (cos b - 1) + cos a sin b), likewise cos(a + b).
+  return {sinA + (sinA * cosBMinus1 + cosA * sinB), cosA + (cosA * cosBMinus1 - sinA * sinB)};
 }
 
 }  // namespace ps

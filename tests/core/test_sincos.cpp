@@ -25,10 +25,10 @@ TEST(SinCos2Pi, MatchesLongDoubleOnAHundredThousandSeededFractions) {
   for (int i = 0; i < 100000; ++i) expectNearExact(u(rng));
 }
 
-TEST(SinCos2Pi, MatchesLongDoubleAroundEveryEighthOfATurn) {
-  // The quarter-turn reduction switches quadrant at odd eighths; whole quarters are exact.
-  for (int k = 0; k <= 8; ++k) {
-    const double v = k / 8.0;
+TEST(SinCos2Pi, MatchesLongDoubleAroundEveryTableStepAndHalfStep) {
+  // The table entry used switches at odd half steps; whole steps leave only the table value.
+  for (int k = 0; k <= 2 * detail::kTurnSteps; ++k) {
+    const double v = k / (2.0 * detail::kTurnSteps);
     expectNearExact(v);
     for (int ulps = 1; ulps <= 4; ++ulps) {
       expectNearExact(std::nextafter(v, v + ulps));
