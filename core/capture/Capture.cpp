@@ -50,6 +50,7 @@
 
 #include "core/common/Check.h"
 #include "core/common/Error.h"
+#include "core/math/SinCos.h"
 
 namespace ps {
 
@@ -102,22 +103,23 @@ void r2Point(uint64_t j, const double offset[2], double& u, double& v) {
 
 // ---- Sampling ------------------------------------------------------------------------------
 
-/// Equal-area map of [0,1)^2 to the unit sphere (pdf 1 / 4 pi).
+/// Equal-area map of [0,1)^2 to the unit sphere (pdf 1 / 4 pi); azimuth 2 pi v.
 Vec3 uniformSphere(double u, double v) {
   const double z = 1.0 - 2.0 * u;
   const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-  const double phi = 2.0 * kPi * v;
-  return {r * std::cos(phi), r * std::sin(phi), z};
+  const SinCos phi = sinCos2Pi(v);
+  return {r * phi.cos, r * phi.sin, z};
 }
 
-/// Cosine-weighted direction around the unit normal n (pdf cos / pi), Malley's method.
+/// Cosine-weighted direction around the unit normal n (pdf cos / pi), Malley's method. Unit by
+/// construction (r^2 + z^2 = 1 in the orthonormal frame t, b, n), to rounding: not renormalised.
 Vec3 cosineHemisphere(Vec3 n, double u, double v) {
   const double r = std::sqrt(u);
-  const double phi = 2.0 * kPi * v;
+  const SinCos phi = sinCos2Pi(v);  // azimuth 2 pi v
   const double z = std::sqrt(std::max(0.0, 1.0 - u));
   Vec3 t, b;
   orthonormalBasis(n, t, b);
-  return normalize(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * z);
+  return t * (r * phi.cos) + b * (r * phi.sin) + n * z;
 }
 
 bool isFinite(Rgb c) {
@@ -246,7 +248,8 @@ class PathTracer {
       // Lambertian bounce, cosine-weighted: f cos / pdf = albedo.
       const double u1 = uniform01(rng), u2 = uniform01(rng);
       d = cosineHemisphere(n, u1, u2);
-      bouncePdf = std::max(0.0, dot(n, d)) / kPi;
+      // Only the environment map's MIS weight reads it: skip the division otherwise.
+      if (envNee_) bouncePdf = std::max(0.0, dot(n, d)) / kPi;
       o = p;
       beta = beta * albedo;
       if (bounce + 1 >= kRussianRouletteStartBounce) {
@@ -282,29 +285,39 @@ class PathTracer {
 
 /// Sums and sums of squares of the 27 per-sample estimators 4 pi L Y_i (in double: the
 /// cancellation in sumSq - sum^2 / n loses ~1e-16 of the second moment, far below any standard
-/// error we report; a negative difference is clamped to 0).
+/// error we report; a negative difference is clamped to 0). Stored per channel, so that the
+/// per-sample update is three loops over the 9 basis values that the compiler vectorises.
 struct ShAccumulator {
-  std::array<Rgb, kShCoeffCount> sum{};
-  std::array<Rgb, kShCoeffCount> sumSq{};
+  std::array<std::array<double, kShCoeffCount>, 3> sum{};  ///< [channel][coefficient]
+  std::array<std::array<double, kShCoeffCount>, 3> sumSq{};
   int n = 0;
 
   void add(Vec3 d, Rgb radiance) {
     ++n;
     const auto y = shBasis(d);
     const Rgb l = radiance * (4.0 * kPi);
-    for (int i = 0; i < kShCoeffCount; ++i) {
-      const Rgb x = l * y[i];
-      sum[i] += x;
-      sumSq[i] += x * x;
+    for (int ch = 0; ch < 3; ++ch) {
+      const double lc = l[ch];
+      auto& s = sum[size_t(ch)];
+      auto& s2 = sumSq[size_t(ch)];
+      for (size_t i = 0; i < kShCoeffCount; ++i) {
+        const double x = lc * y[i];
+        s[i] += x;
+        s2[i] += x * x;
+      }
     }
   }
-  Rgb mean(int i) const { return n > 0 ? sum[i] / n : Rgb{}; }
+  Rgb mean(int i) const {
+    if (n <= 0) return Rgb{};
+    return Rgb{sum[0][size_t(i)], sum[1][size_t(i)], sum[2][size_t(i)]} / n;
+  }
   /// The standard error of mean(i) per channel: sample standard deviation / sqrt(n).
   Rgb standardError(int i) const {
     Rgb se;
     if (n < 2) return se;
     for (int ch = 0; ch < 3; ++ch) {
-      const double var = (sumSq[i][ch] - sum[i][ch] * sum[i][ch] / n) / (n - 1);
+      const double s = sum[size_t(ch)][size_t(i)], s2 = sumSq[size_t(ch)][size_t(i)];
+      const double var = (s2 - s * s / n) / (n - 1);
       se[ch] = std::sqrt(std::max(0.0, var) / n);
     }
     return se;

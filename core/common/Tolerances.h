@@ -35,4 +35,9 @@ inline constexpr double kFastPathMargin = double(kBarycentricSlack);
 /// the dot product of the ray direction and the surface normal; this leaves out grazing hits.
 inline constexpr double kLeakGrazingCos = 1e-3;
 
+/// sinCos2Pi (core/math/SinCos.h) is within this of the exact sin and cos of 2 pi v: the table's
+/// rounding (half an ulp), the rounding of the remainder angle (<= 2e-18) and of the final sums
+/// (1.1e-16 measured over 1e7 random v; std::sin and std::cos of the rounded 2 pi v: 6.9e-16).
+inline constexpr double kSinCos2PiAbsolute = 4e-16;
+
 }  // namespace ps::tol

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "core/common/Check.h"
 #include "core/common/Error.h"
@@ -40,17 +41,18 @@ float toFloat(double x) {
   return static_cast<float>(x);
 }
 
-void fillRay(const Ray& ray, RTCRay& r) {
-  r.org_x = toFloat(ray.origin.x);
-  r.org_y = toFloat(ray.origin.y);
-  r.org_z = toFloat(ray.origin.z);
-  r.dir_x = toFloat(ray.direction.x);
-  r.dir_y = toFloat(ray.direction.y);
-  r.dir_z = toFloat(ray.direction.z);
-  r.tnear = toFloat(ray.tMin);
-  r.tfar = ray.tMax >= static_cast<double>(std::numeric_limits<float>::max())
+void fillRay(double ox, double oy, double oz, double dx, double dy, double dz, double tMin,
+             double tMax, RTCRay& r) {
+  r.org_x = toFloat(ox);
+  r.org_y = toFloat(oy);
+  r.org_z = toFloat(oz);
+  r.dir_x = toFloat(dx);
+  r.dir_y = toFloat(dy);
+  r.dir_z = toFloat(dz);
+  r.tnear = toFloat(tMin);
+  r.tfar = tMax >= static_cast<double>(std::numeric_limits<float>::max())
                ? std::numeric_limits<float>::infinity()
-               : toFloat(ray.tMax);
+               : toFloat(tMax);
   r.time = 0.0f;
   r.mask = 0xFFFFFFFFu;
   r.id = 0;
@@ -76,6 +78,9 @@ void alphaMaskFilter(const RTCFilterFunctionNArguments* args) {
 struct Tracer::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  /// Per triangle, the unit geometric normal from the counter-clockwise winding, computed in
+  /// double once here instead of per hit; (0, 0, 0) for a degenerate triangle.
+  std::vector<Vec3> faceNormals;
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
@@ -139,17 +144,28 @@ Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>
   rtcCommitScene(impl_->scene);
   impl_->throwIfError("rtcCommitScene");
 
+  // Geometric normals in double (Embree's Ng has its own sign convention and float precision).
+  impl_->faceNormals.resize(triangleCount);
+  for (size_t t = 0; t < triangleCount; ++t) {
+    const uint32_t* tri = &scene.indices[3 * t];
+    const Vec3 p0 = scene.vertex(tri[0]), p1 = scene.vertex(tri[1]), p2 = scene.vertex(tri[2]);
+    const Vec3 n = cross(p1 - p0, p2 - p0);
+    const double len = length(n);
+    impl_->faceNormals[t] = len > 0 ? n / len : Vec3{};
+  }
+
   rayEpsilon_ = tol::kRayOffsetRelative * scene.bounds.diagonal() + tol::kRayOffsetAbsolute;
 }
 
 Tracer::~Tracer() = default;
 
-std::optional<Hit> Tracer::intersect(const Ray& ray) const {
-  if (rayLog_) rayLog_->push_back({ray, false});
+std::optional<Hit> Tracer::intersect(double ox, double oy, double oz, double dx, double dy,
+                                     double dz, double tMin, double tMax) const {
+  if (rayLog_) rayLog_->push_back({Ray{{ox, oy, oz}, {dx, dy, dz}, tMin, tMax}, false});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
-  fillRay(ray, rh.ray);
+  fillRay(ox, oy, oz, dx, dy, dz, tMin, tMax, rh.ray);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -161,24 +177,21 @@ std::optional<Hit> Tracer::intersect(const Ray& ray) const {
   hit.triangle = rh.hit.primID;
   hit.u = rh.hit.u;
   hit.v = rh.hit.v;
-  // Geometric normal from the counter-clockwise winding, in double (Embree's Ng has its own
-  // sign convention and float precision).
-  const uint32_t* tri = &scene_.indices[3 * static_cast<size_t>(hit.triangle)];
-  const Vec3 p0 = scene_.vertex(tri[0]), p1 = scene_.vertex(tri[1]), p2 = scene_.vertex(tri[2]);
-  const Vec3 n = cross(p1 - p0, p2 - p0);
-  const double len = length(n);
+  const Vec3 n = impl_->faceNormals[hit.triangle];
   // A degenerate triangle Embree still reported: face the ray.
-  hit.geometricNormal = len > 0 ? n / len : normalize(-ray.direction);
-  hit.frontFace = dot(ray.direction, hit.geometricNormal) < 0;
+  const Vec3 direction{dx, dy, dz};
+  hit.geometricNormal = n == Vec3{} ? normalize(-direction) : n;
+  hit.frontFace = dot(direction, hit.geometricNormal) < 0;
   return hit;
 }
 
-bool Tracer::occluded(const Ray& ray) const {
-  if (rayLog_) rayLog_->push_back({ray, true});
+bool Tracer::occluded(double ox, double oy, double oz, double dx, double dy, double dz, double tMin,
+                      double tMax) const {
+  if (rayLog_) rayLog_->push_back({Ray{{ox, oy, oz}, {dx, dy, dz}, tMin, tMax}, true});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay r;
-  fillRay(ray, r);
+  fillRay(ox, oy, oz, dx, dy, dz, tMin, tMax, r);
   rtcOccluded1(impl_->scene, &context, &r);
   // Embree sets tfar to -inf when something is hit.
   return r.tfar < 0.0f && std::isinf(r.tfar);
