@@ -35,16 +35,12 @@
 #include "core/capture/Capture.h"
 
 #include "core/capture/DirectLight.h"
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
+#include "core/capture/ParallelProbes.h"
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <mutex>
 #include <optional>
 #include <string>
 
@@ -428,90 +424,62 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
   const int maxSamples = adaptive ? settings.maxSamplesPerProbe : settings.samplesPerProbe;
   const std::array<Vec3, 6> axes = {Vec3{1, 0, 0},  Vec3{-1, 0, 0}, Vec3{0, 1, 0},
                                     Vec3{0, -1, 0}, Vec3{0, 0, 1},  Vec3{0, 0, -1}};
-  std::atomic<bool> cancelled{false};
-  size_t done = 0;  // guarded by progressMutex
-  std::mutex progressMutex;
-
-  auto captureOne = [&](size_t probe) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const Vec3 p = points[probe];
-    uint64_t rng = streamState(settings.seed, probe);
-    const double offset[2] = {uniform01(rng), uniform01(rng)};
-    // The delta lights' direct light: added to the SH in Full mode, and part of the irradiance
-    // the relative error is measured against.
-    const ShRgb direct = settings.mode == CaptureMode::Full ? pt.directDeltaSh(p) : ShRgb{};
-    std::array<double, 6> directLum{};
-    for (size_t k = 0; k < 6; ++k) directLum[k] = luminance(direct.irradiance(axes[k]));
-    ShAccumulator acc;
-    AxisIrradianceAccumulator irr;
-    ProbeCapture& c = out[probe];
-    std::array<double, kHueBins> hue{};
-    int backfaces = 0;
-    int j = 0;
-    for (; j < maxSamples; ++j) {
-      if (j % kCancelPollSamples == kCancelPollSamples - 1 && cancelled.load()) return;
-      if (adaptive && j >= settings.minSamplesPerProbe && j % kAdaptiveBatchSamples == 0 &&
-          irr.relativeError(directLum) <= settings.targetRelativeError)
-        break;
-      double u, v;
-      r2Point(static_cast<uint64_t>(j), offset, u, v);
-      const Vec3 dir = uniformSphere(u, v);
-      bool backface = false;
-      const Rgb L = pt.radiance(p, dir, rng, &backface);
-      backfaces += backface ? 1 : 0;
-      acc.add(dir, L);
-      const double lum = luminance(L);
-      irr.add(dir, lum);
-      c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;
-      const int h = hueBin(L);
-      if (h >= 0) hue[size_t(h)] += lum;
-    }
-    const int n = j;
-    c.samples = n;
-    c.backfaceFraction = static_cast<double>(backfaces) / n;
-    for (double& b : c.luminanceHistogram) b /= n;
-    double hueTotal = 0;
-    for (double b : hue) hueTotal += b;
-    for (size_t k = 0; k < hue.size(); ++k)
-      c.hueHistogram[k] = hueTotal > 0 ? hue[k] / hueTotal : 0;
-    for (int i = 0; i < kShCoeffCount; ++i) {
-      c.sh.c[i] = acc.mean(i);
-      c.shStdError.c[i] = acc.standardError(i);
-    }
-    c.sh += direct;
-    c.relativeError = irr.relativeError(directLum);
-    for (int i = 0; i < kShCoeffCount; ++i) {
-      PS_CHECK(isFinite(c.sh.c[i]));
-      PS_CHECK(isFinite(c.shStdError.c[i]));
-    }
-    c.seconds = secondsSince(t0);
-
-    if (progress) {
-      // Counted under the lock so that the reported fractions increase and end at exactly 1.
-      std::lock_guard<std::mutex> lock(progressMutex);
-      const size_t finished = ++done;
-      if (!cancelled.load() &&
-          !progress(static_cast<double>(finished) / static_cast<double>(points.size())))
-        cancelled.store(true);
-    }
-  };
-
-  auto run = [&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size(), 1),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        for (size_t i = r.begin(); i != r.end(); ++i) {
-                          if (cancelled.load()) return;
-                          captureOne(i);
-                        }
-                      });
-  };
-  if (settings.threads > 0) {
-    tbb::task_arena arena(settings.threads);
-    arena.execute(run);
-  } else {
-    run();
-  }
-  if (cancelled.load()) throw Cancelled();
+  forEachProbeInParallel(
+      points.size(), settings.threads, progress,
+      [&](size_t probe, const std::atomic<bool>& cancelled) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const Vec3 p = points[probe];
+        uint64_t rng = streamState(settings.seed, probe);
+        const double offset[2] = {uniform01(rng), uniform01(rng)};
+        // The delta lights' direct light: added to the SH in Full mode, and part of the irradiance
+        // the relative error is measured against.
+        const ShRgb direct = settings.mode == CaptureMode::Full ? pt.directDeltaSh(p) : ShRgb{};
+        std::array<double, 6> directLum{};
+        for (size_t k = 0; k < 6; ++k) directLum[k] = luminance(direct.irradiance(axes[k]));
+        ShAccumulator acc;
+        AxisIrradianceAccumulator irr;
+        ProbeCapture& c = out[probe];
+        std::array<double, kHueBins> hue{};
+        int backfaces = 0;
+        int j = 0;
+        for (; j < maxSamples; ++j) {
+          if (j % kCancelPollSamples == kCancelPollSamples - 1 && cancelled.load()) return;
+          if (adaptive && j >= settings.minSamplesPerProbe && j % kAdaptiveBatchSamples == 0 &&
+              irr.relativeError(directLum) <= settings.targetRelativeError)
+            break;
+          double u, v;
+          r2Point(static_cast<uint64_t>(j), offset, u, v);
+          const Vec3 dir = uniformSphere(u, v);
+          bool backface = false;
+          const Rgb L = pt.radiance(p, dir, rng, &backface);
+          backfaces += backface ? 1 : 0;
+          acc.add(dir, L);
+          const double lum = luminance(L);
+          irr.add(dir, lum);
+          c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;
+          const int h = hueBin(L);
+          if (h >= 0) hue[size_t(h)] += lum;
+        }
+        const int n = j;
+        c.samples = n;
+        c.backfaceFraction = static_cast<double>(backfaces) / n;
+        for (double& b : c.luminanceHistogram) b /= n;
+        double hueTotal = 0;
+        for (double b : hue) hueTotal += b;
+        for (size_t k = 0; k < hue.size(); ++k)
+          c.hueHistogram[k] = hueTotal > 0 ? hue[k] / hueTotal : 0;
+        for (int i = 0; i < kShCoeffCount; ++i) {
+          c.sh.c[i] = acc.mean(i);
+          c.shStdError.c[i] = acc.standardError(i);
+        }
+        c.sh += direct;
+        c.relativeError = irr.relativeError(directLum);
+        for (int i = 0; i < kShCoeffCount; ++i) {
+          PS_CHECK(isFinite(c.sh.c[i]));
+          PS_CHECK(isFinite(c.shStdError.c[i]));
+        }
+        c.seconds = secondsSince(t0);
+      });
   return out;
 }
 

@@ -4,17 +4,14 @@
 // domain of interest of sec. 5 found by Algorithm 2 (back-face points shared within a node).
 #include "core/capture/PrefilteredCapture.h"
 
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <mutex>
 #include <string>
 
 #include "core/capture/DirectLight.h"
+#include "core/capture/ParallelProbes.h"
 #include "core/common/Check.h"
 #include "core/common/Error.h"
 #include "core/math/Random.h"
@@ -98,113 +95,88 @@ std::vector<ProbeCapture> capturePrefiltered(const Tracer& tracer, const Lightin
       settings.mode == CaptureMode::Full ? allLights(scene, rig) : std::vector<Light>{};
   const int N = settings.samplesPerProbe;
   std::vector<ProbeCapture> out(nodes.size());
-  std::atomic<bool> cancelled{false};
-  std::mutex progressMutex;
-  size_t done = 0;
-
-  auto captureOne = [&](size_t index) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const PrefilterNode& node = nodes[index];
-    uint64_t rng = streamSeed(settings.seed, index);
-    // Algorithm 2: candidate rays, the back-face points seen from this node's support, and the
-    // kept rays (origin, direction).
-    struct Candidate {
-      Vec3 origin, dir;
-    };
-    std::vector<Candidate> kept;
-    std::vector<Vec3> backFacePoints;
-    kept.reserve(size_t(N));
-    for (int s = 0; s < N; ++s) {
-      const Vec3 origin = node.position + Vec3(tent(rng), tent(rng), tent(rng)) * node.halfWidth;
-      const double u = uniform01(rng), v = uniform01(rng);
-      const Vec3 dir = uniformSphere(u, v);
-      bool outside = false;
-      for (Vec3 b : backFacePoints)
-        if (seesBackFacePoint(tracer, origin, b)) {
-          outside = true;
-          break;
+  forEachProbeInParallel(
+      nodes.size(), settings.threads, progress, [&](size_t index, const std::atomic<bool>&) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const PrefilterNode& node = nodes[index];
+        uint64_t rng = streamSeed(settings.seed, index);
+        // Algorithm 2: candidate rays, the back-face points seen from this node's support, and the
+        // kept rays (origin, direction).
+        struct Candidate {
+          Vec3 origin, dir;
+        };
+        std::vector<Candidate> kept;
+        std::vector<Vec3> backFacePoints;
+        kept.reserve(size_t(N));
+        for (int s = 0; s < N; ++s) {
+          const Vec3 origin =
+              node.position + Vec3(tent(rng), tent(rng), tent(rng)) * node.halfWidth;
+          const double u = uniform01(rng), v = uniform01(rng);
+          const Vec3 dir = uniformSphere(u, v);
+          bool outside = false;
+          for (Vec3 b : backFacePoints)
+            if (seesBackFacePoint(tracer, origin, b)) {
+              outside = true;
+              break;
+            }
+          if (outside) continue;
+          const auto hit = tracer.intersect(Ray{origin, dir});
+          // An origin within the ray offset of the surface its ray meets cannot be traced: the path
+          // tracer's first ray starts past that surface. Such candidates (a band of width ~1e-4 of
+          // the scene along the walls) are dropped like those outside the domain.
+          if (hit && hit->t < tracer.rayEpsilon()) continue;
+          if (hit && isBackFace(scene, *hit)) {
+            const Vec3 b = origin + dir * hit->t;
+            backFacePoints.push_back(b);
+            std::erase_if(
+                kept, [&](const Candidate& c) { return seesBackFacePoint(tracer, c.origin, b); });
+            continue;
+          }
+          kept.push_back({origin, dir});
         }
-      if (outside) continue;
-      const auto hit = tracer.intersect(Ray{origin, dir});
-      // An origin within the ray offset of the surface its ray meets cannot be traced: the path
-      // tracer's first ray starts past that surface. Such candidates (a band of width ~1e-4 of
-      // the scene along the walls) are dropped like those outside the domain.
-      if (hit && hit->t < tracer.rayEpsilon()) continue;
-      if (hit && isBackFace(scene, *hit)) {
-        const Vec3 b = origin + dir * hit->t;
-        backFacePoints.push_back(b);
-        std::erase_if(kept,
-                      [&](const Candidate& c) { return seesBackFacePoint(tracer, c.origin, b); });
-        continue;
-      }
-      kept.push_back({origin, dir});
-    }
 
-    // Eq. 6 with b_i sampled in proportion: the plain mean of the kept samples' estimators
-    // 4 pi L(x_s, w_s) Y_j(w_s), plus each delta light's E(x_s) Y_j(w_light) at x_s.
-    ProbeCapture& c = out[index];
-    Accumulator acc;
-    for (const Candidate& k : kept) {
-      ShRgb x;
-      const Rgb L = traceRadiance(tracer, rig, k.origin, k.dir, rng, settings.mode);
-      x.addSample(k.dir, L, 4.0 * kPi);
-      for (const Light& light : lights) {
-        const auto a = deltaLightArrival(light, k.origin);
-        if (a && deltaLightVisible(tracer, k.origin, *a))
-          x.addSample(a->directionToLight, a->irradiance, 1.0);
-      }
-      acc.add(x);
-      c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;
-      if (const int h = hueBin(L); h >= 0) c.hueHistogram[size_t(h)] += luminance(L);
-    }
-    c.samples = acc.n;
-    c.backfaceFraction = double(N - acc.n) / double(N);
-    if (acc.n > 0) {
-      for (int i = 0; i < kShCoeffCount; ++i) {
-        c.sh.c[i] = acc.sum[i] / acc.n;
-        for (int ch = 0; ch < 3; ++ch)
-          c.shStdError.c[i][ch] =
-              Accumulator::standardError(acc.sum[i][ch], acc.sumSq[i][ch], acc.n);
-      }
-      double brightest = 0, worst = 0;
-      for (size_t k = 0; k < 6; ++k) brightest = std::max(brightest, acc.irrSum[k] / acc.n);
-      for (size_t k = 0; k < 6; ++k)
-        worst = std::max(worst, Accumulator::standardError(acc.irrSum[k], acc.irrSumSq[k], acc.n));
-      c.relativeError = brightest > 0 ? worst / brightest : 0.0;
-      for (double& b : c.luminanceHistogram) b /= acc.n;
-      double hueTotal = 0;
-      for (double b : c.hueHistogram) hueTotal += b;
-      if (hueTotal > 0)
-        for (double& b : c.hueHistogram) b /= hueTotal;
-    }
-    for (int i = 0; i < kShCoeffCount; ++i)
-      for (int ch = 0; ch < 3; ++ch) PS_CHECK(std::isfinite(c.sh.c[i][ch]));
-    c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (progress) {
-      std::lock_guard<std::mutex> lock(progressMutex);
-      const size_t finished = ++done;
-      if (!cancelled.load() &&
-          !progress(static_cast<double>(finished) / static_cast<double>(nodes.size())))
-        cancelled.store(true);
-    }
-  };
-
-  auto run = [&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes.size(), 1),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        for (size_t i = r.begin(); i != r.end(); ++i) {
-                          if (cancelled.load()) return;
-                          captureOne(i);
-                        }
-                      });
-  };
-  if (settings.threads > 0) {
-    tbb::task_arena arena(settings.threads);
-    arena.execute(run);
-  } else {
-    run();
-  }
-  if (cancelled.load()) throw Cancelled();
+        // Eq. 6 with b_i sampled in proportion: the plain mean of the kept samples' estimators
+        // 4 pi L(x_s, w_s) Y_j(w_s), plus each delta light's E(x_s) Y_j(w_light) at x_s.
+        ProbeCapture& c = out[index];
+        Accumulator acc;
+        for (const Candidate& k : kept) {
+          ShRgb x;
+          const Rgb L = traceRadiance(tracer, rig, k.origin, k.dir, rng, settings.mode);
+          x.addSample(k.dir, L, 4.0 * kPi);
+          for (const Light& light : lights) {
+            const auto a = deltaLightArrival(light, k.origin);
+            if (a && deltaLightVisible(tracer, k.origin, *a))
+              x.addSample(a->directionToLight, a->irradiance, 1.0);
+          }
+          acc.add(x);
+          c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;
+          if (const int h = hueBin(L); h >= 0) c.hueHistogram[size_t(h)] += luminance(L);
+        }
+        c.samples = acc.n;
+        c.backfaceFraction = double(N - acc.n) / double(N);
+        if (acc.n > 0) {
+          for (int i = 0; i < kShCoeffCount; ++i) {
+            c.sh.c[i] = acc.sum[i] / acc.n;
+            for (int ch = 0; ch < 3; ++ch)
+              c.shStdError.c[i][ch] =
+                  Accumulator::standardError(acc.sum[i][ch], acc.sumSq[i][ch], acc.n);
+          }
+          double brightest = 0, worst = 0;
+          for (size_t k = 0; k < 6; ++k) brightest = std::max(brightest, acc.irrSum[k] / acc.n);
+          for (size_t k = 0; k < 6; ++k)
+            worst =
+                std::max(worst, Accumulator::standardError(acc.irrSum[k], acc.irrSumSq[k], acc.n));
+          c.relativeError = brightest > 0 ? worst / brightest : 0.0;
+          for (double& b : c.luminanceHistogram) b /= acc.n;
+          double hueTotal = 0;
+          for (double b : c.hueHistogram) hueTotal += b;
+          if (hueTotal > 0)
+            for (double& b : c.hueHistogram) b /= hueTotal;
+        }
+        for (int i = 0; i < kShCoeffCount; ++i)
+          for (int ch = 0; ch < 3; ++ch) PS_CHECK(std::isfinite(c.sh.c[i][ch]));
+        c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      });
   return out;
 }
 
