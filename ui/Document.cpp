@@ -1,5 +1,7 @@
 #include "ui/Document.h"
 
+#include <QFileInfo>
+#include <QStandardPaths>
 #include <QtConcurrent/QtConcurrentRun>
 #include <algorithm>
 #include <atomic>
@@ -589,15 +591,35 @@ bool Document::evaluate(const EvalRequest& request) {
   std::vector<Bounds3> domain;  // the importance volumes: the queries go where probes are wanted
   for (const ImportanceVolume& v : set_.importanceVolumes) domain.push_back({v.lo, v.hi});
   std::shared_ptr<const Tracer> tracer = tracer_;
+  // The reference is cached as `probestudio eval` caches it: beside a saved set (shared with the
+  // CLI's evals of the sets and volumes there), else in the user's cache folder. A folder that
+  // cannot be made means no cache, not an error.
+  std::optional<std::filesystem::path> cacheDir;
+  if (sceneHash_ != 0) {
+    const QString base = !setPath_.isEmpty()
+                             ? QFileInfo(setPath_).absolutePath()
+                             : QStandardPaths::writableLocation(QStandardPaths::CacheLocation);
+    if (!base.isEmpty()) {
+      const std::filesystem::path dir =
+          std::filesystem::path(base.toStdString()) / "eval-reference-cache";
+      std::error_code ec;
+      std::filesystem::create_directories(dir, ec);
+      if (std::filesystem::is_directory(dir, ec)) cacheDir = dir;
+    }
+  }
+  const uint64_t sceneHash = sceneHash_;
   startJob("eval", tr("Evaluating…"), [=](JobResult& result, const auto& report) {
     EvalSettings es;
     es.queries = request.queries;
     es.referenceSpp = request.referenceSpp;
     es.domain = domain;
+    es.cacheDir = cacheDir;
+    es.sceneHash = sceneHash;
     const EvalResult r = evaluateVolume(*tracer, rig, *volume, es, [&](double f) {
       return report(tr("Evaluating against the reference…"), f);
     });
-    result.evaluation = EvaluationPoint{r.probes, r.relRmse, r.p95RelError, r.maxRelError, source};
+    result.evaluation = EvaluationPoint{r.probes, r.relRmse,         r.p95RelError, r.maxRelError,
+                                        source,   r.referenceCached, r.seconds};
   });
   return true;
 }

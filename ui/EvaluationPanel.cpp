@@ -73,8 +73,9 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   view_->setMinimumHeight(220);
   layout->addWidget(view_, 1);
 
-  table_ = new QTableWidget(0, 4);
-  table_->setHorizontalHeaderLabels({tr("probes"), tr("rel. RMS"), tr("p95"), tr("source")});
+  table_ = new QTableWidget(0, 5);
+  table_->setHorizontalHeaderLabels(
+      {tr("probes"), tr("rel. RMS"), tr("p95"), tr("reference"), tr("source")});
   table_->verticalHeader()->hide();
   table_->horizontalHeader()->setStretchLastSection(true);
   table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
@@ -128,7 +129,11 @@ void EvaluationPanel::refresh() {
     table_->setItem(int(i), 0, new QTableWidgetItem(QString::number(e.probes)));
     table_->setItem(int(i), 1, new QTableWidgetItem(QString::number(a, 'f', 2) + " %"));
     table_->setItem(int(i), 2, new QTableWidgetItem(QString::number(b, 'f', 2) + " %"));
-    table_->setItem(int(i), 3, new QTableWidgetItem(e.source));
+    table_->setItem(
+        int(i), 3,
+        new QTableWidgetItem((e.referenceCached ? tr("cached, %1 s") : tr("traced, %1 s"))
+                                 .arg(e.seconds, 0, 'f', 2)));
+    table_->setItem(int(i), 4, new QTableWidgetItem(e.source));
   }
   for (const auto& [n, errs] : best) {
     rmseLine_->append(double(n), errs.first);

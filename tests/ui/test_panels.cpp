@@ -5,6 +5,7 @@
 #include <QCheckBox>
 #include <QComboBox>
 #include <QDoubleSpinBox>
+#include <QFileInfo>
 #include <QGroupBox>
 #include <QListWidget>
 #include <QPushButton>
@@ -387,6 +388,9 @@ class TestPanels : public QObject {
     QCOMPARE(waitForJob(doc), QString());
     std::vector<uint64_t> ids;
     for (const Probe& p : doc->probes()) ids.push_back(p.id);
+    // Saved, so the reference cache goes beside the set, in a fresh folder.
+    QTemporaryDir dir;
+    QVERIFY(win.w.saveAs(dir.filePath("set.json")));
     panel->queriesBox()->setValue(32);
     panel->referenceSamplesBox()->setValue(32);
     // Two evaluations at different counts: every other probe, then all of them.
@@ -413,6 +417,13 @@ class TestPanels : public QObject {
       QVERIFY(evals[size_t(i)].relRmse > 0 && std::isfinite(evals[size_t(i)].relRmse));
     }
     QCOMPARE(panel->table()->rowCount(), 2);
+    // The second evaluation read the reference the first one traced (the CLI's cache, beside
+    // the set), and the table says so.
+    QVERIFY(!evals[0].referenceCached);
+    QVERIFY(evals[1].referenceCached);
+    QVERIFY(QFileInfo(dir.filePath("eval-reference-cache")).isDir());
+    QVERIFY(panel->table()->item(0, 3)->text().startsWith("traced"));
+    QVERIFY(panel->table()->item(1, 3)->text().startsWith("cached"));
     // A new scene starts a new plot.
     QVERIFY(win.w.openScene(QStringLiteral(PS_SOURCE_DIR "/resources/scenes/cornell.gltf")));
     QCOMPARE(panel->rmseSeries()->count(), 0);
