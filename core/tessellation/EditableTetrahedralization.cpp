@@ -439,7 +439,7 @@ Vec3 EditableTetrahedralization::position(int32_t id) const {
 }
 
 size_t EditableTetrahedralization::tetCount() const {
-  return impl_->dt.number_of_finite_cells();
+  return impl_->mesh.tets.size();
 }
 
 const Tetrahedralization& EditableTetrahedralization::mesh() const {

@@ -66,7 +66,7 @@ class EditableTetrahedralization {
   bool isLive(int32_t id) const;
   /// Position of live probe `id`.
   Vec3 position(int32_t id) const;
-  /// Number of finite tets (O(n)).
+  /// Number of finite tets.
   size_t tetCount() const;
 
   /// The current mesh as dense arrays, kept up to date by every edit (O(1)). Same conventions as
