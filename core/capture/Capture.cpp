@@ -290,6 +290,9 @@ struct ShAccumulator {
 
   void add(Vec3 d, Rgb radiance) {
     ++n;
+    // A black sample adds exactly 0 to every sum (most paths in a room lit by a small emitter
+    // never reach it): skip the basis and the 54 updates.
+    if (radiance.r == 0.0 && radiance.g == 0.0 && radiance.b == 0.0) return;
     const auto y = shBasis(d);
     const Rgb l = radiance * (4.0 * kPi);
     for (int ch = 0; ch < 3; ++ch) {
@@ -330,6 +333,14 @@ struct AxisIrradianceAccumulator {
   void add(Vec3 d, double lum) {
     ++n;
     const double inv = 1.0 / n;
+    if (lum == 0.0) {  // x = 0 on every axis: the same update without the polynomials
+      for (size_t k = 0; k < 6; ++k) {
+        const double delta = -mean[k];
+        mean[k] += delta * inv;
+        m2[k] += delta * (0.0 - mean[k]);
+      }
+      return;
+    }
     const double cs[3] = {d.x, d.y, d.z};
     for (int k = 0; k < 6; ++k) {
       const double c = (k % 2 == 0 ? 1.0 : -1.0) * cs[k / 2];
