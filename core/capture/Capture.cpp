@@ -159,16 +159,6 @@ class PathTracer {
     return any;
   }
 
-  /// What the delta light delivers at p through an unoccluded segment (p is a probe or a point
-  /// already offset from its surface), or nothing when it is blocked or dark.
-  std::optional<DeltaLightArrival> visibleArrival(const Light& light, Vec3 p) const {
-    auto a = deltaLightArrival(light, p);
-    // A degenerate light (zero direction, light at p) must not bring NaN into a probe.
-    if (!a || !isFinite(a->directionToLight) || !isFinite(a->irradiance)) return std::nullopt;
-    if (!deltaLightVisible(tracer_, p, *a)) return std::nullopt;
-    return a;
-  }
-
   /// Radiance arriving at `origin` from direction -dir (travelling along dir from origin).
   /// `firstHitBackface` is set when the first surface hit is the back of single-sided geometry.
   Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rng, bool* firstHitBackface) const {
@@ -217,7 +207,7 @@ class PathTracer {
       // Next-event estimation to the delta lights: L_r = albedo / pi * E * max(0, cos).
       Rgb e;
       for (const Light& light : lights_) {
-        const auto a = visibleArrival(light, p);
+        const auto a = visibleDeltaArrival(tracer_, light, p);
         if (!a) continue;
         const double cosTheta = dot(n, a->directionToLight);
         if (cosTheta > 0) e += a->irradiance * cosTheta;
@@ -259,15 +249,7 @@ class PathTracer {
   }
 
   /// SH of the radiance arriving at p straight from the delta lights (unoccluded ones).
-  ShRgb directDeltaSh(Vec3 p) const {
-    ShRgb sh;
-    for (const Light& light : lights_) {
-      const auto a = visibleArrival(light, p);
-      if (!a) continue;
-      sh.addSample(a->directionToLight, a->irradiance, 1.0);  // c_i = E Y_i(w)
-    }
-    return sh;
-  }
+  ShRgb directDeltaSh(Vec3 p) const { return ps::directDeltaSh(tracer_, lights_, p); }
 
  private:
   const Tracer& tracer_;

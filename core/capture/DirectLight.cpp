@@ -48,4 +48,23 @@ bool deltaLightVisible(const Tracer& tracer, Vec3 p, const DeltaLightArrival& a)
   return !tracer.occluded(r);
 }
 
+std::optional<DeltaLightArrival> visibleDeltaArrival(const Tracer& tracer, const Light& light,
+                                                     Vec3 p) {
+  auto a = deltaLightArrival(light, p);
+  const auto finite = [](Rgb c) {
+    return std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b);
+  };
+  if (!a || !isFinite(a->directionToLight) || !finite(a->irradiance)) return std::nullopt;
+  if (!deltaLightVisible(tracer, p, *a)) return std::nullopt;
+  return a;
+}
+
+ShRgb directDeltaSh(const Tracer& tracer, std::span<const Light> lights, Vec3 p) {
+  ShRgb sh;
+  for (const Light& light : lights)
+    if (const auto a = visibleDeltaArrival(tracer, light, p))
+      sh.addSample(a->directionToLight, a->irradiance, 1.0);  // c_i = E Y_i(w)
+  return sh;
+}
+
 }  // namespace ps

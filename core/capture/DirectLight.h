@@ -3,7 +3,9 @@
 // ever hits them, so both the probe capture (Full mode) and the evaluation's reference add it
 // analytically.
 #include <optional>
+#include <span>
 
+#include "core/math/Sh.h"
 #include "core/scene/Scene.h"
 #include "core/trace/Tracer.h"
 
@@ -23,5 +25,15 @@ std::optional<DeltaLightArrival> deltaLightArrival(const Light& light, Vec3 p);
 /// True when nothing blocks the segment from p towards the light (shadow ray offset by the
 /// tracer's epsilon at the start).
 bool deltaLightVisible(const Tracer& tracer, Vec3 p, const DeltaLightArrival& a);
+
+/// What the delta light delivers at p through an unoccluded segment (p is a probe, a ray origin
+/// or a point already offset from its surface), or nothing when it is blocked, dark or
+/// degenerate (a zero direction or a light at p: never NaN into a probe).
+std::optional<DeltaLightArrival> visibleDeltaArrival(const Tracer& tracer, const Light& light,
+                                                     Vec3 p);
+
+/// SH of the radiance arriving at p straight from the delta lights (the visible ones):
+/// c_i = sum over the lights of E Y_i(w).
+ShRgb directDeltaSh(const Tracer& tracer, std::span<const Light> lights, Vec3 p);
 
 }  // namespace ps

@@ -140,14 +140,9 @@ std::vector<ProbeCapture> capturePrefiltered(const Tracer& tracer, const Lightin
         ProbeCapture& c = out[index];
         Accumulator acc;
         for (const Candidate& k : kept) {
-          ShRgb x;
+          ShRgb x = directDeltaSh(tracer, lights, k.origin);
           const Rgb L = traceRadiance(tracer, rig, k.origin, k.dir, rng, settings.mode);
           x.addSample(k.dir, L, 4.0 * kPi);
-          for (const Light& light : lights) {
-            const auto a = deltaLightArrival(light, k.origin);
-            if (a && deltaLightVisible(tracer, k.origin, *a))
-              x.addSample(a->directionToLight, a->irradiance, 1.0);
-          }
           acc.add(x);
           c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;
           if (const int h = hueBin(L); h >= 0) c.hueHistogram[size_t(h)] += luminance(L);
