@@ -24,16 +24,21 @@ double luminanceDistanceStops(const ShRgb& a, const ShRgb& b) {
   return std::abs(std::log2(la / lb));
 }
 
+namespace {
+bool inPreview(const Probe& p, PreviewSource source) {
+  if (!p.sh) return false;
+  return source == PreviewSource::Accepted ? p.state == ProbeState::Accepted
+                                           : p.state != ProbeState::Rejected;
+}
+}  // namespace
+
 std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
                                               PreviewSource source) {
   if (source == PreviewSource::Baked) return std::nullopt;
   std::vector<Vec3> positions;
   std::vector<ShRgb> sh;
   for (const Probe& p : probes) {
-    if (!p.sh) continue;
-    const bool use = source == PreviewSource::Accepted ? p.state == ProbeState::Accepted
-                                                       : p.state != ProbeState::Rejected;
-    if (!use) continue;
+    if (!inPreview(p, source)) continue;
     positions.push_back(p.position);
     sh.push_back(*p.sh);
   }
@@ -45,31 +50,11 @@ std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
   }
 }
 
-namespace {
-bool inPreview(const Probe& p, PreviewSource source) {
-  if (!p.sh) return false;
-  return source == PreviewSource::Accepted ? p.state == ProbeState::Accepted
-                                           : p.state != ProbeState::Rejected;
-}
-
-bool sameSh(const ShRgb& a, const ShRgb& b) {
-  for (int k = 0; k < kShCoeffCount; ++k)
-    if (!(a.c[k] == b.c[k])) return false;
-  return true;
-}
-}  // namespace
-
 PreviewVolumeMirror::PreviewVolumeMirror() = default;
 PreviewVolumeMirror::~PreviewVolumeMirror() = default;
 
 const ProbeVolume* PreviewVolumeMirror::volume() const {
   return volume_ ? &volume_->volume() : nullptr;
-}
-
-void PreviewVolumeMirror::clear() {
-  volume_.reset();
-  entries_.clear();
-  source_.reset();
 }
 
 PreviewVolumeMirror::SyncReport PreviewVolumeMirror::rebuild(
@@ -121,7 +106,7 @@ PreviewVolumeMirror::SyncReport PreviewVolumeMirror::sync(const std::vector<Prob
     it->second.stamp = stamp_;
     ++met;
     if (!(it->second.position == p->position)) moved.push_back(p);
-    if (!sameSh(it->second.sh, *p->sh)) recoloured.push_back(p);
+    if (!(it->second.sh == *p->sh)) recoloured.push_back(p);
   }
   std::vector<uint64_t> gone;
   if (met != entries_.size())

@@ -66,8 +66,6 @@ class PreviewVolumeMirror {
   SyncReport sync(const std::vector<Probe>& probes, PreviewSource source);
   /// The volume, or nullptr when fewer than 4 probes span 3D (or the source is Baked).
   const ProbeVolume* volume() const;
-  /// Forgets everything (the next sync rebuilds).
-  void clear();
 
  private:
   struct Entry {
