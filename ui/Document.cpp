@@ -12,6 +12,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/eval/Evaluate.h"
+#include "core/eval/ReferenceCache.h"
 #include "core/io/ProbeSetFile.h"
 #include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
@@ -588,8 +589,8 @@ bool Document::evaluate(const EvalRequest& request) {
     source = tr("preview (accepted probes)");
   }
   const LightingRig rig = set_.rig;
-  std::vector<Bounds3> domain;  // the importance volumes: the queries go where probes are wanted
-  for (const ImportanceVolume& v : set_.importanceVolumes) domain.push_back({v.lo, v.hi});
+  // The importance volumes: the queries go where probes are wanted.
+  const std::vector<Bounds3> domain = importanceBoxes(set_.importanceVolumes);
   std::shared_ptr<const Tracer> tracer = tracer_;
   // The reference is cached as `probestudio eval` caches it: beside a saved set (shared with the
   // CLI's evals of the sets and volumes there), else in the user's cache folder. A folder that
@@ -599,13 +600,7 @@ bool Document::evaluate(const EvalRequest& request) {
     const QString base = !setPath_.isEmpty()
                              ? QFileInfo(setPath_).absolutePath()
                              : QStandardPaths::writableLocation(QStandardPaths::CacheLocation);
-    if (!base.isEmpty()) {
-      const std::filesystem::path dir =
-          std::filesystem::path(base.toStdString()) / "eval-reference-cache";
-      std::error_code ec;
-      std::filesystem::create_directories(dir, ec);
-      if (std::filesystem::is_directory(dir, ec)) cacheDir = dir;
-    }
+    if (!base.isEmpty()) cacheDir = defaultReferenceCacheDir(toPath(base));
   }
   const uint64_t sceneHash = sceneHash_;
   startJob("eval", tr("Evaluating…"), [=](JobResult& result, const auto& report) {

@@ -12,6 +12,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/eval/Evaluate.h"
+#include "core/eval/ReferenceCache.h"
 #include "core/io/JsonFields.h"
 #include "core/io/ProbeSetFile.h"
 #include "core/io/SceneHash.h"
@@ -72,7 +73,7 @@ void registerEval(CLI::App& app) {
       set = loadProbeSet(o->input);
       scenePath = set->scenePath;
       rig = set->rig;
-      for (const ImportanceVolume& v : set->importanceVolumes) domain.push_back({v.lo, v.hi});
+      domain = importanceBoxes(set->importanceVolumes);
     }
     const Scene scene = loadScene(scenePath);
     for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
@@ -94,13 +95,11 @@ void registerEval(CLI::App& app) {
       } else {
         // The default folder is a convenience: where it cannot be made (a read-only folder),
         // eval works as it did without a cache.
-        const fs::path dir = fs::absolute(o->input).parent_path() / "eval-reference-cache";
-        std::error_code ec;
-        fs::create_directories(dir, ec);
-        if (fs::is_directory(dir, ec))
-          es.cacheDir = dir;
-        else
-          std::cerr << "note: cannot create the reference cache folder " << dir.string()
+        const fs::path folder = fs::absolute(o->input).parent_path();
+        es.cacheDir = defaultReferenceCacheDir(folder);
+        if (!es.cacheDir)
+          std::cerr << "note: cannot create the reference cache folder "
+                    << (folder / "eval-reference-cache").string()
                     << "; tracing the reference without the cache (--cache DIR picks another)\n";
       }
     }

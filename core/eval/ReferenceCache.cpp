@@ -20,6 +20,14 @@ size_t payloadBytes(size_t queries) {
 }
 }  // namespace
 
+std::optional<std::filesystem::path> defaultReferenceCacheDir(const std::filesystem::path& folder) {
+  const std::filesystem::path dir = folder / "eval-reference-cache";
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (!std::filesystem::is_directory(dir, ec)) return std::nullopt;
+  return dir;
+}
+
 ReferenceCache::ReferenceCache(std::filesystem::path dir)
     : files_(std::move(dir), kMagic, ".psref", "eval reference cache") {}
 

@@ -16,6 +16,11 @@
 
 namespace ps {
 
+/// The default reference cache folder for inputs in `folder` (`folder/eval-reference-cache`,
+/// shared by every set and volume there, and by the editor), created when missing; nothing when
+/// it cannot be made (a read-only folder): the cache is a convenience, not a requirement.
+std::optional<std::filesystem::path> defaultReferenceCacheDir(const std::filesystem::path& folder);
+
 class ReferenceCache {
  public:
   /// Opens (creating when missing) the cache folder `dir`. Throws ps::FileError when it cannot

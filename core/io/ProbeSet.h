@@ -31,6 +31,13 @@ struct ImportanceVolume {
   double weight = 1.0;
 };
 
+/// The volumes' boxes, in order.
+inline std::vector<Bounds3> importanceBoxes(const std::vector<ImportanceVolume>& volumes) {
+  std::vector<Bounds3> boxes;
+  for (const ImportanceVolume& v : volumes) boxes.push_back({v.lo, v.hi});
+  return boxes;
+}
+
 struct PlacementSettings {
   std::string method = "uniform";
   double spacingMeters = 1.0;
