@@ -223,8 +223,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void applyFields(Fields&& f);
   /// Brings mirror_ up to date with the document (local edits); emits previewVolumeEdited.
   void syncMirror();
-  /// syncMirror(), then a copy of its volume for the fields (nullptr when there is none).
-  std::shared_ptr<const ProbeVolume> previewForFields();
+  /// syncMirror(), then a copy of its volume for the fields (nothing when there is none); the
+  /// fields take it by move, so this is the only copy.
+  std::optional<ProbeVolume> previewForFields();
   void uploadOverlays();
   void drawOverlays(const QMatrix4x4& vp);
   void drawLines(const std::vector<float>& xyzrgba, GLenum mode, const QMatrix4x4& vp);

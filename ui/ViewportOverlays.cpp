@@ -237,7 +237,7 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 int glyphResolution, int previewResolution,
                                                 std::shared_ptr<const Tracer> tracer,
                                                 std::shared_ptr<const ProbeVolume> baked,
-                                                std::shared_ptr<const ProbeVolume> preview);
+                                                std::optional<ProbeVolume> preview);
 }  // namespace
 
 namespace {
@@ -312,10 +312,10 @@ void Viewport::syncMirror() {
   if (r.changed() && !r.rebuilt) emit previewVolumeEdited(r.seconds, qsizetype(r.tetsRewritten));
 }
 
-std::shared_ptr<const ProbeVolume> Viewport::previewForFields() {
+std::optional<ProbeVolume> Viewport::previewForFields() {
   syncMirror();
   const ProbeVolume* v = mirror_.volume();
-  return v ? std::make_shared<const ProbeVolume>(*v) : nullptr;
+  return v ? std::optional<ProbeVolume>(*v) : std::nullopt;
 }
 
 namespace {
@@ -324,12 +324,12 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 int glyphResolution, int previewResolution,
                                                 std::shared_ptr<const Tracer> tracer,
                                                 std::shared_ptr<const ProbeVolume> baked,
-                                                std::shared_ptr<const ProbeVolume> preview) {
+                                                std::optional<ProbeVolume> preview) {
   auto f = std::make_shared<Viewport::Fields>();
   if (source == PreviewSource::Baked) {
     if (baked) f->preview = *baked;
-  } else if (preview) {
-    f->preview = *preview;  // the mirror's, kept up to date by local edits
+  } else {
+    f->preview = std::move(preview);  // the mirror's copy, kept up to date by local edits
   }
   f->reference = source == PreviewSource::AllCaptured
                      ? f->preview
