@@ -50,6 +50,13 @@ using VertexHandle = Delaunay::Vertex_handle;
 using CellHandle = Delaunay::Cell_handle;
 using Clock = std::chrono::steady_clock;
 
+/// Sorts `slots`, drops repeats and the slots at or past `count` (dropped by the edit).
+void sortedSlotsBelow(std::vector<int32_t>& slots, int32_t count) {
+  std::sort(slots.begin(), slots.end());
+  slots.erase(std::unique(slots.begin(), slots.end()), slots.end());
+  slots.erase(std::lower_bound(slots.begin(), slots.end(), count), slots.end());
+}
+
 void requireFinite(Vec3 p, const char* what) {
   if (!isFinite(p)) {
     std::ostringstream s;
@@ -118,13 +125,17 @@ struct EditableTetrahedralization::Impl {
       c->info().slot = s;
       touchedTets.push_back(s);
     }
-    for (CellHandle c : cells)
-      for (int i = 0; i < 4; ++i) {
-        const CellHandle n = c->neighbor(i);
-        if (dt.is_infinite(n)) continue;
-        PS_CHECK(n->info().slot >= 0);
-        touchedTets.push_back(n->info().slot);
-      }
+    for (CellHandle c : cells) touchNeighbours(c);
+  }
+
+  // The finite neighbours of c point at c: their rows are rewritten at the end.
+  void touchNeighbours(CellHandle c) {
+    for (int i = 0; i < 4; ++i) {
+      const CellHandle n = c->neighbor(i);
+      if (dt.is_infinite(n)) continue;
+      PS_CHECK(n->info().slot >= 0);
+      touchedTets.push_back(n->info().slot);
+    }
   }
 
   void addVertex(VertexHandle v) {
@@ -168,20 +179,14 @@ struct EditableTetrahedralization::Impl {
         cellOfSlot[s] = c;
         c->info().slot = s;
         touchedTets.push_back(s);
-        for (int i = 0; i < 4; ++i) {
-          const CellHandle n = c->neighbor(i);
-          if (!dt.is_infinite(n)) touchedTets.push_back(n->info().slot);
-        }
+        touchNeighbours(c);
       }
       cellOfSlot.pop_back();
     }
     const int32_t tetCount = static_cast<int32_t>(cellOfSlot.size());
     mesh.tets.resize(tetCount);
     mesh.neighbors.resize(tetCount);
-    std::sort(touchedTets.begin(), touchedTets.end());
-    touchedTets.erase(std::unique(touchedTets.begin(), touchedTets.end()), touchedTets.end());
-    touchedTets.erase(std::lower_bound(touchedTets.begin(), touchedTets.end(), tetCount),
-                      touchedTets.end());
+    sortedSlotsBelow(touchedTets, tetCount);
     // CGAL keeps every finite cell positively oriented, neighbour i opposite vertex i.
     for (int32_t s : touchedTets) {
       const CellHandle c = cellOfSlot[s];
@@ -192,12 +197,7 @@ struct EditableTetrahedralization::Impl {
       }
     }
     const int32_t vertexCount = static_cast<int32_t>(vertexOfSlot.size());
-    std::sort(touchedVertices.begin(), touchedVertices.end());
-    touchedVertices.erase(std::unique(touchedVertices.begin(), touchedVertices.end()),
-                          touchedVertices.end());
-    touchedVertices.erase(
-        std::lower_bound(touchedVertices.begin(), touchedVertices.end(), vertexCount),
-        touchedVertices.end());
+    sortedSlotsBelow(touchedVertices, vertexCount);
     r.changedTets = touchedTets;
     r.tetCountBefore = tetCountBefore;
     r.changedVertices = touchedVertices;
