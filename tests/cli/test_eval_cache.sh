@@ -66,6 +66,18 @@ PY
 "$cli" eval "$tmp/boxed/boxed.json" "${eval_opts[@]}" --spp 64 >"$tmp/boxed-set.json"
 "$cli" bake "$tmp/boxed/boxed.json" -o "$tmp/boxed/boxed.psv" --spp 64 --no-leak-refine --no-cache
 "$cli" eval "$tmp/boxed/boxed.psv" "${eval_opts[@]}" >"$tmp/boxed-volume.json"
+# A hand-edited volume whose domain box is inside out is refused, naming the file and the field.
+python3 - "$tmp/boxed/boxed.psv" "$tmp/boxed/bad-domain.psv" <<'PY'
+import struct, sys, zlib
+b = open(sys.argv[1], "rb").read()[:-4]
+assert b.count(b'"min":[-2.5') == 1
+b = b.replace(b'"min":[-2.5', b'"min":[ 2.5')  # same length: min x 2.5 > max x 0
+open(sys.argv[2], "wb").write(b + struct.pack("<I", zlib.crc32(b)))
+PY
+if "$cli" eval "$tmp/boxed/bad-domain.psv" "${eval_opts[@]}" >/dev/null 2>"$tmp/bad-domain.err"; then
+  echo "eval of a volume with an inside-out domain succeeded" >&2; exit 1
+fi
+grep -q "bad-domain.psv: metadata.domain\[0\]: expected min <= max on every axis" "$tmp/bad-domain.err"
 # The plain-text output says where the reference came from.
 "$cli" eval "$tmp/uniform.psv" --queries 48 --reference-spp 64 | grep -q "reference from the cache"
 
