@@ -1,6 +1,8 @@
 // probestudio eval: parses its options, calls the core stages and prints what it did; bad
 // input surfaces as ps::Error, caught in main.
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -33,6 +35,7 @@ void registerEval(CLI::App& app) {
     std::string cacheDir;
     bool noCache = false;
     bool json = false;
+    std::string perQuery;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -50,6 +53,9 @@ void registerEval(CLI::App& app) {
   cmd->add_flag("--no-cache", o->noCache,
                 "Trace the reference, neither reading nor writing the reference cache");
   cmd->add_flag("--json", o->json, "Print JSON");
+  cmd->add_option("--per-query", o->perQuery,
+                  "Write every query to this CSV: x,y,z,nx,ny,nz,reference,interpolated,"
+                  "rel_error,leaking (luminance of the irradiance; rel_error as for p95)");
   cmd->callback([o] {
     // Absurd requests get a message before anything is allocated or traced.
     if (o->queries > 10'000'000)
@@ -104,6 +110,24 @@ void registerEval(CLI::App& app) {
       }
     }
     const EvalResult r = evaluateVolume(tracer, rig, volume, es, terminalProgress("eval"));
+    if (!o->perQuery.empty()) {
+      // The same floor as p95's relative error: a tenth of the mean reference.
+      double mean = 0;
+      for (const EvalQuery& q : r.perQuery) mean += q.reference;
+      mean /= double(std::max<size_t>(1, r.perQuery.size()));
+      const double floorE = std::max(0.1 * mean, 1e-12);
+      std::string csv = "x,y,z,nx,ny,nz,reference,interpolated,rel_error,leaking\n";
+      char line[512];
+      for (const EvalQuery& q : r.perQuery) {
+        std::snprintf(line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.9g,%.6g,%d\n",
+                      q.point.x, q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z,
+                      q.reference, q.interpolated,
+                      std::abs(q.interpolated - q.reference) / std::max(q.reference, floorE),
+                      q.leaking ? 1 : 0);
+        csv += line;
+      }
+      writeFileAtomic(o->perQuery, csv);
+    }
     // Notes go to stderr: with --json, stdout holds the JSON only.
     for (const std::string& n : r.notes) std::cerr << "note: " << n << "\n";
     if (o->json) {

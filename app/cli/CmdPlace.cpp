@@ -50,8 +50,11 @@ void registerPlace(CLI::App& app) {
                   "around; its rig is used when no rig option is given");
   cmd->add_option("--field-spacing", o->request.field.baseSpacingMeters,
                   "Dense field base grid spacing in metres (default: domain diagonal / 12)");
-  cmd->add_option("--field-depth", o->request.field.maxDepth,
-                  "Dense field refinement levels (0 to 8)");
+  cmd->add_option("--field-depth", o->request.fieldDepth,
+                  "Dense field refinement levels, 0 to 8 (default, or -1: greedy 4, chajdas 2)");
+  cmd->add_option("--field-surface-depth", o->request.field.maxSurfaceDepth,
+                  "Dense field levels at which a surface splits a cell (default: --field-depth); "
+                  "deeper levels split only where neighbouring samples differ");
   cmd->add_option("--field-spp", o->request.field.samplesPerProbe,
                   "Samples per cheap probe (dense field, ascent, spawn-merge)")
       ->check(CLI::PositiveNumber);

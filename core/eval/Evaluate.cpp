@@ -202,6 +202,9 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   r.maxRelError = rel.back();
   r.leakingFraction = double(std::count(leaking.begin(), leaking.end(), 1)) / double(M);
   r.p95RelError = rel[std::min(M - 1, size_t(std::ceil(0.95 * M)) - 1)];
+  r.perQuery.resize(M);
+  for (size_t q = 0; q < M; ++q)
+    r.perQuery[q] = EvalQuery{points[q], normals[q], ref[q], got[q], leaking[q] != 0};
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

@@ -41,6 +41,14 @@ struct EvalReference {
   bool operator==(const EvalReference&) const = default;
 };
 
+/// One query of an evaluation: where it was, what the reference and the volume gave.
+struct EvalQuery {
+  Vec3 point, normal;
+  double reference = 0;     ///< luminance of the reference irradiance
+  double interpolated = 0;  ///< luminance of the volume's irradiance
+  bool leaking = false;     ///< its tetrahedron has a probe the query cannot see
+};
+
 struct EvalResult {
   size_t probes = 0;
   size_t queries = 0;
@@ -59,6 +67,8 @@ struct EvalResult {
   /// Things the user should know that did not stop the evaluation: a damaged cache entry
   /// (recomputed), a cache entry that could not be written.
   std::vector<std::string> notes;
+  /// Every query, in the reference's order: for finding where the volume is wrong.
+  std::vector<EvalQuery> perQuery;
 };
 
 /// The reference for `settings` (queries, referenceSpp, seed; not the cache fields), traced.

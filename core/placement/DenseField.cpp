@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <unordered_map>
 
@@ -65,6 +66,92 @@ bool samplesDiffer(const FieldSample& a, const FieldSample& b, const DenseFieldS
          diffSq > s.refineSignificance * s.refineSignificance * varSum;
 }
 
+/// A field sample at `p` from its capture (depth and cell size left to the caller).
+FieldSample sampleFromCapture(Vec3 p, const ProbeCapture& cap) {
+  FieldSample fs;
+  fs.position = p;
+  fs.sh = cap.sh;
+  fs.shStdError = cap.shStdError;
+  fs.f = luminanceDirection(fs.sh);  // Chajdas sec. 2.1, eq. 1
+  fs.luminanceHistogram = cap.luminanceHistogram;
+  fs.hueHistogram = cap.hueHistogram;
+  fs.backfaceFraction = cap.backfaceFraction;
+  return fs;
+}
+
+/// DenseFieldSettings::boundarySamples: from every leaf sample's centre, along each axis, a
+/// surface (any face: a back face bounds the valid space as much) or the domain's boundary less
+/// than one cell away gets a sample `off` short of it, when that is at least a quarter cell from
+/// the centre, inside the domain (`inDomain`), and valid. Captured like the cell centres of the
+/// finest level.
+template <class InDomain>
+void addBoundarySamples(const Tracer& tracer, const LightingRig& rig, const DenseFieldSettings& s,
+                        DenseField& field, const InDomain& inDomain) {
+  const Bounds3& dom = field.domain;
+  double finest = std::numeric_limits<double>::infinity();
+  for (const FieldSample& f : field.samples) finest = std::min(finest, f.cellSize);
+  if (!std::isfinite(finest)) return;
+  const double off = std::max(s.boundaryOffset * finest, 8 * tracer.rayEpsilon());
+  const Vec3 axes[6] = {Vec3(1, 0, 0),  Vec3(-1, 0, 0), Vec3(0, 1, 0),
+                        Vec3(0, -1, 0), Vec3(0, 0, 1),  Vec3(0, 0, -1)};
+  const size_t leaves = field.samples.size();
+  struct Candidate {
+    Vec3 p;
+    size_t from;
+    double slab;
+  };
+  std::vector<std::array<Candidate, 6>> found(leaves);
+  std::vector<std::array<char, 6>> has(leaves);
+  tbb::parallel_for(size_t(0), leaves, [&](size_t i) {
+    has[i].fill(0);
+    const FieldSample& f = field.samples[i];
+    if (f.refined) return;
+    const double h = f.cellSize;
+    for (int a = 0; a < 6; ++a) {
+      const Vec3& d = axes[a];
+      const int axis = a / 2;
+      // Distance to the domain box's face along the axis, then to the first surface.
+      double t = d[axis] > 0 ? dom.hi[axis] - f.position[axis] : f.position[axis] - dom.lo[axis];
+      t = std::min(t, h);
+      Ray r;
+      r.origin = f.position;
+      r.direction = d;
+      r.tMax = t;
+      if (const auto hit = tracer.intersect(r)) t = std::min(t, hit->t);
+      const double slab = t - off;
+      if (t >= h || slab < 0.25 * h) continue;  // nothing near, or the centre is close enough
+      const Vec3 p = f.position + d * slab;
+      if (!inDomain(p)) continue;
+      found[i][size_t(a)] = {p, i, slab};
+      has[i][size_t(a)] = 1;
+    }
+  });
+  std::vector<Vec3> points;
+  std::vector<Candidate> cands;
+  for (size_t i = 0; i < leaves; ++i)
+    for (int a = 0; a < 6; ++a)
+      if (has[i][size_t(a)]) {
+        cands.push_back(found[i][size_t(a)]);
+        points.push_back(cands.back().p);
+      }
+  if (points.empty()) return;
+  CaptureSettings cs;
+  cs.samplesPerProbe = s.samplesPerProbe;
+  cs.seed = streamSeed(s.seed, 0xB0DA7ull);
+  cs.mode = s.mode;
+  const std::vector<ProbeCapture> caps = captureProbes(tracer, rig, points, cs);
+  for (size_t q = 0; q < caps.size(); ++q) {
+    if (caps[q].backfaceFraction > s.invalidBackfaceFraction) continue;
+    const FieldSample& from = field.samples[cands[q].from];
+    FieldSample fs = sampleFromCapture(points[q], caps[q]);
+    fs.depth = from.depth;
+    fs.cellSize = from.cellSize;
+    fs.boundary = true;
+    fs.slab = cands[q].slab;
+    field.samples.push_back(fs);
+  }
+}
+
 }  // namespace
 
 DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
@@ -76,6 +163,13 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
   if (s.maxDepth < 0 || s.maxDepth > kMaxDepthLimit)
     throw ParameterError("field depth: expected 0 to 8 refinement levels, got " +
                          std::to_string(s.maxDepth));
+  if (s.maxSurfaceDepth < -1 || s.maxSurfaceDepth > kMaxDepthLimit)
+    throw ParameterError(
+        "field surface depth: expected 0 to 8 levels (or -1: the field depth), got " +
+        std::to_string(s.maxSurfaceDepth));
+  if (!(s.boundaryOffset > 0 && s.boundaryOffset < 0.25))
+    throw ParameterError(
+        "field boundary offset: expected a fraction of the finest cell in (0, 0.25)");
   if (s.samplesPerProbe < 1)
     throw ParameterError("field spp: expected at least 1 sample per probe, got " +
                          std::to_string(s.samplesPerProbe));
@@ -214,14 +308,8 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
       // at least one ray.
       if (s.prefilter ? caps[q].samples == 0 : caps[q].backfaceFraction > s.invalidBackfaceFraction)
         continue;
-      FieldSample fs;
-      fs.position = points[q];
-      fs.sh = caps[q].sh;
-      fs.shStdError = caps[q].shStdError;
-      fs.f = luminanceDirection(fs.sh);  // Chajdas sec. 2.1, eq. 1
-      fs.luminanceHistogram = caps[q].luminanceHistogram;
-      fs.hueHistogram = caps[q].hueHistogram;
-      fs.backfaceFraction = s.prefilter ? validity[cellOfPoint[q]] : caps[q].backfaceFraction;
+      FieldSample fs = sampleFromCapture(points[q], caps[q]);
+      if (s.prefilter) fs.backfaceFraction = validity[cellOfPoint[q]];
       fs.depth = depth;
       fs.cellSize = h;
       sampleOfCell[cellOfPoint[q]] = int64_t(field.samples.size());
@@ -263,7 +351,7 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
     size_t splits = 0;
     for (size_t c = 0; c < m; ++c) {
       const Cell& cell = level[c];
-      bool split = crossed[c] != 0;
+      bool split = crossed[c] != 0 && (s.maxSurfaceDepth < 0 || depth < s.maxSurfaceDepth);
       // Neighbouring samples differ (the "where neighbouring probes differ"): compare
       // mean luminance in stops with the six face neighbours.
       const int64_t self = sampleOfCell[c];
@@ -292,6 +380,7 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
     field.splitsPerLevel.push_back(splits);
     level = std::move(next);
   }
+  if (s.boundarySamples) addBoundarySamples(tracer, rig, s, field, inDomain);
   if (progress && !progress(1.0)) throw Cancelled();
   field.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return field;

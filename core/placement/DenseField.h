@@ -32,11 +32,20 @@ struct FieldSample {
   int depth = 0;         ///< octree level the sample was made at (0 = base grid)
   double cellSize = 0;   ///< edge of the octree cell the sample is the centre of, metres
   bool refined = false;  ///< the cell was split: samples of the next level cover it
+  /// A boundary sample (DenseFieldSettings::boundarySamples): not a cell centre but a point
+  /// between a leaf cell's centre and the surface or domain boundary next to it; `slab` is its
+  /// distance from that centre (0 for a centre sample).
+  bool boundary = false;
+  double slab = 0;
 };
 
 struct DenseFieldSettings {
   double baseSpacingMeters = 0;  ///< base grid spacing; 0 = domain diagonal / 12
   int maxDepth = 2;              ///< refinement levels below the base grid
+  /// Levels at which a cell splits because a surface crosses it (-1: maxDepth). Below it, only
+  /// differing neighbours split cells: the light's detail, not the geometry's, draws the finest
+  /// samples (next to walls, boundary samples cover what the centres miss).
+  int maxSurfaceDepth = -1;
   int samplesPerProbe = 64;
   CaptureMode mode = CaptureMode::Full;
   size_t maxSamples = 200000;  ///< ParameterError above this, before any capture
@@ -54,6 +63,13 @@ struct DenseFieldSettings {
   /// integrates the radiance over its cell's trilinear support (half-width = the cell size)
   /// from origins inside the domain of interest, instead of point-sampling at the centre.
   bool prefilter = false;
+  /// Boundary samples: from the centre of every leaf sample, along each of the 6 axes, where a
+  /// surface or the domain's boundary is less than a cell away, one more sample just short of it
+  /// (boundaryOffset of the finest cell size away along the axis). Cell centres stay half a cell
+  /// from every wall; a probe set chosen among them alone has a hull that misses that layer, and
+  /// queries there are clamped to the hull, which is worst right under a light.
+  bool boundarySamples = false;
+  double boundaryOffset = 0.05;
 };
 
 struct DenseField {

@@ -46,6 +46,11 @@ std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh) {
   return r;
 }
 
+double greedySampleWeight(const FieldSample& f) {
+  const double h = f.cellSize;
+  return f.refined ? 0.0 : f.boundary ? 0.5 * h * h * f.slab : h * h * h;
+}
+
 void checkGreedySettings(const GreedySettings& s, size_t keptCount) {
   if (s.budget == 0 && !(s.maxError > 0))
     throw ParameterError("greedy: give --budget N or --max-error E (or both)");
@@ -163,10 +168,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   bool sized = true;
   for (const FieldSample& f : field.samples) sized = sized && f.cellSize > 0;
   if (sized)
-    for (size_t i = 0; i < S; ++i) {
-      const double h = field.samples[i].cellSize;
-      weight[i] = field.samples[i].refined ? 0.0 : h * h * h;
-    }
+    for (size_t i = 0; i < S; ++i) weight[i] = greedySampleWeight(field.samples[i]);
   double weightedRefSq = 0;
   for (size_t i = 0; i < S; ++i)
     for (double x : ref[i]) weightedRefSq += weight[i] * x * x / kNormals;

@@ -56,6 +56,11 @@ struct GreedyResult {
 /// axes and the 8 cube diagonals).
 std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh);
 
+/// The volume a field sample stands for in the field error: its octree cell's (0 for a split
+/// cell, whose children cover it); a boundary sample, the half of its slab nearer the wall
+/// (cell face area times slab / 2).
+double greedySampleWeight(const FieldSample& sample);
+
 /// The parameter checks of placeGreedy, to run before building a dense field for it.
 void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 
@@ -64,9 +69,8 @@ void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 /// probes (Delaunay tetrahedra, barycentric weights, clamped to the hull outside it:
 /// core/traversal) and the sample's own, less the variance of the sample's capture noise
 /// (from shStdError), floored at 0 and capped by errorCapRelative when set. Samples are
-/// weighted by their octree cell's volume (0 for a refined cell; uniform weights when the field
-/// records no cell sizes), and fieldError = sqrt(sum w err^2 / sum w |E|^2): eval's rel_rmse
-/// on the field, as a volume average.
+/// weighted by greedySampleWeight (uniform weights when the field records no cell sizes), and
+/// fieldError = sqrt(sum w err^2 / sum w |E|^2): eval's rel_rmse on the field, as a volume average.
 /// The initial probes: the kept ones, plus the field samples nearest to the 8 corners of the
 /// field's bounding box (only the 4 alternate corners when the budget is smaller than
 /// kept + 8). Each addition tries candidates from the tetrahedra holding the most weighted

@@ -63,8 +63,10 @@ class PointGrid {
  public:
   explicit PointGrid(double cell) : cell_(cell) {}
   void insert(Vec3 p, int32_t id) { cells_[key(cellOf(p))].push_back({p, id}); }
-  /// Id of the nearest point closer than r (r <= cell size), or -1.
-  int32_t nearestWithin(Vec3 p, double r) const {
+  /// Id of the nearest point closer than r (r <= cell size) for which `accept(point)` holds, or
+  /// -1.
+  template <class Accept>
+  int32_t nearestWithin(Vec3 p, double r, const Accept& accept) const {
     const std::array<int64_t, 3> c = cellOf(p);
     int32_t best = -1;
     double bestD2 = r * r;
@@ -75,7 +77,7 @@ class PointGrid {
           if (it == cells_.end()) continue;
           for (const auto& [q, id] : it->second) {
             const double d2 = dot(q - p, q - p);
-            if (d2 < bestD2) {
+            if (d2 < bestD2 && accept(q)) {
               bestD2 = d2;
               best = id;
             }
@@ -247,7 +249,15 @@ LeakRefineResult refineLeaks(const Tracer& tracer, std::span<const Vec3> probes,
     size_t addedThisRound = 0;
     for (size_t i = 0; i < cand.size(); ++i) {
       if (!valid[i]) continue;
-      const int32_t near = grid.nearestWithin(cand[i].p, cand[i].spacing);
+      // Only a probe on the candidate's side of the wall samples that side: one behind the wall
+      // (a probe hugging its other face) does not.
+      const int32_t near = grid.nearestWithin(cand[i].p, cand[i].spacing, [&](Vec3 q) {
+        const Vec3 d = q - cand[i].p;
+        const double len = length(d);
+        return len <= 2 * tracer.rayEpsilon() ||
+               !tracer.occluded(
+                   Ray{cand[i].p, d / len, tracer.rayEpsilon(), len - tracer.rayEpsilon()});
+      });
       if (near >= 0) {
         if (size_t(near) >= probes.size()) r.addedScore[size_t(near) - probes.size()] += 1;
         continue;

@@ -30,9 +30,9 @@ struct LeakRefineSettings {
   /// Offset the new probe from the hit along the surface's normal instead of back along the
   /// edge: the probes made for one wall then form a layer parallel to it.
   bool offsetAlongNormal = true;
-  /// A new probe is dropped when an existing or already added probe lies closer than this
-  /// fraction of the vertex's local scale (several edges from one vertex hitting one wall make
-  /// one probe, not six).
+  /// A new probe is dropped when an existing or already added probe it can see lies closer than
+  /// this fraction of the vertex's local scale (several edges from one vertex hitting one wall
+  /// make one probe, not six; a probe behind the wall does not count).
   double minSpacingRelative = 0.35;
   /// Validity of the new probes (Kontkanen & Laine sec. 5): rays and back-face fraction.
   int validityRays = 64;

@@ -89,6 +89,13 @@ PlaceOutcome placeWithGreedy(const Context& c) {
   checkGreedySettings(gs, c.kept.size());  // before the dense field is built
   DenseFieldSettings fs = r.field;
   fs.seed = r.seed;
+  fs.boundarySamples = true;
+  if (r.fieldDepth != -1) {
+    fs.maxDepth = r.fieldDepth;  // buildDenseField checks the range
+  } else {
+    fs.maxDepth = kGreedyFieldDepth;
+    if (fs.maxSurfaceDepth < 0) fs.maxSurfaceDepth = kGreedyFieldSurfaceDepth;
+  }
   fs.importanceVolumes.assign(c.importanceVolumes.begin(), c.importanceVolumes.end());
   const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
   PlaceOutcome out;
@@ -223,6 +230,7 @@ PlaceOutcome placeWithChajdas(const Context& c) {
                          std::to_string(cs.aggressiveness));
   DenseFieldSettings fs = r.field;
   fs.seed = r.seed;
+  if (r.fieldDepth != -1) fs.maxDepth = r.fieldDepth;
   fs.importanceVolumes = cs.importanceVolumes;
   const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
   for (const Light& l : allLights(c.tracer.scene(), c.rig))

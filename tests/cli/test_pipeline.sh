@@ -16,7 +16,7 @@ cmp "$tmp/v.psv" "$tmp/v2.psv"
 "$cli" bake "$tmp/set.json" -o "$tmp/v3.psv" --target-error 0.1 --max-spp 1024 --no-leak-refine |
   grep -q "([0-9]* captured, 0 from the cache).*target error 0.1 (at most 1024 spp)"
 "$cli" info "$tmp/set.json" | grep -q "matches the scene"
-"$cli" eval "$tmp/v.psv" --queries 32 --reference-spp 256 --json >"$tmp/eval.json"
+"$cli" eval "$tmp/v.psv" --queries 32 --reference-spp 256 --json --per-query "$tmp/eval.csv" >"$tmp/eval.json"
 "$cli" info "$tmp/set.json" | grep -q "accepted"
 "$cli" info "$tmp/v.psv" | grep -q "probe volume"
 "$cli" query "$tmp/v.psv" --at 0.1,0.5,0.1 --normal 0,1,0 --json >"$tmp/q.json"
@@ -39,6 +39,17 @@ assert e["probes"] == n and e["queries"] == 32
 for k in ("rel_rmse", "p95_rel_error", "max_rel_error", "seconds"):
     assert math.isfinite(e[k]) and e[k] >= 0, (k, e[k])
 assert e["rel_rmse"] < 1.0, e
+# --per-query: every query, and its errors give back the JSON's rel_rmse and leaking fraction.
+import csv
+rows = list(csv.DictReader(open(f"{tmp}/eval.csv")))
+assert len(rows) == 32 and list(rows[0]) == ["x", "y", "z", "nx", "ny", "nz", "reference",
+                                             "interpolated", "rel_error", "leaking"], rows[0]
+num = sum((float(r["interpolated"]) - float(r["reference"])) ** 2 for r in rows)
+den = sum(float(r["reference"]) ** 2 for r in rows)
+assert abs(math.sqrt(num / den) - e["rel_rmse"]) < 1e-6 * e["rel_rmse"] + 1e-9, (num, den, e)
+assert sum(int(r["leaking"]) for r in rows) / 32 == e["leaking_fraction"], e
+for r in rows:
+    assert abs(math.hypot(float(r["nx"]), float(r["ny"]), float(r["nz"])) - 1) < 1e-4, r
 q = json.load(open(f"{tmp}/q.json"))[0]
 assert q["tet"] >= 0 and abs(sum(q["weights"]) - 1) < 1e-5
 assert all(c > 0 for c in q["irradiance"]), q

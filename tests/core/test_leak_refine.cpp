@@ -116,6 +116,23 @@ TEST(LeakRefine, CoarseTwoRoomsSetLeaksAndRefinementRemovesMostLeaks) {
   EXPECT_TRUE(sideA && sideB);
 }
 
+TEST(LeakRefine, AProbeHuggingTheWallDoesNotStandForTheOtherSide) {
+  // One probe of room A 1 cm from the shared wall (its face at x = -0.05), the others a metre
+  // and more away on both sides. The edges from room B to it cross the wall; room B's side needs
+  // a probe of its own by the wall, although the hugging probe is within the merge spacing of
+  // it: that probe is behind the wall and must not count.
+  const Tracer& tracer = twoRooms().tracer;
+  const std::vector<Vec3> probes = {{-1.5, 0.5, -3},  {-1.5, 2.5, -3}, {-1.5, 1.5, -1},
+                                    {-0.06, 1.5, -2}, {1.5, 0.5, -3},  {1.5, 2.5, -3},
+                                    {1.5, 1.5, -1},   {1.5, 1.5, -2.5}};
+  const LeakRefineResult r = refineLeaks(tracer, probes);
+  bool besideOnB = false;
+  for (const Vec3& p : r.added)
+    besideOnB = besideOnB ||
+                (p.x > 0.05 && p.x < 0.6 && std::abs(p.y - 1.5) < 0.8 && std::abs(p.z + 2) < 0.8);
+  EXPECT_TRUE(besideOnB) << r.added.size() << " probes added";
+}
+
 TEST(LeakRefine, IsDeterministic) {
   const Tracer& tracer = twoRooms().tracer;
   const std::vector<Vec3> probes = coarseSet(tracer);

@@ -14,6 +14,7 @@
 #include "core/placement/Ascent.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
+#include "core/placement/Place.h"
 #include "core/placement/SpawnMerge.h"
 #include "core/placement/Uniform.h"
 #include "core/scene/Scene.h"
@@ -170,6 +171,75 @@ TEST(DenseField, UniformSkyInAnEmptyBoxIsNotRefined) {
   for (const FieldSample& fs : f.samples) EXPECT_EQ(fs.depth, 0);
 }
 
+TEST(DenseField, BoundarySamplesFillTheLayerAlongTheWalls) {
+  // pillar-room's interior is [-4, 4] x [0, 3] x [-4, 4]. Cell centres stay half a cell from the
+  // floor and the ceiling; boundary samples sit boundaryOffset of the finest cell from them,
+  // on the axis line of a leaf centre, inside the room and outside the pillar.
+  const Loaded& l = loaded("pillar-room.gltf");
+  DenseFieldSettings s = smallField(1);
+  const DenseField centres = buildDenseField(*l.tracer, {}, s);
+  s.boundarySamples = true;
+  const DenseField f = buildDenseField(*l.tracer, {}, s);
+  ASSERT_GT(f.samples.size(), centres.samples.size());
+  double finest = 1e9;
+  for (const FieldSample& c : centres.samples) finest = std::min(finest, c.cellSize);
+  const double off = s.boundaryOffset * finest;
+  auto nearest = [](const DenseField& d, auto distance) {
+    double best = 1e9;
+    for (const FieldSample& x : d.samples) best = std::min(best, distance(x.position));
+    return best;
+  };
+  auto toFloor = [](Vec3 p) { return p.y; };
+  auto toCeiling = [](Vec3 p) { return 3 - p.y; };
+  auto toWall = [](Vec3 p) { return 4 - p.x; };
+  for (auto distance : {+toFloor, +toCeiling, +toWall}) {
+    EXPECT_GT(nearest(centres, distance), 2 * off);
+    EXPECT_NEAR(nearest(f, distance), off, 1e-6);
+  }
+  size_t boundary = 0;
+  for (size_t i = 0; i < f.samples.size(); ++i) {
+    const FieldSample& b = f.samples[i];
+    if (i < centres.samples.size()) {  // the centres come first, unchanged
+      EXPECT_EQ(b.position, centres.samples[i].position);
+      EXPECT_FALSE(b.boundary);
+      continue;
+    }
+    ++boundary;
+    EXPECT_TRUE(b.boundary);
+    EXPECT_FALSE(b.refined);
+    EXPECT_GE(b.slab, 0.25 * b.cellSize);
+    EXPECT_LT(b.slab, b.cellSize);
+    EXPECT_TRUE(inBox(b.position, {-4, 0, -4}, {4, 3, 4})) << b.position;
+    EXPECT_FALSE(inBox(b.position, {-0.6, 0, -0.6}, {0.6, 3, 0.6})) << b.position;
+    EXPECT_LE(b.backfaceFraction, s.invalidBackfaceFraction);
+    EXPECT_GT(greedySampleWeight(b), 0);
+  }
+  EXPECT_GT(boundary, 100u);
+}
+
+TEST(DenseField, SurfaceDepthStopsGeometrySplitsButNotLightSplits) {
+  // two-rooms with the light criterion off: below maxSurfaceDepth nothing splits. With it on,
+  // the point light and the sun patch still split cells there.
+  const Loaded& l = loaded("two-rooms.gltf");
+  DenseFieldSettings s = smallField(3);
+  s.maxSurfaceDepth = 1;
+  s.refineRelativeDifference = 1e9;
+  const DenseField geometryOnly = buildDenseField(*l.tracer, {}, s);
+  ASSERT_GE(geometryOnly.splitsPerLevel.size(), 2u);
+  EXPECT_GT(geometryOnly.splitsPerLevel[0], 0u);
+  EXPECT_EQ(geometryOnly.splitsPerLevel[1], 0u);
+  for (const FieldSample& x : geometryOnly.samples) EXPECT_LE(x.depth, 1);
+  s.refineRelativeDifference = DenseFieldSettings{}.refineRelativeDifference;
+  const DenseField withLight = buildDenseField(*l.tracer, {}, s);
+  ASSERT_GE(withLight.splitsPerLevel.size(), 3u);
+  EXPECT_GT(withLight.splitsPerLevel[1], 0u);
+  s.maxSurfaceDepth = -2;
+  EXPECT_THROW(buildDenseField(*l.tracer, {}, s), ParameterError);
+  s.maxSurfaceDepth = 1;
+  s.boundaryOffset = 0.3;
+  EXPECT_THROW(buildDenseField(*l.tracer, {}, s), ParameterError);
+}
+
 TEST(DenseField, PrefilteredSamplesIntegrateOnlyTheRoomTheyAreIn) {
   // A closed room of black walls emitting le inward: from inside, every ray sees exactly le.
   // Pre-filtered samples (Kontkanen & Laine sec. 4-6) average over their cell's trilinear
@@ -232,7 +302,11 @@ TEST(DenseField, CancelsThroughItsProgressCallback) {
 namespace {
 
 const DenseField& twoRoomsField() {
-  static const DenseField f = buildDenseField(*loaded("two-rooms.gltf").tracer, {}, smallField(1));
+  static const DenseField f = [] {
+    DenseFieldSettings s = smallField(1);
+    s.boundarySamples = true;  // greedy's own field has them (core/placement/Place.cpp)
+    return buildDenseField(*loaded("two-rooms.gltf").tracer, {}, s);
+  }();
   return f;
 }
 
@@ -248,7 +322,7 @@ double fieldErrorFromScratch(const DenseField& f, const std::vector<size_t>& pro
   const ProbeVolume v = volumeFromProbes(pos, sh);
   double num = 0, den = 0;
   for (const FieldSample& s : f.samples) {
-    const double w = s.refined ? 0.0 : s.cellSize * s.cellSize * s.cellSize;
+    const double w = greedySampleWeight(s);
     const auto ref = greedyErrorNormalsIrradiance(s.sh);
     const auto got = greedyErrorNormalsIrradiance(interpolate(v, locate(v, s.position)));
     for (size_t k = 0; k < ref.size(); ++k) {
@@ -386,6 +460,39 @@ TEST(Greedy, BeatsUniformOnTwoRoomsAtEqualProbeCount) {
                                     << " at " << u.points.size() << " probes";
   std::printf("two-rooms, %zu probes: rel_rmse greedy %.4f, uniform %.4f\n", u.points.size(),
               eg.relRmse, eu.relRmse);
+}
+
+TEST(Greedy, DefaultFieldHalvesUniformsErrorOnTwoRooms) {
+  // placeProbes' greedy (the field refined to depth 4 by the light, to depth 2 by the geometry,
+  // with boundary samples) against the uniform grid at 64 probes, both captured at the same spp
+  // and measured against the same path-traced reference. Issue 5's goal is at most half of
+  // uniform's rel_rmse; the bound leaves room for the test's smaller capture and reference.
+  const Loaded& l = loaded("two-rooms.gltf");
+  PlaceRequest r;
+  r.budget = 64;
+  r.method = "uniform";
+  const PlaceOutcome u = placeProbes(*l.tracer, {}, r, {}, {});
+  r.method = "greedy";
+  const PlaceOutcome g = placeProbes(*l.tracer, {}, r, {}, {});
+  ASSERT_EQ(g.probes.size(), 64u);
+  CaptureSettings cs;
+  cs.samplesPerProbe = 256;
+  EvalSettings es;
+  es.queries = 4096;
+  es.referenceSpp = 64;
+  auto eval = [&](const PlaceOutcome& o) {
+    std::vector<Vec3> pts;
+    for (const PlacedProbe& p : o.probes) pts.push_back(p.position);
+    const auto caps = captureProbes(*l.tracer, {}, pts, cs);
+    std::vector<ShRgb> sh;
+    for (const auto& c : caps) sh.push_back(c.sh);
+    return evaluateVolume(*l.tracer, {}, volumeFromProbes(pts, sh), es).relRmse;
+  };
+  const double eu = eval(u), eg = eval(g);
+  EXPECT_LT(eg, 0.6 * eu) << "greedy " << eg << ", uniform " << eu << " (" << u.probes.size()
+                          << " probes)";
+  std::printf("two-rooms, 64 probes: rel_rmse greedy %.4f, uniform %.4f (%zu probes)\n", eg, eu,
+              u.probes.size());
 }
 
 // ----------------------------------------------------------------------------------- ascent
