@@ -197,8 +197,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   struct Trial {
     std::vector<size_t> changed;
     std::vector<SampleState> changedState;
-    double weightedErrSq = 0;  // sum of weight * errSq over all samples after the change
+    double weightedErrSq = 0;    // sum of weight * errSq over all samples after the change
+    std::vector<uint64_t> hull;  // the mesh's hull faces (tetKey of their vertices), sorted
   };
+  std::vector<uint64_t> committedHull;
   double currentWeightedErrSq = 0;
   bool first = true;
 
@@ -221,7 +223,15 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         probeOfVertex[size_t(t.vertexOfInput[p])] = int32_t(p);
     zeroSh.assign(t.vertices.size(), ShRgb{});
     const ProbeVolume volume = buildProbeVolume(t, zeroSh);
+    const HullClamp hullClamp(volume);
     Trial trial;
+    trial.hull.reserve(volume.hullFaces.size());
+    for (const auto& [tet, opp] : volume.hullFaces) {
+      std::array<int32_t, 4> face = volume.tets[size_t(tet)];
+      face[size_t(opp)] = face[size_t((opp + 1) & 3)];  // the three face vertices, one repeated
+      trial.hull.push_back(tetKey(face));
+    }
+    std::sort(trial.hull.begin(), trial.hull.end());
     if (first) {
       trial.changed.resize(S);
       for (size_t i = 0; i < S; ++i) trial.changed[i] = i;
@@ -229,14 +239,21 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       std::unordered_set<uint64_t> tets;
       tets.reserve(volume.tets.size() * 2);
       for (const auto& v : volume.tets) tets.insert(tetKey(v));
+      // When the hull's faces are those of the committed mesh, so is the clamp of every sample
+      // outside: those are re-interpolated only when their clamping tetrahedron went (for its
+      // key; the value stays). Samples outside the hull are most of a boundary-sampled field's
+      // cost otherwise (clampToHull visits every hull face). A probe inside the hull can still
+      // change its faces: coplanar probes on the hull (boundary samples along a floor) have more
+      // than one triangulation.
+      const bool hullUnchanged = trial.hull == committedHull;
       for (size_t i = 0; i < S; ++i)
-        if (state[i].outside || !tets.count(state[i].tet) || i == extraProbe)
+        if ((state[i].outside && !hullUnchanged) || !tets.count(state[i].tet) || i == extraProbe)
           trial.changed.push_back(i);
     }
     trial.changedState.resize(trial.changed.size());
     tbb::parallel_for(size_t(0), trial.changed.size(), [&](size_t q) {
       const size_t i = trial.changed[q];
-      const VolumeLocation loc = locate(volume, field.samples[i].position, -1);
+      const VolumeLocation loc = locate(volume, field.samples[i].position, -1, &hullClamp);
       PS_CHECK_LE(0, loc.tet);
       const auto& tv = volume.tets[size_t(loc.tet)];
       // Barycentric blend of the probes' irradiance (linear in SH, so equal to the irradiance of
@@ -268,6 +285,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   auto commit = [&](const Trial& trial) {
     for (size_t q = 0; q < trial.changed.size(); ++q)
       state[trial.changed[q]] = trial.changedState[q];
+    committedHull = trial.hull;
     double sum = 0;  // recomputed in full so that no rounding accumulates
     for (size_t i = 0; i < S; ++i) sum += weight[i] * state[i].errSq;
     currentWeightedErrSq = sum;

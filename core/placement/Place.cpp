@@ -87,15 +87,7 @@ PlaceOutcome placeWithGreedy(const Context& c) {
   gs.budget = r.budget;
   gs.maxError = r.maxError;
   checkGreedySettings(gs, c.kept.size());  // before the dense field is built
-  DenseFieldSettings fs = r.field;
-  fs.seed = r.seed;
-  fs.boundarySamples = true;
-  if (r.fieldDepth != -1) {
-    fs.maxDepth = r.fieldDepth;  // buildDenseField checks the range
-  } else {
-    fs.maxDepth = kGreedyFieldDepth;
-    if (fs.maxSurfaceDepth < 0) fs.maxSurfaceDepth = kGreedyFieldSurfaceDepth;
-  }
+  DenseFieldSettings fs = greedyFieldSettings(r);
   fs.importanceVolumes.assign(c.importanceVolumes.begin(), c.importanceVolumes.end());
   const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
   PlaceOutcome out;
@@ -268,6 +260,19 @@ const std::map<std::string, Method>& methods() {
 }
 
 }  // namespace
+
+DenseFieldSettings greedyFieldSettings(const PlaceRequest& r) {
+  DenseFieldSettings fs = r.field;
+  fs.seed = r.seed;
+  fs.boundarySamples = true;
+  if (r.fieldDepth != -1) {
+    fs.maxDepth = r.fieldDepth;  // buildDenseField checks the range
+  } else {
+    fs.maxDepth = kGreedyFieldDepth;
+    if (fs.maxSurfaceDepth < 0) fs.maxSurfaceDepth = kGreedyFieldSurfaceDepth;
+  }
+  return fs;
+}
 
 std::vector<std::string> placementMethods() {
   std::vector<std::string> names;

@@ -60,6 +60,10 @@ struct PlaceOutcome {
   std::vector<std::string> notes;   ///< what the method did, one line each
 };
 
+/// The dense field settings greedy uses for `request` (its field, seed and fieldDepth; the
+/// importance volumes are left to the caller).
+DenseFieldSettings greedyFieldSettings(const PlaceRequest& request);
+
 /// The method names, sorted.
 std::vector<std::string> placementMethods();
 

@@ -208,31 +208,48 @@ Vec3 closestOnTriangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c, std::array<double, 3>& ba
   return a + ab * sv + ac * sw;
 }
 
+// The nearest of a set of hull faces so far: squared distance, hull-face index (ties go to the
+// lower index, as in a scan in hull-face order), and the clamp's weights.
+struct NearestFace {
+  double d2 = std::numeric_limits<double>::infinity();
+  size_t face = 0;
+  int32_t tet = -1;
+  std::array<double, 4> w{};
+
+  void consider(const ProbeVolume& v, Vec3 p, size_t f) {
+    const auto& [t, opp] = v.hullFaces[f];
+    const int i0 = (opp + 1) & 3, i1 = (opp + 2) & 3, i2 = (opp + 3) & 3;
+    std::array<double, 3> bary;
+    const Vec3 q = closestOnTriangle(p, v.position(v.tets[t][i0]), v.position(v.tets[t][i1]),
+                                     v.position(v.tets[t][i2]), bary);
+    const double e = dot(q - p, q - p);
+    if (e < d2 || (e == d2 && f < face)) {
+      d2 = e;
+      face = f;
+      tet = t;
+      w = {};
+      w[i0] = bary[0];
+      w[i1] = bary[1];
+      w[i2] = bary[2];
+    }
+  }
+  VolumeLocation location() const {
+    VolumeLocation loc;
+    loc.outside = true;
+    loc.tet = tet;
+    if (tet >= 0) loc.weights = cleanWeights(w);
+    return loc;
+  }
+};
+
 // Sukys 3.2.1 "Drawbacks": outside the hull, track the point along the hull surface. We clamp p
 // to the nearest point of the hull (brute force over hull faces) and return the barycentrics of
 // that point in the hull face's tet (0 for the vertex opposite the face): continuous with the
 // inside and never black.
 VolumeLocation clampToHull(const ProbeVolume& v, Vec3 p) {
-  VolumeLocation best;
-  best.outside = true;
-  double bestD2 = std::numeric_limits<double>::infinity();
-  for (const auto& [t, opp] : v.hullFaces) {
-    const int i0 = (opp + 1) & 3, i1 = (opp + 2) & 3, i2 = (opp + 3) & 3;
-    std::array<double, 3> bary;
-    const Vec3 q = closestOnTriangle(p, v.position(v.tets[t][i0]), v.position(v.tets[t][i1]),
-                                     v.position(v.tets[t][i2]), bary);
-    const double d2 = dot(q - p, q - p);
-    if (d2 < bestD2) {
-      bestD2 = d2;
-      best.tet = t;
-      std::array<double, 4> w{};
-      w[i0] = bary[0];
-      w[i1] = bary[1];
-      w[i2] = bary[2];
-      best.weights = cleanWeights(w);
-    }
-  }
-  return best;
+  NearestFace n;
+  for (size_t f = 0; f < v.hullFaces.size(); ++f) n.consider(v, p, f);
+  return n.location();
 }
 
 // Correctness backstop: the non-flat tet in which p is deepest (largest smallest barycentric,
@@ -391,7 +408,7 @@ void buildLocator(ProbeVolume& v) {
   for (size_t c = 0; c < cells; ++c) v.locatorGrid[c] = t = detail::locatorCellTet(v, c, t);
 }
 
-VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet) {
+VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet, const HullClamp* clamp) {
   if (v.tets.empty()) return {};
   const int32_t n = static_cast<int32_t>(v.tets.size());
   const bool hinted = hintTet >= 0 && hintTet < n;
@@ -431,12 +448,108 @@ VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet) {
       return loc;
     }
     case WalkResult::kOutside:
-      return clampToHull(v, p);
+      return clamp ? clamp->clamp(p) : clampToHull(v, p);
     case WalkResult::kFailed:
       break;
   }
   gBruteForceCount.fetch_add(1, std::memory_order_relaxed);
   return bruteForce(v, p);
+}
+
+VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet) {
+  return locate(v, p, hintTet, nullptr);
+}
+
+HullClamp::HullClamp(const ProbeVolume& v) : v_(&v) {
+  if (v.hullFaces.empty()) return;
+  for (const auto& [t, opp] : v.hullFaces)
+    for (int k = 1; k < 4; ++k) box_.extend(v.position(v.tets[t][(opp + k) & 3]));
+  // About one face per cell: hull faces lie on the box's surface, n^2 of n^3 cells.
+  const int n = std::clamp(int(std::ceil(std::sqrt(double(v.hullFaces.size())))), 1, 64);
+  const Vec3 e = box_.extent();
+  for (int a = 0; a < 3; ++a) {
+    dims_[a] = e[a] > 0 ? n : 1;
+    cell_[a] = e[a] > 0 ? e[a] / n : 1.0;
+  }
+  cellStart_.assign(size_t(dims_[0]) * dims_[1] * dims_[2] + 1, 0);
+  // Two passes (count, fill): each face in every cell its bounding box touches.
+  std::vector<std::array<int, 6>> range(v.hullFaces.size());
+  for (size_t f = 0; f < v.hullFaces.size(); ++f) {
+    const auto& [t, opp] = v.hullFaces[f];
+    Bounds3 fb;
+    for (int k = 1; k < 4; ++k) fb.extend(v.position(v.tets[t][(opp + k) & 3]));
+    const auto lo = cellOf(fb.lo), hi = cellOf(fb.hi);
+    range[f] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
+    forCells(range[f], [&](size_t c) { ++cellStart_[c + 1]; });
+  }
+  for (size_t c = 1; c < cellStart_.size(); ++c) cellStart_[c] += cellStart_[c - 1];
+  faces_.resize(cellStart_.back());
+  std::vector<uint32_t> fill(cellStart_.begin(), cellStart_.end() - 1);
+  for (size_t f = 0; f < v.hullFaces.size(); ++f)
+    forCells(range[f], [&](size_t c) { faces_[fill[c]++] = uint32_t(f); });
+}
+
+std::array<int, 3> HullClamp::cellOf(Vec3 p) const {
+  std::array<int, 3> c{};
+  for (int a = 0; a < 3; ++a) {
+    const double x = std::floor((p[a] - box_.lo[a]) / cell_[a]);
+    c[size_t(a)] = int(std::clamp(std::isfinite(x) ? x : 0.0, 0.0, double(dims_[a] - 1)));
+  }
+  return c;
+}
+
+template <class F>
+void HullClamp::forCells(const std::array<int, 6>& r, const F& f) const {
+  for (int z = r[2]; z <= r[5]; ++z)
+    for (int y = r[1]; y <= r[4]; ++y)
+      for (int x = r[0]; x <= r[3]; ++x)
+        f(size_t(x) + size_t(dims_[0]) * (y + size_t(dims_[1]) * z));
+}
+
+VolumeLocation HullClamp::clamp(Vec3 p) const {
+  if (v_->hullFaces.empty() || !isFinite(p)) return clampToHull(*v_, p);
+  // Rings of cells around p's cell (p clamped into the box), nearest first, until the best face
+  // is nearer than every cell not yet visited: the same face as the scan over all faces.
+  const std::array<int, 3> c = cellOf(p);
+  NearestFace n;
+  // A face is in every cell its box touches: each is measured once per query.
+  thread_local std::vector<uint32_t> seen;
+  thread_local uint32_t stamp = 0;
+  if (seen.size() < v_->hullFaces.size()) seen.assign(v_->hullFaces.size(), 0);
+  if (++stamp == 0) {
+    std::fill(seen.begin(), seen.end(), 0);
+    stamp = 1;
+  }
+  for (int r = 0;; ++r) {
+    std::array<int, 6> block{};
+    for (int a = 0; a < 3; ++a) {
+      block[size_t(a)] = std::max(0, c[size_t(a)] - r);
+      block[size_t(a) + 3] = std::min(dims_[a] - 1, c[size_t(a)] + r);
+    }
+    forCells(block, [&](size_t cell) {
+      const int x = int(cell % size_t(dims_[0]));
+      const int y = int(cell / size_t(dims_[0]) % size_t(dims_[1]));
+      const int z = int(cell / (size_t(dims_[0]) * dims_[1]));
+      if (std::max({std::abs(x - c[0]), std::abs(y - c[1]), std::abs(z - c[2])}) != r) return;
+      for (uint32_t k = cellStart_[cell]; k < cellStart_[cell + 1]; ++k)
+        if (seen[faces_[k]] != stamp) {
+          seen[faces_[k]] = stamp;
+          n.consider(*v_, p, faces_[k]);
+        }
+    });
+    // The distance from p to the nearest cell outside the block (sides at the grid's edge have
+    // none beyond them).
+    double free = std::numeric_limits<double>::infinity();
+    for (int a = 0; a < 3; ++a) {
+      if (block[size_t(a)] > 0)
+        free = std::min(free, p[a] - (box_.lo[a] + block[size_t(a)] * cell_[a]));
+      if (block[size_t(a) + 3] < dims_[a] - 1)
+        free = std::min(free, box_.lo[a] + (block[size_t(a) + 3] + 1) * cell_[a] - p[a]);
+    }
+    if (!std::isfinite(free)) break;  // the block is the whole grid
+    if (n.tet >= 0 && free > 0 && n.d2 < free * free * (1 - 1e-9)) break;
+  }
+  return n.location();
 }
 
 void locateBatch(const ProbeVolume& v, std::span<const Vec3> points,

@@ -86,6 +86,30 @@ struct VolumeLocation {
 /// 0 with equal weights and outside = true; an empty volume (no tets) gives tet = -1.
 VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet = -1);
 
+/// The clamp to the hull that locate() does outside it, through a grid of the hull faces built
+/// once: for many points clamped against one volume (greedy placement's samples outside its
+/// hull). The same face, tet and weights as locate()'s own clamp (a scan of every face). Holds a
+/// pointer to `v`, which must outlive it and not change.
+class HullClamp {
+ public:
+  explicit HullClamp(const ProbeVolume& v);
+  VolumeLocation clamp(Vec3 p) const;
+
+ private:
+  std::array<int, 3> cellOf(Vec3 p) const;
+  template <class F>
+  void forCells(const std::array<int, 6>& range, const F& f) const;
+
+  const ProbeVolume* v_;
+  Bounds3 box_;  ///< of the hull's vertices
+  int dims_[3] = {1, 1, 1};
+  double cell_[3] = {1, 1, 1};
+  std::vector<uint32_t> cellStart_, faces_;  ///< per cell, the hull faces its box touches
+};
+
+/// locate() with `clamp` (built from v; nullptr: the plain clamp) for points outside the hull.
+VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet, const HullClamp* clamp);
+
 /// locate() for each point. A point within one locator cell of the previous one walks from the
 /// previous point's tet (coherent queries, e.g. the samples of a moving object, are then a step
 /// or two each); a farther one starts from the locator (a cold query). `out.size()` must equal

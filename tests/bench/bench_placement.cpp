@@ -11,6 +11,7 @@
 
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
+#include "core/placement/Place.h"
 #include "core/placement/Uniform.h"
 #include "core/scene/Scene.h"
 #include "core/trace/Tracer.h"
@@ -24,7 +25,7 @@ struct Fixture {
   Scene scene;
   std::unique_ptr<Tracer> tracer;
   LightingRig rig;
-  std::unique_ptr<DenseField> field;  // default DenseFieldSettings, built on first use
+  std::unique_ptr<DenseField> field;  // greedy's default field, built on first use
 };
 
 /// 0: resources/scenes/two-rooms.gltf (its own lights); 1: japanese-bridge-garden (sun + sky).
@@ -53,7 +54,8 @@ Fixture* fixture(int which) {
 
 const DenseField& field(Fixture& f) {
   if (!f.field)
-    f.field = std::make_unique<DenseField>(buildDenseField(*f.tracer, f.rig, DenseFieldSettings{}));
+    f.field =
+        std::make_unique<DenseField>(buildDenseField(*f.tracer, f.rig, greedyFieldSettings({})));
   return *f.field;
 }
 
@@ -62,7 +64,7 @@ void BM_DenseField(benchmark::State& state) {
   if (!f) return state.SkipWithError("scene not found in PS_SHARED_SCENES_DIR");
   size_t samples = 0;
   for (auto _ : state)
-    samples = buildDenseField(*f->tracer, f->rig, DenseFieldSettings{}).samples.size();
+    samples = buildDenseField(*f->tracer, f->rig, greedyFieldSettings({})).samples.size();
   state.counters["samples"] = double(samples);
   state.counters["samples/s"] =
       benchmark::Counter(double(samples), benchmark::Counter::kIsIterationInvariantRate);

@@ -424,6 +424,36 @@ TEST(ProbeVolume, FarQueriesAreNeverBlackAndClampToTheHull) {
   }
 }
 
+TEST(ProbeVolume, HullClampGivesLocatesOwnClamp) {
+  // The bounding-sphere pruning skips only faces that cannot be nearer: the same tet and
+  // weights, bit for bit, for points near the hull (where many faces are about as near) and
+  // far from it, and for a hull of coplanar faces (a grid, the layout of boundary samples).
+  for (const std::vector<Vec3>& pts : {randomFloatPoints(400, 7), cubeWithInterior(300, 17),
+                                       testing::gridPoints(6, {0, 0, 0}, 0.2)}) {
+    const ProbeVolume v = buildLinear(pts);
+    const HullClamp clamp(v);
+    uint64_t s = streamSeed(11, pts.size());
+    size_t outside = 0;
+    for (int i = 0; i < 3000 / kScale; ++i) {
+      const Vec3 dir = uniformSphere(uniform01(s), uniform01(s));
+      const double dist = 0.3 * std::pow(10.0, 3 * uniform01(s));
+      const Vec3 p = Vec3(0.5, 0.5, 0.5) + dir * dist;
+      const VolumeLocation a = locate(v, p, -1);
+      const VolumeLocation b = locate(v, p, -1, &clamp);
+      ASSERT_EQ(a.outside, b.outside) << p;
+      ASSERT_EQ(a.tet, b.tet) << p;
+      ASSERT_EQ(a.weights, b.weights) << p;
+      if (a.outside) {
+        ++outside;
+        const VolumeLocation c = clamp.clamp(p);
+        EXPECT_EQ(c.tet, a.tet);
+        EXPECT_EQ(c.weights, a.weights);
+      }
+    }
+    EXPECT_GT(outside, 1000u / kScale);
+  }
+}
+
 TEST(ProbeVolume, SliverTetsGiveValidWeights) {
   const uint64_t fallbacksBefore = detail::locateBruteForceCount();
   // (a) four nearly coplanar, nearly cospherical points plus far apexes.
