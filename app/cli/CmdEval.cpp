@@ -36,6 +36,7 @@ void registerEval(CLI::App& app) {
     bool noCache = false;
     bool json = false;
     std::string perQuery;
+    double lightClearance = kDefaultLightClearanceRelative;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -53,6 +54,9 @@ void registerEval(CLI::App& app) {
   cmd->add_flag("--no-cache", o->noCache,
                 "Trace the reference, neither reading nor writing the reference cache");
   cmd->add_flag("--json", o->json, "Print JSON");
+  cmd->add_option("--light-clearance", o->lightClearance,
+                  "Queries keep this fraction of the domain's diagonal from point and spot lights "
+                  "(default 0.02; 0: none)");
   cmd->add_option("--per-query", o->perQuery,
                   "Write every query to this CSV: x,y,z,nx,ny,nz,reference,interpolated,"
                   "rel_error,leaking (luminance of the irradiance; rel_error as for p95)");
@@ -94,6 +98,7 @@ void registerEval(CLI::App& app) {
     es.referenceSpp = o->referenceSpp;
     es.seed = o->seed;
     es.domain = domain;
+    es.lightClearanceRelative = o->lightClearance;
     if (!o->noCache) {
       es.sceneHash = sceneContentHash(scenePath);
       if (!o->cacheDir.empty()) {
@@ -140,6 +145,7 @@ void registerEval(CLI::App& app) {
       j["leaking_fraction"] = r.leakingFraction;
       j["seconds"] = r.seconds;
       j["reference_cached"] = r.referenceCached;
+      j["light_clearance_m"] = r.lightClearanceMeters;
       std::cout << j.dump(2) << "\n";
     } else {
       std::printf(

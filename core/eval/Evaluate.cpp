@@ -44,12 +44,27 @@ Rgb referenceIrradiance(const Tracer& tracer, const LightingRig& rig,
   return e;
 }
 
+/// The domain's boxes (the scene bounds when none) and the clearance from punctual lights in
+/// metres.
+double lightClearanceMeters(const Tracer& tracer, const EvalSettings& s) {
+  Bounds3 all;
+  if (s.domain.empty()) all = tracer.scene().bounds;
+  for (const Bounds3& b : s.domain) {
+    all.extend(b.lo);
+    all.extend(b.hi);
+  }
+  return all.empty() ? 0.0 : s.lightClearanceRelative * all.diagonal();
+}
+
 }  // namespace
 
 EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, const EvalSettings& s,
                                const ProgressFn& progress) {
   if (s.queries < 1) throw ParameterError("queries: expected at least 1");
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
+  if (!(s.lightClearanceRelative >= 0 && s.lightClearanceRelative < 0.5))
+    throw ParameterError(
+        "light clearance: expected a fraction of the domain's diagonal in [0, 0.5)");
   const std::vector<Bounds3> boxes =
       s.domain.empty() ? std::vector<Bounds3>{tracer.scene().bounds} : s.domain;
   // Each box by its share of the total volume (a flat one never: it holds no volume).
@@ -63,6 +78,8 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   if (!s.domain.empty() && !(total > 0))
     throw ParameterError("eval: the importance volumes have no volume");
   const std::vector<Light> lights = allLights(tracer.scene(), rig);
+  const std::vector<Vec3> punctual = punctualLightPositions(tracer.scene(), rig);
+  const double clearance = lightClearanceMeters(tracer, s);
 
   // Query points: uniform in the domain (the union of its boxes: a box by its volume, a point
   // in it kept with probability 1 / the number of boxes holding it), keeping those in the
@@ -90,6 +107,10 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
         for (const Bounds3& o : boxes) holding += o.contains(p) ? 1 : 0;
         if (uniform01(rng) * std::max(holding, 1) >= 1.0) continue;
       }
+      bool nearLight = false;
+      for (const Vec3& l : punctual)
+        nearLight = nearLight || dot(p - l, p - l) < clearance * clearance;
+      if (nearLight) continue;
       if (backfaceFraction(tracer, p, 32, splitMix64(rng)) > tol::kDefaultInvalidBackfaceFraction)
         continue;
       ref.points[q] = p;
@@ -139,7 +160,8 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     cache.emplace(*s.cacheDir);
     key = ReferenceCache::key(
         s.sceneHash, rig,
-        s.domain.empty() ? std::span<const Bounds3>(&tracer.scene().bounds, 1) : s.domain, s);
+        s.domain.empty() ? std::span<const Bounds3>(&tracer.scene().bounds, 1) : s.domain, s,
+        !punctualLightPositions(tracer.scene(), rig).empty());
     std::string problem;
     reference = cache->find(key, M, &problem);
     if (!problem.empty())
@@ -205,6 +227,8 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   r.perQuery.resize(M);
   for (size_t q = 0; q < M; ++q)
     r.perQuery[q] = EvalQuery{points[q], normals[q], ref[q], got[q], leaking[q] != 0};
+  r.lightClearanceMeters =
+      punctualLightPositions(tracer.scene(), rig).empty() ? 0.0 : lightClearanceMeters(tracer, s);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

@@ -31,6 +31,9 @@ struct EvalSettings {
   /// The domain of interest: the probe set's importance volumes (their boxes; queries are
   /// uniform over their union). Empty: the scene bounds. Part of the cache key.
   std::vector<Bounds3> domain;
+  /// Queries closer than this fraction of the domain's diagonal to a point or spot light are
+  /// drawn again (0: none). Part of the cache key when the scene or rig has such a light.
+  double lightClearanceRelative = kDefaultLightClearanceRelative;
 };
 
 /// The reference of an evaluation: query points (valid points of the domain of interest),
@@ -62,6 +65,7 @@ struct EvalResult {
   /// there (Sukys 3.2.2).
   double leakingFraction = 0;
   double seconds = 0;
+  double lightClearanceMeters = 0;  ///< the clearance kept from punctual lights (0: none)
   /// The reference came from the cache (nothing was traced for it).
   bool referenceCached = false;
   /// Things the user should know that did not stop the evaluation: a damaged cache entry

@@ -32,7 +32,8 @@ ReferenceCache::ReferenceCache(std::filesystem::path dir)
     : files_(std::move(dir), kMagic, ".psref", "eval reference cache") {}
 
 uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig,
-                             std::span<const Bounds3> domain, const EvalSettings& s) {
+                             std::span<const Bounds3> domain, const EvalSettings& s,
+                             bool hasPunctualLights) {
   const uint32_t versions[2] = {kAlgorithmVersion, CaptureCache::kAlgorithmVersion};
   uint64_t h = fnv1a64(versions, sizeof versions);
   h = fnv1a64(&sceneHash, sizeof sceneHash, h);
@@ -45,6 +46,10 @@ uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig,
   }
   const int32_t counts[2] = {s.queries, s.referenceSpp};
   h = fnv1a64(counts, sizeof counts, h);
+  // The clearance from punctual lights moves the queries only where there are such lights:
+  // other scenes keep their entries.
+  if (hasPunctualLights && s.lightClearanceRelative > 0)
+    h = fnv1a64(&s.lightClearanceRelative, sizeof s.lightClearanceRelative, h);
   return fnv1a64(&s.seed, sizeof s.seed, h);
 }
 

@@ -30,13 +30,14 @@ class ReferenceCache {
   /// The key of one reference. Changes with any bit of the scene hash, the rig (its JSON and its
   /// environment map's texels), the domain the queries are drawn from (its boxes in order: the
   /// scene bounds, or the importance volumes),
-  /// queries, referenceSpp or seed, and with kAlgorithmVersion or the capture integrator's
+  /// queries, referenceSpp or seed, the light clearance when `hasPunctualLights` (the scene or
+  /// rig has a point or spot light), and with kAlgorithmVersion or the capture integrator's
   /// CaptureCache::kAlgorithmVersion. Throws ps::FileError when the rig's map cannot be read.
   static uint64_t key(uint64_t sceneHash, const LightingRig& rig, std::span<const Bounds3> domain,
-                      const EvalSettings& settings);
+                      const EvalSettings& settings, bool hasPunctualLights);
   static uint64_t key(uint64_t sceneHash, const LightingRig& rig, const Bounds3& domain,
-                      const EvalSettings& settings) {
-    return key(sceneHash, rig, std::span<const Bounds3>(&domain, 1), settings);
+                      const EvalSettings& settings, bool hasPunctualLights) {
+    return key(sceneHash, rig, std::span<const Bounds3>(&domain, 1), settings, hasPunctualLights);
   }
 
   /// The reference stored for `key` with `queries` queries, or nothing. A damaged entry

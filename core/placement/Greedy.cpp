@@ -119,6 +119,15 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   }
   GreedyResult result;
   std::vector<char> isProbe(S, 0);
+  // Samples inside the light clearance: weight 0 below, and never a candidate (as if already a
+  // probe, but not one).
+  std::vector<char> avoided(S, 0);
+  if (s.avoidRadius > 0)
+    for (size_t i = 0; i < S; ++i)
+      for (const Vec3& a : s.avoid) {
+        const Vec3 d = field.samples[i].position - a;
+        if (dot(d, d) < s.avoidRadius * s.avoidRadius) avoided[i] = 1;
+      }
   auto addSample = [&](size_t i, double score) {
     isProbe[i] = 1;
     pos.push_back(field.samples[i].position);
@@ -142,7 +151,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     size_t best = S;
     double bestD = std::numeric_limits<double>::infinity();
     for (size_t i = 0; i < S; ++i) {
-      if (isProbe[i]) continue;
+      if (isProbe[i] || avoided[i]) continue;
       const Vec3 dv = field.samples[i].position - corner;
       const double d = dot(dv, dv);
       if (d < bestD) {
@@ -169,13 +178,22 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   for (const FieldSample& f : field.samples) sized = sized && f.cellSize > 0;
   if (sized)
     for (size_t i = 0; i < S; ++i) weight[i] = greedySampleWeight(field.samples[i]);
-  double weightedRefSq = 0;
-  for (size_t i = 0; i < S; ++i)
-    for (double x : ref[i]) weightedRefSq += weight[i] * x * x / kNormals;
+  auto sumWeightedRefSq = [&] {
+    for (size_t i = 0; i < S; ++i)
+      if (avoided[i]) weight[i] = 0;
+    double sum = 0;
+    for (size_t i = 0; i < S; ++i)
+      for (double x : ref[i]) sum += weight[i] * x * x / kNormals;
+    return sum;
+  };
+  double weightedRefSq = sumWeightedRefSq();
   if (!(weightedRefSq > 0)) {
     std::fill(weight.begin(), weight.end(), 1.0);
-    weightedRefSq = refSq / kNormals;
+    weightedRefSq = sumWeightedRefSq();
   }
+  if (!(weightedRefSq > 0))
+    throw ParameterError(
+        "greedy: every lit sample of the dense field is within the light clearance");
   double weightSum = 0;
   for (double w : weight) weightSum += w;
   const double refRms = std::sqrt(weightedRefSq / weightSum);  // of the samples' irradiance
@@ -312,7 +330,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     };
     std::unordered_map<uint64_t, TetGroup> groups;
     for (size_t i = 0; i < S; ++i) {
-      if (isProbe[i]) continue;
+      if (isProbe[i] || avoided[i]) continue;
       auto [it, inserted] = groups.try_emplace(state[i].tet);
       TetGroup& g = it->second;
       if (inserted) {
@@ -358,7 +376,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         size_t central = g.first;
         double bestD = std::numeric_limits<double>::infinity();
         for (size_t i = g.first; i < S; ++i) {
-          if (isProbe[i] || state[i].tet != key) continue;
+          if (isProbe[i] || avoided[i] || state[i].tet != key) continue;
           const Vec3 d = field.samples[i].position - centroid;
           if (dot(d, d) < bestD) {
             bestD = dot(d, d);

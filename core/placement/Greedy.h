@@ -23,6 +23,12 @@ struct GreedySettings {
   /// to a light the irradiance, and any interpolation's error, grows without bound over a tiny
   /// volume). Off by default: eval's rel_rmse is dominated by exactly those places.
   double errorCapRelative = 0;
+  /// Samples within avoidRadius of one of these points (the punctual lights) take no part: no
+  /// error, no probe. The same ball eval keeps its queries out of (EvalSettings::
+  /// lightClearanceRelative): a probe next to a point light captures a near-singular irradiance
+  /// and spreads it over its whole fan of tetrahedra.
+  std::vector<Vec3> avoid;
+  double avoidRadius = 0;
 };
 
 /// A probe that placement keeps where it is (locked by the artist), with its captured SH.

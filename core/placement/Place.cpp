@@ -108,6 +108,9 @@ PlaceOutcome placeWithGreedy(const Context& c) {
     const auto caps = captureProbes(c.tracer, c.rig, points, cs);
     for (size_t i = 0; i < points.size(); ++i) kept.push_back({points[i], caps[i].sh});
   }
+  // The light clearance eval keeps its queries out of (kDefaultLightClearanceRelative).
+  gs.avoid = punctualLightPositions(c.tracer.scene(), c.rig);
+  gs.avoidRadius = kDefaultLightClearanceRelative * field.domain.diagonal();
   const GreedyResult g = placeGreedy(field, kept, gs, c.stage("greedy"));
   out.notes.push_back(format("greedy: field error %.4f with %zu probes", g.fieldError,
                              g.positions.size() + kept.size()));

@@ -43,9 +43,8 @@ struct PlaceRequest {
 
 /// Greedy's dense field by default: the light's detail (a point light's fall-off) refines to
 /// depth 4, the geometry only to depth 2; boundary samples fill the layer along the walls.
-/// On the bundled scenes at 128 probes this took greedy's rel_rmse from 0.579 / 0.412 / 0.611
-/// (cornell / pillar-room / two-rooms, depth 2 without boundary samples) to 0.322 / 0.314 /
-/// 0.230 (BENCHMARKS.md, placement).
+/// On cornell at 128 probes this took greedy's rel_rmse from 0.579 (depth 2 without boundary
+/// samples) to 0.322 (BENCHMARKS.md, placement).
 inline constexpr int kGreedyFieldDepth = 4;
 inline constexpr int kGreedyFieldSurfaceDepth = 2;
 

@@ -25,4 +25,11 @@ std::shared_ptr<const EnvironmentMap> environmentOf(const LightingRig& rig) {
   return map;
 }
 
+std::vector<Vec3> punctualLightPositions(const Scene& scene, const LightingRig& rig) {
+  std::vector<Vec3> out;
+  for (const Light& l : allLights(scene, rig))
+    if (l.type != LightType::Directional) out.push_back(l.position);
+  return out;
+}
+
 }  // namespace ps

@@ -30,6 +30,17 @@ struct LightingRig {
 /// The scene's lights followed by the rig's.
 std::vector<Light> allLights(const Scene& scene, const LightingRig& rig);
 
+/// Eval's queries (EvalSettings) and greedy's probes keep this fraction of the domain's diagonal
+/// away from point and spot lights. A point light's irradiance grows as 1 / r^2, so the squared
+/// error of an interpolation next to it grows as 1 / r^4, whose integral over the volume around the
+/// light diverges: without a clearance, rel_rmse is the relative error at whichever query lands
+/// nearest to the light, and changes by a factor of 3 with the seed (two-rooms, 32768 queries:
+/// BENCHMARKS.md). No real object sits inside a lamp.
+inline constexpr double kDefaultLightClearanceRelative = 0.02;
+
+/// The punctual lights (point and spot) of a scene and rig: their positions.
+std::vector<Vec3> punctualLightPositions(const Scene& scene, const LightingRig& rig);
+
 /// The rig's environment map: rig.envMap when loaded, else the map at rig.envMapPath read once
 /// per process and path (a thread-safe cache), else null. Throws ps::FileError when the file
 /// cannot be read.
