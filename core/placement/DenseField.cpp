@@ -82,11 +82,11 @@ FieldSample sampleFromCapture(Vec3 p, const ProbeCapture& cap) {
 /// DenseFieldSettings::boundarySamples: from every leaf sample's centre, along each axis, a
 /// surface (any face: a back face bounds the valid space as much) or the domain's boundary less
 /// than one cell away gets a sample `off` short of it, when that is at least a quarter cell from
-/// the centre, inside the domain (`inDomain`), and valid. Captured like the cell centres of the
-/// finest level.
+/// the centre, inside the domain (`inDomain`), and valid. Captured at their point (also in a
+/// pre-filtered field), at the field's spp.
 template <class InDomain>
 void addBoundarySamples(const Tracer& tracer, const LightingRig& rig, const DenseFieldSettings& s,
-                        DenseField& field, const InDomain& inDomain) {
+                        DenseField& field, const InDomain& inDomain, const ProgressFn& progress) {
   const Bounds3& dom = field.domain;
   double finest = std::numeric_limits<double>::infinity();
   for (const FieldSample& f : field.samples) finest = std::min(finest, f.cellSize);
@@ -139,7 +139,7 @@ void addBoundarySamples(const Tracer& tracer, const LightingRig& rig, const Dens
   cs.samplesPerProbe = s.samplesPerProbe;
   cs.seed = streamSeed(s.seed, 0xB0DA7ull);
   cs.mode = s.mode;
-  const std::vector<ProbeCapture> caps = captureProbes(tracer, rig, points, cs);
+  const std::vector<ProbeCapture> caps = captureProbes(tracer, rig, points, cs, progress);
   for (size_t q = 0; q < caps.size(); ++q) {
     if (caps[q].backfaceFraction > s.invalidBackfaceFraction) continue;
     const FieldSample& from = field.samples[cands[q].from];
@@ -233,7 +233,8 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
   std::vector<std::unordered_map<uint64_t, int64_t>> cellsAt(size_t(s.maxDepth) + 1);
   const std::array<Vec3, 26> dirs = cubeDirections();
   double luminanceFloor = 0;
-  const double levels = s.maxDepth + 1;
+  // Progress: one share per level, and one for the boundary samples.
+  const double levels = s.maxDepth + 1 + (s.boundarySamples ? 1 : 0);
 
   for (int depth = 0; depth <= s.maxDepth && !level.empty(); ++depth) {
     const double h = cellSize(depth);
@@ -380,7 +381,11 @@ DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
     field.splitsPerLevel.push_back(splits);
     level = std::move(next);
   }
-  if (s.boundarySamples) addBoundarySamples(tracer, rig, s, field, inDomain);
+  if (s.boundarySamples) {
+    ProgressFn boundaryProgress;
+    if (progress) boundaryProgress = [&](double f) { return progress((levels - 1 + f) / levels); };
+    addBoundarySamples(tracer, rig, s, field, inDomain, boundaryProgress);
+  }
   if (progress && !progress(1.0)) throw Cancelled();
   field.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return field;

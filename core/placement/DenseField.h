@@ -65,7 +65,8 @@ struct DenseFieldSettings {
   bool prefilter = false;
   /// Boundary samples: from the centre of every leaf sample, along each of the 6 axes, where a
   /// surface or the domain's boundary is less than a cell away, one more sample just short of it
-  /// (boundaryOffset of the finest cell size away along the axis). Cell centres stay half a cell
+  /// (boundaryOffset of the finest cell size away along the axis; captured at that point, also
+  /// in a pre-filtered field). Cell centres stay half a cell
   /// from every wall; a probe set chosen among them alone has a hull that misses that layer, and
   /// queries there are clamped to the hull, which is worst right under a light.
   bool boundarySamples = false;
