@@ -53,7 +53,8 @@ void registerPlace(CLI::App& app) {
   cmd->add_option("--field-depth", o->request.fieldDepth,
                   "Dense field refinement levels, 0 to 8 (default, or -1: greedy 4, chajdas 2)");
   cmd->add_option("--field-surface-depth", o->request.field.maxSurfaceDepth,
-                  "Dense field levels at which a surface splits a cell (default: --field-depth); "
+                  "Dense field levels at which a surface splits a cell (default: greedy 2, at most "
+                  "--field-depth; others --field-depth); "
                   "deeper levels split only where neighbouring samples differ");
   cmd->add_option("--field-spp", o->request.field.samplesPerProbe,
                   "Samples per cheap probe (dense field, ascent, spawn-merge)")

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <string>
 
 #include "core/capture/Capture.h"
 #include "core/capture/DirectLight.h"
@@ -56,15 +57,21 @@ double lightClearanceMeters(const Tracer& tracer, const EvalSettings& s) {
   return all.empty() ? 0.0 : s.lightClearanceRelative * all.diagonal();
 }
 
+void checkLightClearance(const EvalSettings& s) {
+  if (!(s.lightClearanceRelative >= 0 && s.lightClearanceRelative < 0.5))
+    throw ParameterError(
+        "light clearance: expected a fraction of the domain's diagonal in [0, 0.5), got " +
+        std::to_string(s.lightClearanceRelative));
+}
+
 }  // namespace
 
 EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, const EvalSettings& s,
                                const ProgressFn& progress) {
   if (s.queries < 1) throw ParameterError("queries: expected at least 1");
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
-  if (!(s.lightClearanceRelative >= 0 && s.lightClearanceRelative < 0.5))
-    throw ParameterError(
-        "light clearance: expected a fraction of the domain's diagonal in [0, 0.5)");
+  checkLightClearance(s);
+
   const std::vector<Bounds3> boxes =
       s.domain.empty() ? std::vector<Bounds3>{tracer.scene().bounds} : s.domain;
   // Each box by its share of the total volume (a flat one never: it holds no volume).
@@ -122,8 +129,10 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   for (size_t q = 0; q < M; ++q)
     if (!found[q])
       throw ParameterError(s.domain.empty()
-                               ? "eval: could not find points outside geometry in the scene bounds"
-                               : "eval: could not find points outside geometry in the importance "
+                               ? "eval: could not find points outside geometry (and outside "
+                                 "the light clearance) in the scene bounds"
+                               : "eval: could not find points outside geometry (and outside "
+                                 "the light clearance) in the importance "
                                  "volumes");
 
   std::atomic<size_t> done{0};
@@ -147,6 +156,7 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
 EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const ProbeVolume& volume,
                           const EvalSettings& s, const ProgressFn& progress) {
   if (s.queries < 1) throw ParameterError("queries: expected at least 1");
+  checkLightClearance(s);  // before the cache, whose key leaves it out for some scenes
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
   const auto start = std::chrono::steady_clock::now();
   EvalResult r;

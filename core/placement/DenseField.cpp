@@ -134,6 +134,13 @@ void addBoundarySamples(const Tracer& tracer, const LightingRig& rig, const Dens
         cands.push_back(found[i][size_t(a)]);
         points.push_back(cands.back().p);
       }
+  // maxSamples holds for them too, before any capture: the first ones (in sample order) are kept.
+  const size_t room = s.maxSamples > field.samples.size() ? s.maxSamples - field.samples.size() : 0;
+  if (points.size() > room) {
+    points.resize(room);
+    cands.resize(room);
+    field.refinementTruncated = true;
+  }
   if (points.empty()) return;
   CaptureSettings cs;
   cs.samplesPerProbe = s.samplesPerProbe;

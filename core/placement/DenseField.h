@@ -87,14 +87,16 @@ struct DenseField {
 /// Builds the dense field: a cell-centred base grid of cubic cells over the domain (the scene
 /// bounds, or the bounding box of the importance volumes keeping cells whose centre is in one),
 /// each centre tested for validity and the valid ones captured at samplesPerProbe; then, level by
-/// level up to maxDepth, a cell splits into 8 when a surface crosses it or when a face neighbour
-/// (at its level, or the coarser cell covering that place) differs by more than
-/// differs (samplesDiffer in the .cpp: relative SH-luminance distance above
+/// level up to maxDepth, a cell splits into 8 when a surface crosses it (at levels below
+/// maxSurfaceDepth) or when a face neighbour (at its level, or the coarser cell covering that
+/// place) differs (samplesDiffer in the .cpp: relative SH-luminance distance above
 /// refineRelativeDifference, significant against the standard errors). Every valid sample of every
-/// level is kept (a split cell's own sample too). Deterministic for a given seed. Throws
-/// ps::ParameterError for a negative spacing, maxDepth outside [0, 8], samplesPerProbe < 1, or when
-/// the base grid alone would exceed maxSamples (a refinement level that would exceed it is skipped
-/// and refinementTruncated set); ps::Cancelled through `progress`.
+/// level is kept (a split cell's own sample too); then the boundary samples when asked for.
+/// Deterministic for a given seed. Throws ps::ParameterError for a negative spacing, maxDepth or
+/// maxSurfaceDepth outside [0, 8] (-1 allowed for the latter), boundaryOffset outside (0, 0.25),
+/// samplesPerProbe < 1, or when the base grid alone would exceed maxSamples (a refinement level
+/// that would exceed it is skipped, boundary samples beyond it are dropped, and
+/// refinementTruncated set); ps::Cancelled through `progress`.
 DenseField buildDenseField(const Tracer& tracer, const LightingRig& rig,
                            const DenseFieldSettings& settings, const ProgressFn& progress = {});
 

@@ -268,12 +268,9 @@ DenseFieldSettings greedyFieldSettings(const PlaceRequest& r) {
   DenseFieldSettings fs = r.field;
   fs.seed = r.seed;
   fs.boundarySamples = true;
-  if (r.fieldDepth != -1) {
-    fs.maxDepth = r.fieldDepth;  // buildDenseField checks the range
-  } else {
-    fs.maxDepth = kGreedyFieldDepth;
-    if (fs.maxSurfaceDepth < 0) fs.maxSurfaceDepth = kGreedyFieldSurfaceDepth;
-  }
+  fs.maxDepth = r.fieldDepth != -1 ? r.fieldDepth : kGreedyFieldDepth;  // range: buildDenseField
+  if (fs.maxSurfaceDepth < 0)
+    fs.maxSurfaceDepth = std::clamp(fs.maxDepth, 0, kGreedyFieldSurfaceDepth);
   return fs;
 }
 

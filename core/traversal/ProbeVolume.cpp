@@ -537,17 +537,28 @@ VolumeLocation HullClamp::clamp(Vec3 p) const {
           n.consider(*v_, p, faces_[k]);
         }
     });
-    // The distance from p to the nearest cell outside the block (sides at the grid's edge have
-    // none beyond them).
-    double free = std::numeric_limits<double>::infinity();
+    // The squared distance from p to the nearest cell outside the block (sides at the grid's
+    // edge have none beyond them): the gap to that side, plus how far p lies outside the box
+    // along the other axes (every cell is inside the box).
+    double out2[3];
     for (int a = 0; a < 3; ++a) {
-      if (block[size_t(a)] > 0)
-        free = std::min(free, p[a] - (box_.lo[a] + block[size_t(a)] * cell_[a]));
-      if (block[size_t(a) + 3] < dims_[a] - 1)
-        free = std::min(free, box_.lo[a] + (block[size_t(a) + 3] + 1) * cell_[a] - p[a]);
+      const double o = std::max({0.0, box_.lo[a] - p[a], p[a] - box_.hi[a]});
+      out2[a] = o * o;
     }
-    if (!std::isfinite(free)) break;  // the block is the whole grid
-    if (n.tet >= 0 && free > 0 && n.d2 < free * free * (1 - 1e-9)) break;
+    double free2 = std::numeric_limits<double>::infinity();
+    for (int a = 0; a < 3; ++a) {
+      const double others = out2[(a + 1) % 3] + out2[(a + 2) % 3];
+      if (block[size_t(a)] > 0) {
+        const double gap = std::max(0.0, p[a] - (box_.lo[a] + block[size_t(a)] * cell_[a]));
+        free2 = std::min(free2, gap * gap + others);
+      }
+      if (block[size_t(a) + 3] < dims_[a] - 1) {
+        const double gap = std::max(0.0, box_.lo[a] + (block[size_t(a) + 3] + 1) * cell_[a] - p[a]);
+        free2 = std::min(free2, gap * gap + others);
+      }
+    }
+    if (!std::isfinite(free2)) break;  // the block is the whole grid
+    if (n.tet >= 0 && free2 > 0 && n.d2 < free2 * (1 - 1e-9)) break;
   }
   return n.location();
 }

@@ -221,6 +221,16 @@ TEST(Eval, QueriesKeepTheClearanceFromPointLights) {
   EXPECT_GT(inside(computeReference(fixture().tracer, rig, es)), 5u);
   es.lightClearanceRelative = 0.5;
   EXPECT_THROW(computeReference(fixture().tracer, rig, es), ParameterError);
+  // Checked before the cache, whose key leaves the clearance out where there is no point light.
+  const fs::path dir = fs::temp_directory_path() / "ps-eval-clearance";
+  fs::remove_all(dir);
+  EvalSettings cached = cachedSettings(dir);
+  cached.lightClearanceRelative = 0;
+  const ProbeVolume v = gridVolume(3);
+  evaluateVolume(fixture().tracer, fixture().rig, v, cached);
+  cached.lightClearanceRelative = -1;
+  EXPECT_THROW(evaluateVolume(fixture().tracer, fixture().rig, v, cached), ParameterError);
+  fs::remove_all(dir);
 }
 
 TEST(Eval, QueriesAreUniformOverTheImportanceVolumes) {

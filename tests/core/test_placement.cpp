@@ -215,6 +215,25 @@ TEST(DenseField, BoundarySamplesFillTheLayerAlongTheWalls) {
     EXPECT_GT(greedySampleWeight(b), 0);
   }
   EXPECT_GT(boundary, 100u);
+  // maxSamples holds for the boundary samples too: the first ones are kept.
+  s.maxSamples = centres.samples.size() + 10;
+  const DenseField capped = buildDenseField(*l.tracer, {}, s);
+  EXPECT_LE(capped.samples.size(), s.maxSamples);
+  EXPECT_GT(capped.samples.size(), centres.samples.size());
+  EXPECT_TRUE(capped.refinementTruncated);
+}
+
+TEST(DenseField, GreedysSurfaceDepthStaysAtMostTwo) {
+  PlaceRequest r;
+  EXPECT_EQ(greedyFieldSettings(r).maxDepth, kGreedyFieldDepth);
+  EXPECT_EQ(greedyFieldSettings(r).maxSurfaceDepth, kGreedyFieldSurfaceDepth);
+  EXPECT_TRUE(greedyFieldSettings(r).boundarySamples);
+  r.fieldDepth = 4;  // the default, given explicitly: the same field
+  EXPECT_EQ(greedyFieldSettings(r).maxSurfaceDepth, kGreedyFieldSurfaceDepth);
+  r.fieldDepth = 1;
+  EXPECT_EQ(greedyFieldSettings(r).maxSurfaceDepth, 1);
+  r.field.maxSurfaceDepth = 3;  // asked for
+  EXPECT_EQ(greedyFieldSettings(r).maxSurfaceDepth, 3);
 }
 
 TEST(DenseField, SurfaceDepthStopsGeometrySplitsButNotLightSplits) {

@@ -425,9 +425,9 @@ TEST(ProbeVolume, FarQueriesAreNeverBlackAndClampToTheHull) {
 }
 
 TEST(ProbeVolume, HullClampGivesLocatesOwnClamp) {
-  // The bounding-sphere pruning skips only faces that cannot be nearer: the same tet and
-  // weights, bit for bit, for points near the hull (where many faces are about as near) and
-  // far from it, and for a hull of coplanar faces (a grid, the layout of boundary samples).
+  // The grid's ring search stops only when no unvisited cell can hold a nearer face: the same
+  // tet and weights, bit for bit, for points near the hull (where many faces are about as near)
+  // and far from it, and for a hull of coplanar faces (a grid, the layout of boundary samples).
   for (const std::vector<Vec3>& pts : {randomFloatPoints(400, 7), cubeWithInterior(300, 17),
                                        testing::gridPoints(6, {0, 0, 0}, 0.2)}) {
     const ProbeVolume v = buildLinear(pts);
