@@ -1,8 +1,6 @@
 // probestudio eval: parses its options, calls the core stages and prints what it did; bad
 // input surfaces as ps::Error, caught in main.
-#include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -116,19 +114,12 @@ void registerEval(CLI::App& app) {
     }
     const EvalResult r = evaluateVolume(tracer, rig, volume, es, terminalProgress("eval"));
     if (!o->perQuery.empty()) {
-      // The same floor as p95's relative error: a tenth of the mean reference.
-      double mean = 0;
-      for (const EvalQuery& q : r.perQuery) mean += q.reference;
-      mean /= double(std::max<size_t>(1, r.perQuery.size()));
-      const double floorE = std::max(0.1 * mean, 1e-12);
       std::string csv = "x,y,z,nx,ny,nz,reference,interpolated,rel_error,leaking\n";
       char line[512];
       for (const EvalQuery& q : r.perQuery) {
         std::snprintf(line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.9g,%.6g,%d\n",
                       q.point.x, q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z,
-                      q.reference, q.interpolated,
-                      std::abs(q.interpolated - q.reference) / std::max(q.reference, floorE),
-                      q.leaking ? 1 : 0);
+                      q.reference, q.interpolated, q.relError, q.leaking ? 1 : 0);
         csv += line;
       }
       writeFileAtomic(o->perQuery, csv);

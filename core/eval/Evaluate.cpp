@@ -161,6 +161,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   const auto start = std::chrono::steady_clock::now();
   EvalResult r;
   const size_t M = size_t(s.queries);
+  const bool hasPunctualLights = !punctualLightPositions(tracer.scene(), rig).empty();
 
   // The reference: from the cache when it has one, else traced (and stored).
   std::optional<ReferenceCache> cache;
@@ -171,7 +172,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     key = ReferenceCache::key(
         s.sceneHash, rig,
         s.domain.empty() ? std::span<const Bounds3>(&tracer.scene().bounds, 1) : s.domain, s,
-        !punctualLightPositions(tracer.scene(), rig).empty());
+        hasPunctualLights);
     std::string problem;
     reference = cache->find(key, M, &problem);
     if (!problem.empty())
@@ -230,15 +231,14 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   std::vector<double> rel(M);
   const double floorE = std::max(0.1 * mean, 1e-12);
   for (size_t q = 0; q < M; ++q) rel[q] = std::abs(got[q] - ref[q]) / std::max(ref[q], floorE);
+  r.perQuery.resize(M);
+  for (size_t q = 0; q < M; ++q)
+    r.perQuery[q] = EvalQuery{points[q], normals[q], ref[q], got[q], rel[q], leaking[q] != 0};
   std::sort(rel.begin(), rel.end());
   r.maxRelError = rel.back();
   r.leakingFraction = double(std::count(leaking.begin(), leaking.end(), 1)) / double(M);
   r.p95RelError = rel[std::min(M - 1, size_t(std::ceil(0.95 * M)) - 1)];
-  r.perQuery.resize(M);
-  for (size_t q = 0; q < M; ++q)
-    r.perQuery[q] = EvalQuery{points[q], normals[q], ref[q], got[q], leaking[q] != 0};
-  r.lightClearanceMeters =
-      punctualLightPositions(tracer.scene(), rig).empty() ? 0.0 : lightClearanceMeters(tracer, s);
+  r.lightClearanceMeters = hasPunctualLights ? lightClearanceMeters(tracer, s) : 0.0;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

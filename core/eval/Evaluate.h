@@ -49,6 +49,7 @@ struct EvalQuery {
   Vec3 point, normal;
   double reference = 0;     ///< luminance of the reference irradiance
   double interpolated = 0;  ///< luminance of the volume's irradiance
+  double relError = 0;      ///< as for p95RelError (the denominator floored at 0.1 x the mean)
   bool leaking = false;     ///< its tetrahedron has a probe the query cannot see
 };
 

@@ -228,8 +228,7 @@ PlaceOutcome placeWithChajdas(const Context& c) {
   if (r.fieldDepth != -1) fs.maxDepth = r.fieldDepth;
   fs.importanceVolumes = cs.importanceVolumes;
   const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
-  for (const Light& l : allLights(c.tracer.scene(), c.rig))
-    if (l.type != LightType::Directional) cs.punctualLights.push_back(l.position);
+  cs.punctualLights = punctualLightPositions(c.tracer.scene(), c.rig);
   cs.lightClearanceMeters = kLightClearance * field.baseSpacingMeters;
   PlaceOutcome out;
   ChajdasResult ch;

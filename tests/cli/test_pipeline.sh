@@ -48,6 +48,9 @@ num = sum((float(r["interpolated"]) - float(r["reference"])) ** 2 for r in rows)
 den = sum(float(r["reference"]) ** 2 for r in rows)
 assert abs(math.sqrt(num / den) - e["rel_rmse"]) < 1e-6 * e["rel_rmse"] + 1e-9, (num, den, e)
 assert sum(int(r["leaking"]) for r in rows) / 32 == e["leaking_fraction"], e
+rel = sorted(float(r["rel_error"]) for r in rows)
+assert abs(rel[math.ceil(0.95 * 32) - 1] - e["p95_rel_error"]) <= 1e-5 * e["p95_rel_error"], (rel, e)
+assert abs(rel[-1] - e["max_rel_error"]) <= 1e-5 * e["max_rel_error"], (rel, e)
 for r in rows:
     assert abs(math.hypot(float(r["nx"]), float(r["ny"]), float(r["nz"])) - 1) < 1e-4, r
 q = json.load(open(f"{tmp}/q.json"))[0]
