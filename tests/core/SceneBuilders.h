@@ -16,6 +16,15 @@ inline uint32_t addMaterial(Scene& s, Rgb albedo, Rgb emission = {}, bool double
   return static_cast<uint32_t>(s.materials.size() - 1);
 }
 
+/// A point light at `position` with radiant intensity `intensity` (W/sr).
+inline Light pointLight(Vec3 position, Rgb intensity) {
+  Light l;
+  l.type = LightType::Point;
+  l.position = position;
+  l.intensity = intensity;
+  return l;
+}
+
 /// The parallelogram corner, corner + e1, corner + e1 + e2, corner + e2; its front side faces
 /// cross(e1, e2).
 inline void addQuad(Scene& s, Vec3 corner, Vec3 e1, Vec3 e2, uint32_t material) {

@@ -21,6 +21,7 @@ using testing::addBox;
 using testing::addMaterial;
 using testing::addQuad;
 using testing::floorScene;
+using testing::pointLight;
 
 const std::array<Vec3, 6> kAxes = {Vec3{1, 0, 0},  Vec3{-1, 0, 0}, Vec3{0, 1, 0},
                                    Vec3{0, -1, 0}, Vec3{0, 0, 1},  Vec3{0, 0, -1}};
@@ -155,10 +156,7 @@ TEST(CaptureDelta, PointLightOverBlackFloorIsExactlyIOverD2) {
   const Scene s = floorScene();
   const Tracer tracer(s);
   LightingRig rig;
-  Light lamp;
-  lamp.type = LightType::Point;
-  lamp.position = {0.5, 3, -0.2};
-  lamp.intensity = {10, 20, 5};
+  const Light lamp = pointLight({0.5, 3, -0.2}, {10, 20, 5});
   rig.lights.push_back(lamp);
   CaptureSettings settings;
   settings.samplesPerProbe = 512;

@@ -16,6 +16,7 @@
 #include "core/io/SceneHash.h"
 #include "core/scene/Scene.h"
 #include "core/trace/Tracer.h"
+#include "tests/core/SceneBuilders.h"
 #include "tests/core/TestFiles.h"
 
 namespace fs = std::filesystem;
@@ -200,11 +201,7 @@ TEST(Eval, QueriesKeepTheClearanceFromPointLights) {
   // A point light in the middle of the Cornell box and a large clearance (a tenth of the
   // diagonal, about 1 m): no query inside it, where without it about 0.8 % of them are.
   LightingRig rig = fixture().rig;
-  Light bulb;
-  bulb.type = LightType::Point;
-  bulb.name = "bulb";
-  bulb.position = {0, 2.75, 0};
-  bulb.intensity = {5, 5, 5};
+  const Light bulb = ps::testing::pointLight({0, 2.75, 0}, {5, 5, 5});
   rig.lights.push_back(bulb);
   EvalSettings es;
   es.queries = 2000;

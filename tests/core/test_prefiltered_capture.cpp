@@ -18,6 +18,7 @@ namespace {
 using testing::addBox;
 using testing::addMaterial;
 using testing::floorScene;
+using testing::pointLight;
 
 TEST(PrefilteredCapture, PointLightIsAveragedOverTheTrilinearSupport) {
   // A point light over a black floor: L is zero for every ray, so a node's SH is the
@@ -25,10 +26,7 @@ TEST(PrefilteredCapture, PointLightIsAveragedOverTheTrilinearSupport) {
   const Scene s = floorScene();
   const Tracer tracer(s);
   LightingRig rig;
-  Light lamp;
-  lamp.type = LightType::Point;
-  lamp.position = {0, 3, 0};
-  lamp.intensity = {10, 20, 5};
+  const Light lamp = pointLight({0, 3, 0}, {10, 20, 5});
   rig.lights.push_back(lamp);
   const PrefilterNode node{{0.2, 2.0, -0.1}, 0.6};
   // Eq. 5 by a tent-weighted midpoint rule, 60^3 points.

@@ -7,6 +7,7 @@
 #include "core/capture/Capture.h"
 #include "core/capture/VirtualOffset.h"
 #include "core/common/Error.h"
+#include "tests/core/SceneBuilders.h"
 
 namespace ps {
 namespace {
@@ -62,11 +63,7 @@ TEST(VirtualOffset, ProbeInsideASolidMovesToTheNearestFaceOutside) {
   EXPECT_LT(length(*q - p), 0.3 + 0.05 + 0.25) << *q;
   // The probe captured there sees the room's light, not the solid's black inside.
   LightingRig rig;
-  Light point;
-  point.type = LightType::Point;
-  point.position = {3, 3, 3};
-  point.intensity = {10, 10, 10};
-  rig.lights.push_back(point);
+  rig.lights.push_back(testing::pointLight({3, 3, 3}, {10, 10, 10}));
   CaptureSettings cs;
   cs.samplesPerProbe = 256;
   const std::vector<Vec3> at = {p, *q};
