@@ -114,12 +114,12 @@ void registerEval(CLI::App& app) {
     }
     const EvalResult r = evaluateVolume(tracer, rig, volume, es, terminalProgress("eval"));
     if (!o->perQuery.empty()) {
-      std::string csv = "x,y,z,nx,ny,nz,reference,interpolated,rel_error,leaking\n";
+      std::string csv = "x,y,z,nx,ny,nz,reference,reference_std,interpolated,rel_error,leaking\n";
       char line[512];
       for (const EvalQuery& q : r.perQuery) {
-        std::snprintf(line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.9g,%.6g,%d\n",
+        std::snprintf(line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d\n",
                       q.point.x, q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z,
-                      q.reference, q.interpolated, q.relError, q.leaking ? 1 : 0);
+                      q.reference, q.referenceStd, q.interpolated, q.relError, q.leaking ? 1 : 0);
         csv += line;
       }
       writeFileAtomic(o->perQuery, csv);
@@ -131,6 +131,8 @@ void registerEval(CLI::App& app) {
       j["probes"] = r.probes;
       j["queries"] = r.queries;
       j["rel_rmse"] = r.relRmse;
+      j["rel_rmse_std_error"] = r.relRmseStdError;
+      j["reference_rel_noise"] = r.referenceRelNoise;
       j["p95_rel_error"] = r.p95RelError;
       j["max_rel_error"] = r.maxRelError;
       j["leaking_fraction"] = r.leakingFraction;
@@ -141,9 +143,12 @@ void registerEval(CLI::App& app) {
     } else {
       std::printf(
           "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
-          "leaking %.4f (%.2f s%s)\n",
+          "leaking %.4f (%.2f s%s)\n"
+          "rel_rmse's standard error from the queries drawn %.4f; reference noise %.4f (the "
+          "relative RMS error of a perfect volume against this reference)\n",
           r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
-          r.seconds, r.referenceCached ? ", reference from the cache" : "");
+          r.seconds, r.referenceCached ? ", reference from the cache" : "", r.relRmseStdError,
+          r.referenceRelNoise);
     }
   });
 }

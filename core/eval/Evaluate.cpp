@@ -21,19 +21,29 @@ namespace ps {
 namespace {
 
 /// Reference irradiance at p for normal n: cosine-weighted path-traced radiance (pdf cos/pi, so
-/// E = pi/N sum L) plus the delta lights' direct irradiance, computed analytically.
+/// E = pi/N sum L) plus the delta lights' direct irradiance, computed analytically. `variance`
+/// is the variance of the estimate's luminance: the sample variance of pi lum(L) over N (the
+/// delta lights add none). The draw is stratified in u1, which this estimate ignores: it is an
+/// upper bound, as the stratification only lowers the true variance.
 Rgb referenceIrradiance(const Tracer& tracer, const LightingRig& rig,
-                        const std::vector<Light>& lights, Vec3 p, Vec3 n, int spp, uint64_t& rng) {
+                        const std::vector<Light>& lights, Vec3 p, Vec3 n, int spp, uint64_t& rng,
+                        double& variance) {
   Vec3 t, b;
   orthonormalBasis(n, t, b);
   Rgb sum;
+  double lumSum = 0, lumSq = 0;
   for (int i = 0; i < spp; ++i) {
     // Stratified in u1 so the reference converges faster for the same spp.
     const double u1 = (i + uniform01(rng)) / spp;
     const Vec3 l = cosineHemisphere(u1, uniform01(rng));
     const Vec3 dir = normalize(t * l.x + b * l.y + n * l.z);
-    sum += traceRadiance(tracer, rig, p, dir, rng);
+    const Rgb L = traceRadiance(tracer, rig, p, dir, rng);
+    sum += L;
+    const double y = kPi * luminance(L);
+    lumSum += y;
+    lumSq += y * y;
   }
+  variance = spp > 1 ? std::max(0.0, lumSq - lumSum * lumSum / spp) / (double(spp - 1) * spp) : 0.0;
   Rgb e = sum * (kPi / spp);
   for (const Light& light : lights) {
     const auto a = deltaLightArrival(light, p);
@@ -97,6 +107,7 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   ref.points.resize(M);
   ref.normals.resize(M);
   ref.irradiance.resize(M);
+  ref.variance.resize(M);
   std::vector<char> found(M, 0);
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     uint64_t rng = streamSeed(s.seed, q);
@@ -142,7 +153,7 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
     if (cancelled.load(std::memory_order_relaxed)) return;
     uint64_t rng = streamSeed(s.seed ^ 0xE7A1ull, q);
     ref.irradiance[q] = referenceIrradiance(tracer, rig, lights, ref.points[q], ref.normals[q],
-                                            s.referenceSpp, rng);
+                                            s.referenceSpp, rng, ref.variance[q]);
     const size_t d = ++done;
     if (progress) {
       std::lock_guard lock(progressMutex);
@@ -218,22 +229,46 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
 
   r.probes = volume.probeCount();
   r.queries = M;
-  double num = 0, den = 0, mean = 0;
+  double num = 0, den = 0, mean = 0, noise = 0;
   for (size_t q = 0; q < M; ++q) {
     num += (got[q] - ref[q]) * (got[q] - ref[q]);
     den += ref[q] * ref[q];
     mean += ref[q];
+    noise += reference->variance[q];
   }
   mean /= M;
   r.relRmse = den > 0 ? std::sqrt(num / den) : 0.0;
+  r.referenceRelNoise = den > 0 ? std::sqrt(noise / den) : 0.0;
+  // The standard error of relRmse from drawing M queries (the delta method on the ratio of the
+  // means of e^2 and E_ref^2): var(R) ~ var(e^2 - R E_ref^2) / (M mean(E_ref^2)^2), R = relRmse^2,
+  // and sd(sqrt R) = sd(R) / (2 sqrt R).
+  if (den > 0 && M > 1 && r.relRmse > 0) {
+    const double R = num / den;
+    double v = 0;
+    for (size_t q = 0; q < M; ++q) {
+      const double d = (got[q] - ref[q]) * (got[q] - ref[q]) - R * ref[q] * ref[q];
+      v += d * d;
+    }
+    v /= double(M - 1);
+    const double meanRefSq = den / double(M);
+    r.relRmseStdError = std::sqrt(v / double(M)) / meanRefSq / (2 * r.relRmse);
+  }
   // Per-query relative error, with the denominator floored at a tenth of the mean so that dark
   // corners do not dominate.
   std::vector<double> rel(M);
   const double floorE = std::max(0.1 * mean, 1e-12);
   for (size_t q = 0; q < M; ++q) rel[q] = std::abs(got[q] - ref[q]) / std::max(ref[q], floorE);
   r.perQuery.resize(M);
-  for (size_t q = 0; q < M; ++q)
-    r.perQuery[q] = EvalQuery{points[q], normals[q], ref[q], got[q], rel[q], leaking[q] != 0};
+  for (size_t q = 0; q < M; ++q) {
+    EvalQuery& e = r.perQuery[q];
+    e.point = points[q];
+    e.normal = normals[q];
+    e.reference = ref[q];
+    e.referenceStd = std::sqrt(reference->variance[q]);
+    e.interpolated = got[q];
+    e.relError = rel[q];
+    e.leaking = leaking[q] != 0;
+  }
   std::sort(rel.begin(), rel.end());
   r.maxRelError = rel.back();
   r.leakingFraction = double(std::count(leaking.begin(), leaking.end(), 1)) / double(M);

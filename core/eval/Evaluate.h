@@ -41,6 +41,9 @@ struct EvalSettings {
 struct EvalReference {
   std::vector<Vec3> points, normals;
   std::vector<Rgb> irradiance;
+  /// Per query, the variance of the reference irradiance's luminance from its path tracing (an
+  /// upper bound: see referenceRelNoise).
+  std::vector<double> variance;
   bool operator==(const EvalReference&) const = default;
 };
 
@@ -48,6 +51,7 @@ struct EvalReference {
 struct EvalQuery {
   Vec3 point, normal;
   double reference = 0;     ///< luminance of the reference irradiance
+  double referenceStd = 0;  ///< its standard error from the path tracing (an upper bound)
   double interpolated = 0;  ///< luminance of the volume's irradiance
   double relError = 0;      ///< as for p95RelError (the denominator floored at 0.1 x the mean)
   bool leaking = false;     ///< its tetrahedron has a probe the query cannot see
@@ -58,6 +62,17 @@ struct EvalResult {
   size_t queries = 0;
   /// sqrt(sum (E_vol - E_ref)^2 / sum E_ref^2) over query luminances.
   double relRmse = 0;
+  /// sqrt(sum Var(E_ref) / sum E_ref^2): the reference's own noise on the scale of relRmse, the
+  /// rel_rmse that a volume equal to the true irradiance would show (its square adds to the
+  /// square of the volume's true error). An upper bound: the reference's draw is stratified,
+  /// which the per-sample variance does not see. Differences between volumes smaller than this
+  /// are not resolved; a higher reference spp lowers it as 1 / sqrt(spp).
+  double referenceRelNoise = 0;
+  /// The standard error of relRmse from the finite number of queries (delta method): another
+  /// draw of as many queries gives a relRmse about this far away. Near point lights a few
+  /// queries carry most of the squared error and this is large; more queries lower it as
+  /// 1 / sqrt(queries). 0 with one query.
+  double relRmseStdError = 0;
   /// Per-query relative error |E_vol - E_ref| / max(E_ref, 0.1 * mean E_ref): percentiles.
   double p95RelError = 0;
   double maxRelError = 0;

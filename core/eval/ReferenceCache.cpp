@@ -7,13 +7,13 @@
 #include "core/io/JsonFields.h"
 #include "core/io/SceneHash.h"
 
-// Entries (KeyedFileCache): magic "PSEVREF1", payload u64 query count, then per query f64[9]:
-// point xyz, normal xyz, irradiance rgb.
+// Entries (KeyedFileCache): magic "PSEVREF2", payload u64 query count, then per query f64[10]:
+// point xyz, normal xyz, irradiance rgb, the variance of the irradiance's luminance.
 namespace ps {
 
 namespace {
-constexpr std::array<char, 8> kMagic = {'P', 'S', 'E', 'V', 'R', 'E', 'F', '1'};
-constexpr size_t kQueryBytes = 9 * 8;
+constexpr std::array<char, 8> kMagic = {'P', 'S', 'E', 'V', 'R', 'E', 'F', '2'};
+constexpr size_t kQueryBytes = 10 * 8;
 
 size_t payloadBytes(size_t queries) {
   return 8 + queries * kQueryBytes;
@@ -71,13 +71,15 @@ std::optional<EvalReference> ReferenceCache::find(uint64_t key, size_t queries,
   ref.points.resize(queries);
   ref.normals.resize(queries);
   ref.irradiance.resize(queries);
+  ref.variance.resize(queries);
   const char* p = e.payload.data() + 8;
   for (size_t q = 0; q < queries; ++q, p += kQueryBytes) {
-    double v[9];
+    double v[10];
     std::memcpy(v, p, sizeof v);
     ref.points[q] = {v[0], v[1], v[2]};
     ref.normals[q] = {v[3], v[4], v[5]};
     ref.irradiance[q] = {v[6], v[7], v[8]};
+    ref.variance[q] = v[9];
   }
   return ref;
 }
@@ -91,7 +93,8 @@ void ReferenceCache::store(uint64_t key, const EvalReference& ref) const {
   for (size_t q = 0; q < n; ++q, p += kQueryBytes) {
     const Vec3 a = ref.points[q], b = ref.normals[q];
     const Rgb c = ref.irradiance[q];
-    const double v[9] = {a.x, a.y, a.z, b.x, b.y, b.z, c.r, c.g, c.b};
+    const double v[10] = {a.x, a.y, a.z, b.x, b.y,
+                          b.z, c.r, c.g, c.b, q < ref.variance.size() ? ref.variance[q] : 0.0};
     std::memcpy(p, v, sizeof v);
   }
   files_.store(key, buf);

@@ -51,7 +51,7 @@ class ReferenceCache {
   const std::filesystem::path& dir() const { return files_.dir(); }
 
   /// Bump when the query sampling or the reference estimator changes its results.
-  static constexpr uint32_t kAlgorithmVersion = 1;
+  static constexpr uint32_t kAlgorithmVersion = 2;  ///< 2: entries hold the variance
 
  private:
   KeyedFileCache files_;

@@ -43,11 +43,17 @@ assert e["rel_rmse"] < 1.0, e
 import csv
 rows = list(csv.DictReader(open(f"{tmp}/eval.csv")))
 assert len(rows) == 32 and list(rows[0]) == ["x", "y", "z", "nx", "ny", "nz", "reference",
-                                             "interpolated", "rel_error", "leaking"], rows[0]
+                                             "reference_std", "interpolated", "rel_error",
+                                             "leaking"], rows[0]
 num = sum((float(r["interpolated"]) - float(r["reference"])) ** 2 for r in rows)
 den = sum(float(r["reference"]) ** 2 for r in rows)
 assert abs(math.sqrt(num / den) - e["rel_rmse"]) < 1e-6 * e["rel_rmse"] + 1e-9, (num, den, e)
 assert sum(int(r["leaking"]) for r in rows) / 32 == e["leaking_fraction"], e
+# The reference's noise: the standard errors sum to the JSON's reference_rel_noise.
+noise = math.sqrt(sum(float(r["reference_std"]) ** 2 for r in rows) / den)
+assert abs(noise - e["reference_rel_noise"]) < 1e-4 * e["reference_rel_noise"] + 1e-9, (noise, e)
+assert 0 < e["reference_rel_noise"] < 1, e
+assert 0 < e["rel_rmse_std_error"] < e["rel_rmse"], e
 rel = sorted(float(r["rel_error"]) for r in rows)
 assert abs(rel[math.ceil(0.95 * 32) - 1] - e["p95_rel_error"]) <= 1e-5 * e["p95_rel_error"], (rel, e)
 assert abs(rel[-1] - e["max_rel_error"]) <= 1e-5 * e["max_rel_error"], (rel, e)

@@ -197,6 +197,75 @@ TEST(Eval, TheLightClearanceKeysOnlyScenesWithPunctualLights) {
             ReferenceCache::key(5, rig, box, none, true));
 }
 
+TEST(Eval, ReferenceNoiseMatchesItsSpreadAgainstAFinerReference) {
+  // The same queries (same seed) traced at 32 and at 2048 samples on the Cornell box, whose
+  // area light makes the reference noisy: the 32-sample reference differs from the finer one by
+  // what its noise estimate says (an upper bound: the draw is stratified), and the estimate
+  // falls as 1 / sqrt(spp).
+  EvalSettings es;
+  es.queries = 512;
+  es.referenceSpp = 32;
+  const EvalReference coarse = computeReference(fixture().tracer, fixture().rig, es);
+  es.referenceSpp = 2048;
+  const EvalReference fine = computeReference(fixture().tracer, fixture().rig, es);
+  ASSERT_EQ(coarse.points, fine.points);
+  ASSERT_EQ(coarse.variance.size(), 512u);
+  double diff = 0, den = 0, varCoarse = 0, varFine = 0;
+  for (size_t q = 0; q < 512; ++q) {
+    const double a = luminance(coarse.irradiance[q]), b = luminance(fine.irradiance[q]);
+    diff += (a - b) * (a - b);
+    den += b * b;
+    varCoarse += coarse.variance[q];
+    varFine += fine.variance[q];
+  }
+  const double spread = std::sqrt(diff / den);
+  const double estimate = std::sqrt((varCoarse + varFine) / den);
+  EXPECT_GT(spread, 0.02);  // noisy enough to test anything
+  EXPECT_LE(spread, 1.1 * estimate);
+  EXPECT_GE(spread, 0.6 * estimate);
+  EXPECT_NEAR(std::sqrt(varCoarse / varFine), 8.0, 2.4);
+  // evaluateVolume reports it on rel_rmse's scale, and per query.
+  es.referenceSpp = 32;
+  const EvalResult r = evaluateVolume(fixture().tracer, fixture().rig, gridVolume(3), es);
+  double refSq = 0;
+  for (const Rgb& e : coarse.irradiance) refSq += luminance(e) * luminance(e);
+  EXPECT_NEAR(r.referenceRelNoise, std::sqrt(varCoarse / refSq), 1e-9);
+  EXPECT_DOUBLE_EQ(r.perQuery[7].referenceStd, std::sqrt(coarse.variance[7]));
+}
+
+TEST(Eval, RelRmseStdErrorPredictsTheSpreadOverQueryDraws) {
+  // One volume evaluated with 32 seeds (32 independent draws of 256 queries): the standard
+  // deviation of relRmse over the draws is what each draw's relRmseStdError says.
+  const ProbeVolume v = gridVolume(3);
+  EvalSettings es;
+  es.queries = 256;
+  es.referenceSpp = 8;
+  std::vector<double> rel, se;
+  for (uint64_t seed = 1; seed <= 32; ++seed) {
+    es.seed = seed;
+    const EvalResult r = evaluateVolume(fixture().tracer, fixture().rig, v, es);
+    rel.push_back(r.relRmse);
+    se.push_back(r.relRmseStdError);
+  }
+  double mean = 0, meanSe = 0;
+  for (size_t i = 0; i < rel.size(); ++i) {
+    mean += rel[i] / double(rel.size());
+    meanSe += se[i] / double(rel.size());
+  }
+  double var = 0;
+  for (double x : rel) var += (x - mean) * (x - mean) / double(rel.size() - 1);
+  const double sd = std::sqrt(var);
+  std::printf("relRmse over draws: mean %.4f, sd %.4f; mean std error %.4f\n", mean, sd, meanSe);
+  EXPECT_GT(sd, 0.005);
+  EXPECT_GT(meanSe, 0.6 * sd);
+  EXPECT_LT(meanSe, 1.6 * sd);
+  // It falls as 1 / sqrt(queries).
+  es.seed = 1;
+  es.queries = 4096;
+  const EvalResult many = evaluateVolume(fixture().tracer, fixture().rig, v, es);
+  EXPECT_NEAR(many.relRmseStdError / meanSe, 0.25, 0.1);
+}
+
 TEST(Eval, QueriesKeepTheClearanceFromPointLights) {
   // A point light in the middle of the Cornell box and a large clearance (a tenth of the
   // diagonal, about 1 m): no query inside it, where without it about 0.8 % of them are.
