@@ -613,8 +613,17 @@ bool Document::evaluate(const EvalRequest& request) {
     const EvalResult r = evaluateVolume(*tracer, rig, *volume, es, [&](double f) {
       return report(tr("Evaluating against the reference…"), f);
     });
-    result.evaluation = EvaluationPoint{r.probes, r.relRmse,         r.p95RelError, r.maxRelError,
-                                        source,   r.referenceCached, r.seconds};
+    EvaluationPoint e;
+    e.probes = r.probes;
+    e.relRmse = r.relRmse;
+    e.p95RelError = r.p95RelError;
+    e.maxRelError = r.maxRelError;
+    e.relRmseStdError = r.relRmseStdError;
+    e.referenceRelNoise = r.referenceRelNoise;
+    e.source = source;
+    e.referenceCached = r.referenceCached;
+    e.seconds = r.seconds;
+    result.evaluation = e;
   });
   return true;
 }

@@ -61,6 +61,9 @@ struct EvalRequest {
 struct EvaluationPoint {
   size_t probes = 0;
   double relRmse = 0, p95RelError = 0, maxRelError = 0;
+  /// How far another draw of as many queries would move relRmse, and the reference's own noise
+  /// on relRmse's scale (EvalResult::relRmseStdError, referenceRelNoise).
+  double relRmseStdError = 0, referenceRelNoise = 0;
   QString source;                ///< "baked volume" or "preview (accepted probes)"
   bool referenceCached = false;  ///< the reference came from the eval reference cache
   double seconds = 0;            ///< wall time of the evaluation

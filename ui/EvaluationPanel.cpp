@@ -127,7 +127,17 @@ void EvaluationPanel::refresh() {
     maxX = std::max(maxX, x);
     maxY = std::max({maxY, a, b});
     table_->setItem(int(i), 0, new QTableWidgetItem(QString::number(e.probes)));
-    table_->setItem(int(i), 1, new QTableWidgetItem(QString::number(a, 'f', 2) + " %"));
+    // The error with its uncertainty: the spread of another draw of queries, and the
+    // reference's own noise (what a perfect volume would show).
+    auto* rmseItem = new QTableWidgetItem(QString::number(a, 'f', 2) + QStringLiteral(" ± ") +
+                                          QString::number(100 * e.relRmseStdError, 'f', 2) + " %");
+    rmseItem->setToolTip(
+        tr("± %1 %: how far another draw of as many queries would move it.\n"
+           "The reference's own noise: %2 % (a perfect volume would show this; more reference "
+           "samples lower it).")
+            .arg(100 * e.relRmseStdError, 0, 'f', 2)
+            .arg(100 * e.referenceRelNoise, 0, 'f', 2));
+    table_->setItem(int(i), 1, rmseItem);
     table_->setItem(int(i), 2, new QTableWidgetItem(QString::number(b, 'f', 2) + " %"));
     table_->setItem(
         int(i), 3,

@@ -415,6 +415,14 @@ class TestPanels : public QObject {
       QCOMPARE(a.y(), 100 * evals[size_t(i)].relRmse);
       QCOMPARE(b.y(), 100 * evals[size_t(i)].p95RelError);
       QVERIFY(evals[size_t(i)].relRmse > 0 && std::isfinite(evals[size_t(i)].relRmse));
+      // The table gives the error with its uncertainty, and the reference's noise on hover.
+      QVERIFY(evals[size_t(i)].relRmseStdError > 0 && evals[size_t(i)].referenceRelNoise > 0);
+      const QTableWidgetItem* item = panel->table()->item(i, 1);
+      QCOMPARE(item->text(), QString::number(a.y(), 'f', 2) + QStringLiteral(" ± ") +
+                                 QString::number(100 * evals[size_t(i)].relRmseStdError, 'f', 2) +
+                                 " %");
+      QVERIFY(item->toolTip().contains(
+          QString::number(100 * evals[size_t(i)].referenceRelNoise, 'f', 2) + " %"));
     }
     QCOMPARE(panel->table()->rowCount(), 2);
     // The second evaluation read the reference the first one traced (the CLI's cache, beside
