@@ -36,6 +36,8 @@ void registerBake(CLI::App& app) {
     std::string cacheDir;
     bool noCache = false;
     bool noLeakRefine = false;
+    bool fit = false;
+    FitSettings fitSettings;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -50,7 +52,23 @@ void registerBake(CLI::App& app) {
                 "Capture every probe, neither reading nor writing a cache");
   cmd->add_flag("--no-leak-refine", o->noLeakRefine,
                 "Do not add probes where the probe mesh's edges cross geometry (Sukys 3.2.2)");
+  cmd->add_flag("--fit", o->fit,
+                "Least-squares probe values: fit the volume's interpolation to captures at random "
+                "points of the domain instead of keeping each probe's own capture (lower error, "
+                "more capture time: see the next options)");
+  cmd->add_option("--fit-points", o->fitSettings.pointsPerProbe,
+                  "With --fit: random points of the domain per probe (default 128)");
+  cmd->add_option("--fit-spp", o->fitSettings.samplesPerPoint,
+                  "With --fit: samples per fit point (default 64)");
+  cmd->add_option("--fit-regularization", o->fitSettings.regularization,
+                  "With --fit: pull of each probe towards its own capture, relative to the fit "
+                  "points' (default 0.01)");
   cmd->callback([o] {
+    if ((o->fitSettings.pointsPerProbe != FitSettings{}.pointsPerProbe ||
+         o->fitSettings.samplesPerPoint != FitSettings{}.samplesPerPoint ||
+         o->fitSettings.regularization != FitSettings{}.regularization) &&
+        !o->fit)
+      throw ParameterError("--fit-points, --fit-spp, --fit-regularization: give --fit too");
     if (o->sampling.spp > kMaxSamplesPerProbe)
       throw ParameterError("--spp: " + std::to_string(o->sampling.spp) +
                            " samples per probe is above the " + "limit of " +
@@ -65,6 +83,10 @@ void registerBake(CLI::App& app) {
     bs.capture.seed = o->seed;
     bs.sceneHash = sceneContentHash(set.scenePath);
     bs.leakRefine = !o->noLeakRefine;
+    if (o->fit) {
+      bs.fit = o->fitSettings;
+      bs.fit->seed = o->seed;
+    }
     if (set.sceneHash != 0 && set.sceneHash != bs.sceneHash)
       std::printf("note: the scene changed since %s was saved (hash %s, now %s)\n", o->set.c_str(),
                   sceneHashText(set.sceneHash).c_str(), sceneHashText(bs.sceneHash).c_str());
@@ -91,6 +113,12 @@ void registerBake(CLI::App& app) {
           "tetrahedra with a leaking edge %.2f %% -> %.2f %%\n",
           r.leakProbesAdded, r.leakSeconds, r.leakingEdgesBefore, r.leakingEdgesAfter,
           100 * r.leakingVolumeFractionBefore, 100 * r.leakingVolumeFractionAfter);
+    if (r.fit)
+      std::printf(
+          "least-squares fit: %zu points at %d spp, %d iterations, misfit at the points %.4f -> "
+          "%.4f (%.2f s)\n",
+          r.fit->points, o->fitSettings.samplesPerPoint, r.fit->iterations, r.fit->residualBefore,
+          r.fit->residualAfter, r.fit->seconds);
   });
 }
 

@@ -36,6 +36,16 @@ void registerInfo(CLI::App& app) {
       std::printf("  probes %zu, tetrahedra %zu, hull faces %zu\n", vf.volume.probeCount(),
                   vf.volume.tets.size(), vf.volume.hullFaces.size());
       std::printf("  scene %s, %zu rig lights\n", src.scenePath.c_str(), src.rig.lights.size());
+      // How the probes' values were made (volumeSource has checked the metadata is JSON).
+      const ojson meta = ojson::parse(vf.metadataJson, nullptr, false);
+      const ojson* fit = meta.is_object() && meta.contains("fit") ? &meta["fit"] : nullptr;
+      if (fit && fit->is_object() && fit->value("points", ojson()).is_number_unsigned() &&
+          fit->value("samples_per_point", ojson()).is_number_integer())
+        std::printf("  values fitted by least squares to %llu points at %lld spp (bake --fit)\n",
+                    static_cast<unsigned long long>((*fit)["points"].get<uint64_t>()),
+                    static_cast<long long>((*fit)["samples_per_point"].get<int64_t>()));
+      else
+        std::printf("  values captured at each probe\n");
       return;
     }
     const ProbeSet set = loadProbeSet(*file);

@@ -88,19 +88,29 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
 
 BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSettings& settings,
                         const ProgressFn& progress) {
+  if (settings.fit) checkFitSettings(*settings.fit);  // before anything is traced
   BakeResult r;
   BakeProbes probes = gatherAcceptedProbes(set);
   leakRefineStage(probes, tracer, settings, r);
+  if (settings.fit) checkFitSettings(*settings.fit, probes.positions.size());
   r.probes = probes.positions.size();
   auto t0 = std::chrono::steady_clock::now();
+  // Progress: the capture, then the fit (when asked) in as much again.
+  const double captureShare = settings.fit ? 0.45 : 0.95;
   ProgressFn captureProgress;
-  if (progress) captureProgress = [&](double f) { return progress(0.95 * f); };
+  if (progress) captureProgress = [&](double f) { return progress(captureShare * f); };
   captureStage(probes, set.rig, tracer, settings, captureProgress, r);
   auto t1 = std::chrono::steady_clock::now();
   r.file.volume = volumeFromProbes(probes.positions, probes.sh);
   auto t2 = std::chrono::steady_clock::now();
   r.captureSeconds = std::chrono::duration<double>(t1 - t0).count();
   r.tetraSeconds = std::chrono::duration<double>(t2 - t1).count();
+  if (settings.fit) {
+    ProgressFn fitProgress;
+    if (progress) fitProgress = [&](double f) { return progress(0.45 + 0.5 * f); };
+    r.fit = fitProbeValues(tracer, set.rig, r.file.volume, importanceBoxes(set.importanceVolumes),
+                           *settings.fit, fitProgress);
+  }
 
   nlohmann::ordered_json meta;
   meta["generator"] = "probestudio";
@@ -109,6 +119,14 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   meta["capture_spp"] = settings.capture.samplesPerProbe;
   meta["probe_ids"] = probes.ids;
   meta["leak_probes_added"] = r.leakProbesAdded;
+  if (settings.fit)
+    meta["fit"] = {{"method", "least-squares"},
+                   {"points_per_probe", settings.fit->pointsPerProbe},
+                   {"samples_per_point", settings.fit->samplesPerPoint},
+                   {"regularization", settings.fit->regularization},
+                   {"light_clearance_relative", settings.fit->lightClearanceRelative},
+                   {"seed", settings.fit->seed},
+                   {"points", r.fit->points}};
   // The set's domain of interest, so that eval of the volume draws its queries where eval of
   // the set does.
   if (!set.importanceVolumes.empty()) {

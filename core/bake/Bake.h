@@ -9,6 +9,7 @@
 #include <span>
 #include <string>
 
+#include "core/bake/LeastSquaresFit.h"
 #include "core/capture/Capture.h"
 #include "core/io/ProbeSet.h"
 #include "core/io/VolumeFile.h"
@@ -31,6 +32,10 @@ struct BakeSettings {
   /// Leak refinement (Sukys 3.2.2) before the capture; on by default (`bake --no-leak-refine`).
   bool leakRefine = true;
   LeakRefineSettings leakRefineSettings;
+  /// Least-squares probe values (LeastSquaresFit.h) after the tetrahedralization; off by
+  /// default (`bake --fit`). The fit points are drawn in the set's importance volumes (the
+  /// scene bounds when it has none) and are not cached.
+  std::optional<FitSettings> fit;
 };
 
 struct BakeResult {
@@ -44,6 +49,7 @@ struct BakeResult {
   double leakSeconds = 0;
   double captureSeconds = 0;
   double tetraSeconds = 0;
+  std::optional<FitResult> fit;  ///< when BakeSettings::fit was set
 };
 
 /// The bake's working data between stages.
@@ -66,10 +72,10 @@ void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSetting
 void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& tracer,
                   const BakeSettings& settings, const ProgressFn& progress, BakeResult& r);
 
-/// Captures every accepted probe of `set` (plus those leak refinement adds) with the set's rig
-/// and builds the volume. The volume's metadata JSON records the scene path (absolute;
-/// saveVolume's caller may relativize), the rig, the probe ids and the leak probes added. Throws
-/// ps::ParameterError when fewer than 4 probes are accepted.
+/// Captures every accepted probe of `set` (plus those leak refinement adds) with the set's rig,
+/// builds the volume and, when settings.fit is set, fits its values. The volume's metadata JSON
+/// records the scene path (absolute; saveVolume's caller may relativize), the rig, the probe ids
+/// and the leak probes added. Throws ps::ParameterError when fewer than 4 probes are accepted.
 BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSettings& settings,
                         const ProgressFn& progress = {});
 

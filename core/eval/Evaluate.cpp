@@ -7,12 +7,14 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "core/capture/Capture.h"
 #include "core/capture/DirectLight.h"
 #include "core/common/Error.h"
 #include "core/common/Tolerances.h"
+#include "core/eval/DomainPoints.h"
 #include "core/eval/ReferenceCache.h"
 #include "core/math/Random.h"
 
@@ -82,26 +84,16 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
   checkLightClearance(s);
 
-  const std::vector<Bounds3> boxes =
-      s.domain.empty() ? std::vector<Bounds3>{tracer.scene().bounds} : s.domain;
-  // Each box by its share of the total volume (a flat one never: it holds no volume).
-  std::vector<double> cumulative;
-  double total = 0;
-  for (const Bounds3& b : boxes) {
-    const Vec3 e = b.extent();
-    total += b.empty() ? 0.0 : std::max(0.0, e.x) * std::max(0.0, e.y) * std::max(0.0, e.z);
-    cumulative.push_back(total);
+  std::optional<DomainPoints> domain;
+  try {
+    domain.emplace(tracer, rig, s.domain, s.lightClearanceRelative);
+  } catch (const ParameterError& e) {
+    throw ParameterError(std::string("eval: ") + e.what());
   }
-  if (!s.domain.empty() && !(total > 0))
-    throw ParameterError("eval: the importance volumes have no volume");
   const std::vector<Light> lights = allLights(tracer.scene(), rig);
-  const std::vector<Vec3> punctual = punctualLightPositions(tracer.scene(), rig);
-  const double clearance = lightClearanceMeters(tracer, s);
 
-  // Query points: uniform in the domain (the union of its boxes: a box by its volume, a point
-  // in it kept with probability 1 / the number of boxes holding it), keeping those in the
-  // domain of interest (not inside geometry, Kontkanen & Laine sec. 5). With one box this is
-  // the plain uniform draw, as before boxes were possible. Deterministic for the seed.
+  // Query points: uniform in the domain of interest (DomainPoints), each with a uniform normal.
+  // Deterministic for the seed.
   const size_t M = size_t(s.queries);
   EvalReference ref;
   ref.points.resize(M);
@@ -111,30 +103,10 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   std::vector<char> found(M, 0);
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     uint64_t rng = streamSeed(s.seed, q);
-    for (int attempt = 0; attempt < 1000; ++attempt) {
-      size_t k = 0;
-      if (boxes.size() > 1) {
-        const double u = uniform01(rng) * total;
-        while (k + 1 < boxes.size() && cumulative[k] <= u) ++k;
-      }
-      const Bounds3& b = boxes[k];
-      const Vec3 e = b.extent();
-      const Vec3 p = b.lo + Vec3(e.x * uniform01(rng), e.y * uniform01(rng), e.z * uniform01(rng));
-      if (boxes.size() > 1) {
-        int holding = 0;
-        for (const Bounds3& o : boxes) holding += o.contains(p) ? 1 : 0;
-        if (uniform01(rng) * std::max(holding, 1) >= 1.0) continue;
-      }
-      bool nearLight = false;
-      for (const Vec3& l : punctual)
-        nearLight = nearLight || dot(p - l, p - l) < clearance * clearance;
-      if (nearLight) continue;
-      if (backfaceFraction(tracer, p, 32, splitMix64(rng)) > tol::kDefaultInvalidBackfaceFraction)
-        continue;
-      ref.points[q] = p;
+    if (const std::optional<Vec3> p = domain->draw(rng, 32, tol::kDefaultInvalidBackfaceFraction)) {
+      ref.points[q] = *p;
       ref.normals[q] = uniformSphere(uniform01(rng), uniform01(rng));
       found[q] = 1;
-      return;
     }
   });
   for (size_t q = 0; q < M; ++q)

@@ -47,6 +47,10 @@ expect_error "$m/ps-overflow-number.json: not valid JSON" "$cli" info "$m/ps-ove
 expect_error "$m/vol-bad-magic.psv: magic: not a ProbeStudio volume" "$cli" info "$m/vol-bad-magic.psv"
 expect_error "$m/vol-huge-probe-count.psv: header: counts" "$cli" query "$m/vol-huge-probe-count.psv" --at 0,0,0
 expect_error "--spp: 100000000 samples per probe is above the limit" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --spp 100000000
+expect_error "--fit-points, --fit-spp, --fit-regularization: give --fit too" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --fit-points 8
+"$cli" place "$root/resources/scenes/cornell.gltf" --method uniform --budget 8 --accept -o "$tmp/c8.json" >/dev/null
+expect_error "fit: the regularization must be a positive number" "$cli" bake "$tmp/c8.json" -o "$tmp/v.psv" --fit --fit-regularization -1
+test ! -e "$tmp/v.psv" || { echo "FAIL: a failed bake wrote its output"; fail=1; }
 expect_error "--queries: 2000000000 is above the limit" "$cli" eval "$m/ps-empty.json" --queries 2000000000
 expect_error "budget: expected at most 1000000 probes (the limit), got 2000000000" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2000000000 -o "$tmp/s.json"
 

@@ -16,6 +16,16 @@ cmp "$tmp/v.psv" "$tmp/v2.psv"
 "$cli" bake "$tmp/set.json" -o "$tmp/v3.psv" --target-error 0.1 --max-spp 1024 --no-leak-refine |
   grep -q "([0-9]* captured, 0 from the cache).*target error 0.1 (at most 1024 spp)"
 "$cli" info "$tmp/set.json" | grep -q "matches the scene"
+# Least-squares fit: the same probes and tetrahedra, other values, said on stdout and recorded
+# in the volume's metadata; the same bake twice gives the same file.
+"$cli" bake "$tmp/set.json" -o "$tmp/vfit.psv" --spp 128 --no-leak-refine --fit --fit-points 16 \
+  --fit-spp 32 >"$tmp/fit.log"
+grep -q "least-squares fit: [0-9]* points at 32 spp" "$tmp/fit.log"
+"$cli" bake "$tmp/set.json" -o "$tmp/vfit2.psv" --spp 128 --no-leak-refine --fit --fit-points 16 \
+  --fit-spp 32 >/dev/null
+cmp "$tmp/vfit.psv" "$tmp/vfit2.psv"
+! cmp -s "$tmp/v.psv" "$tmp/vfit.psv"
+"$cli" info "$tmp/vfit.psv" | grep -q "values fitted by least squares"
 "$cli" eval "$tmp/v.psv" --queries 32 --reference-spp 256 --json --per-query "$tmp/eval.csv" >"$tmp/eval.json"
 "$cli" info "$tmp/set.json" | grep -q "accepted"
 "$cli" info "$tmp/v.psv" | grep -q "probe volume"

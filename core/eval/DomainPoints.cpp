@@ -1,0 +1,65 @@
+#include "core/eval/DomainPoints.h"
+
+#include <string>
+
+#include "core/capture/Capture.h"
+#include "core/common/Error.h"
+#include "core/math/Random.h"
+
+namespace ps {
+
+DomainPoints::DomainPoints(const Tracer& tracer, const LightingRig& rig,
+                           std::span<const Bounds3> domain, double clearanceRelative)
+    : tracer_(tracer), fromVolumes_(!domain.empty()) {
+  if (!(clearanceRelative >= 0 && clearanceRelative < 0.5))
+    throw ParameterError(
+        "light clearance: expected a fraction of the domain's diagonal in [0, 0.5), got " +
+        std::to_string(clearanceRelative));
+  if (domain.empty())
+    boxes_.push_back(tracer.scene().bounds);
+  else
+    boxes_.assign(domain.begin(), domain.end());
+  // Each box by its share of the total volume (a flat one never: it holds no volume).
+  Bounds3 all;
+  for (const Bounds3& b : boxes_) {
+    const Vec3 e = b.extent();
+    total_ += b.empty() ? 0.0 : std::max(0.0, e.x) * std::max(0.0, e.y) * std::max(0.0, e.z);
+    cumulative_.push_back(total_);
+    all.extend(b.lo);
+    all.extend(b.hi);
+  }
+  if (fromVolumes_ && !(total_ > 0)) throw ParameterError("the importance volumes have no volume");
+  punctual_ = punctualLightPositions(tracer.scene(), rig);
+  clearance_ = all.empty() ? 0.0 : clearanceRelative * all.diagonal();
+}
+
+std::optional<Vec3> DomainPoints::draw(uint64_t& rng, int validityRays,
+                                       double invalidBackfaceFraction) const {
+  // Uniform in the union of the boxes: a box by its volume, a point in it kept with probability
+  // 1 / the number of boxes holding it. With one box this is the plain uniform draw.
+  for (int attempt = 0; attempt < 1000; ++attempt) {
+    size_t k = 0;
+    if (boxes_.size() > 1) {
+      const double u = uniform01(rng) * total_;
+      while (k + 1 < boxes_.size() && cumulative_[k] <= u) ++k;
+    }
+    const Bounds3& b = boxes_[k];
+    const Vec3 e = b.extent();
+    const Vec3 p = b.lo + Vec3(e.x * uniform01(rng), e.y * uniform01(rng), e.z * uniform01(rng));
+    if (boxes_.size() > 1) {
+      int holding = 0;
+      for (const Bounds3& o : boxes_) holding += o.contains(p) ? 1 : 0;
+      if (uniform01(rng) * std::max(holding, 1) >= 1.0) continue;
+    }
+    bool nearLight = false;
+    for (const Vec3& l : punctual_)
+      nearLight = nearLight || dot(p - l, p - l) < clearance_ * clearance_;
+    if (nearLight) continue;
+    if (backfaceFraction(tracer_, p, validityRays, splitMix64(rng)) > invalidBackfaceFraction)
+      continue;
+    return p;
+  }
+  return std::nullopt;
+}
+
+}  // namespace ps

@@ -1,0 +1,45 @@
+#pragma once
+// Random points of the domain of interest (DESIGN.md): uniform over the union of the importance
+// volumes' boxes (the scene bounds when there are none), kept out of geometry (Kontkanen &
+// Laine sec. 5) and out of a clearance around point and spot lights. Eval's queries and the
+// bake's least-squares fit points are drawn from it.
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "core/math/Vec3.h"
+#include "core/scene/LightingRig.h"
+#include "core/trace/Tracer.h"
+
+namespace ps {
+
+class DomainPoints {
+ public:
+  /// `domain`: the boxes (empty: the scene bounds). `clearanceRelative`: the fraction of the
+  /// domain's diagonal kept from the scene's and rig's point and spot lights (0: none). Throws
+  /// ps::ParameterError when the boxes given have no volume or the clearance is outside
+  /// [0, 0.5).
+  DomainPoints(const Tracer& tracer, const LightingRig& rig, std::span<const Bounds3> domain,
+               double clearanceRelative);
+
+  /// A point uniform over the boxes' union, outside geometry (at most `invalidBackfaceFraction`
+  /// of `validityRays` rays hit back faces) and outside the light clearance; nothing after
+  /// 1000 draws that all failed. Consumes `rng` the same way for the same draws.
+  std::optional<Vec3> draw(uint64_t& rng, int validityRays = 32,
+                           double invalidBackfaceFraction = 0.25) const;
+
+  double clearanceMeters() const { return clearance_; }
+  bool fromImportanceVolumes() const { return fromVolumes_; }
+
+ private:
+  const Tracer& tracer_;
+  std::vector<Bounds3> boxes_;
+  std::vector<double> cumulative_;
+  double total_ = 0;
+  std::vector<Vec3> punctual_;
+  double clearance_ = 0;
+  bool fromVolumes_ = false;
+};
+
+}  // namespace ps
