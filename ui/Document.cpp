@@ -532,6 +532,7 @@ bool Document::bake(const BakeRequest& request) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = request.samplesPerProbe;
     bs.leakRefine = request.refineLeaks;
+    if (request.fit) bs.fit = FitSettings{};
     BakeResult baked = bakeProbeSet(set, *tracer, bs, [&](double f) {
       return report(tr("Baking %1 probes…").arg(accepted), 0.97 * f);
     });
@@ -541,6 +542,10 @@ bool Document::bake(const BakeRequest& request) {
                         .arg(baked.probes)
                         .arg(accepted)
                         .arg(baked.leakProbesAdded);
+    if (baked.fit)
+      result.notes << tr("Values fitted by least squares to %1 points (%2 s)")
+                          .arg(baked.fit->points)
+                          .arg(baked.fit->seconds, 0, 'f', 2);
     result.volumePath = path;
     result.volume = std::make_shared<const ProbeVolume>(std::move(baked.file.volume));
   });

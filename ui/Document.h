@@ -48,6 +48,8 @@ struct BakeRequest {
   /// Leak refinement (Sukys 3.2.2) before the capture: probes added on both sides of walls
   /// that tetrahedron edges cross; they are in the volume, not in the probe set.
   bool refineLeaks = true;
+  /// Least-squares probe values (core/bake/LeastSquaresFit.h, `bake --fit`) with its defaults.
+  bool fit = false;
 };
 
 /// The evaluation's settings (core/eval/Evaluate.h).

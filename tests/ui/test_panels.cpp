@@ -371,6 +371,17 @@ class TestPanels : public QObject {
                                .arg(doc->volume()->probeCount() - accepted.size())),
              qPrintable(note));
     QCOMPARE(vp->previewVolume()->tets.size(), doc->volume()->tets.size());
+    // Least-squares values: the same mesh, other values, and the notes and the file say so.
+    QVERIFY(!panel->fitBox()->isChecked());
+    const ProbeVolume captured = *doc->volume();
+    panel->fitBox()->setChecked(true);
+    QVERIFY(panel->bake());
+    QCOMPARE(waitForJob(doc), QString());
+    QCOMPARE(doc->volume()->tets, captured.tets);
+    QVERIFY(doc->volume()->sh != captured.sh);
+    QVERIFY(doc->lastJobNotes().join(' ').contains("fitted by least squares"));
+    QVERIFY(loadVolume(psv.toStdString()).metadataJson.find("\"least-squares\"") !=
+            std::string::npos);
   }
 
   void evaluationsArePlottedAgainstProbeCount() {
