@@ -1,6 +1,7 @@
 // Bake with the capture cache on dream-apartment (sun + sky): a full bake (every probe traced)
-// against a re-bake after moving one probe (one probe traced, the rest from the cache), in the
-// same process. Figures: BENCHMARKS.md, "Files and bake".
+// against a re-bake after moving one probe (one probe traced, the rest from the cache), and
+// against a full bake with least-squares values (bake --fit, its default settings), in the same
+// process. Figures: BENCHMARKS.md, "Files and bake" and "Least-squares probe values".
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
@@ -76,6 +77,24 @@ void BM_FullBake(benchmark::State& state) {
   state.counters["captured"] = double(captured);
 }
 
+void BM_FullBakeWithFit(benchmark::State& state) {
+  Fixture* f = fixture();
+  if (!f) return state.SkipWithError("dream-apartment not found in PS_SHARED_SCENES_DIR");
+  BakeSettings bs = settings(*f, false);
+  bs.fit = FitSettings{};
+  double fitSeconds = 0, points = 0, iterations = 0;
+  for (auto _ : state) {
+    const BakeResult r = bakeProbeSet(f->set, *f->tracer, bs);
+    fitSeconds = r.fit->seconds;
+    points = double(r.fit->points);
+    iterations = r.fit->iterations;
+  }
+  state.counters["probes"] = double(f->set.probes.size());
+  state.counters["fit_points"] = points;
+  state.counters["fit_seconds"] = fitSeconds;
+  state.counters["cg_iterations"] = iterations;
+}
+
 void BM_ReBakeAfterOneMove(benchmark::State& state) {
   Fixture* f = fixture();
   if (!f) return state.SkipWithError("dream-apartment not found in PS_SHARED_SCENES_DIR");
@@ -100,6 +119,7 @@ void BM_ReBakeAfterOneMove(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_FullBake)->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK(BM_FullBakeWithFit)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_ReBakeAfterOneMove)->Unit(benchmark::kMillisecond)->Iterations(20);
 
 int main(int argc, char** argv) {
