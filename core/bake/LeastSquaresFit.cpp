@@ -19,7 +19,10 @@ namespace ps {
 
 namespace {
 
-constexpr size_t kMaxFitPoints = 20'000'000;
+/// Fit points at most: each keeps its position, SH target and location (about 300 bytes).
+constexpr size_t kMaxFitPoints = 5'000'000;
+/// Points captured per captureProbes call: only their SH is kept, not the whole capture.
+constexpr size_t kCaptureChunk = 262'144;
 constexpr int kValues = 27;  ///< per probe: 9 SH coefficients x RGB, as in ProbeVolume::sh
 
 /// A symmetric sparse matrix in compressed rows, with the pattern of the mesh's edges (two
@@ -181,7 +184,7 @@ void checkFitSettings(const FitSettings& s, size_t probes) {
   if (probes * size_t(s.pointsPerProbe) > kMaxFitPoints)
     throw ParameterError("fit: " + std::to_string(probes) + " probes x " +
                          std::to_string(s.pointsPerProbe) + " points per probe is above the " +
-                         "limit of 20 million fit points; lower the points per probe");
+                         "limit of 5 million fit points; lower the points per probe");
 }
 
 FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolume& volume,
@@ -217,12 +220,22 @@ FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolu
         "clearance)");
   result.points = points.size();
 
-  CaptureSettings cs;
-  cs.samplesPerProbe = s.samplesPerPoint;
-  cs.seed = s.seed ^ 0xF17F17F17ull;
-  ProgressFn captureProgress;
-  if (progress) captureProgress = [&](double f) { return progress(0.9 * f); };
-  const std::vector<ProbeCapture> caps = captureProbes(tracer, rig, points, cs, captureProgress);
+  // Captured in chunks, keeping only the SH (the target of the fit).
+  std::vector<ShRgb> targets(points.size());
+  for (size_t first = 0; first < points.size(); first += kCaptureChunk) {
+    const size_t count = std::min(kCaptureChunk, points.size() - first);
+    CaptureSettings cs;
+    cs.samplesPerProbe = s.samplesPerPoint;
+    cs.seed = (s.seed ^ 0xF17F17F17ull) + first;  // another stream per chunk
+    ProgressFn captureProgress;
+    if (progress)
+      captureProgress = [&](double f) {
+        return progress(0.9 * (double(first) + f * double(count)) / double(points.size()));
+      };
+    const std::vector<ProbeCapture> caps = captureProbes(
+        tracer, rig, std::span<const Vec3>(points).subspan(first, count), cs, captureProgress);
+    for (size_t i = 0; i < count; ++i) targets[first + i] = caps[i].sh;
+  }
 
   // Where each point interpolates (clamped to the hull outside it, as every query is).
   const HullClamp hullClamp(volume);
@@ -240,9 +253,9 @@ FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolu
           const float* c = sh.data() + size_t(t[size_t(a)]) * kValues + 3 * size_t(k);
           interp += Rgb(c[0], c[1], c[2]) * double(loc[i].weights[size_t(a)]);
         }
-        const double d = luminance(interp) - luminance(caps[i].sh.c[size_t(k)]);
-        num += d * d;
-        den += luminance(caps[i].sh.c[size_t(k)]) * luminance(caps[i].sh.c[size_t(k)]);
+        const double target = luminance(targets[i].c[size_t(k)]);
+        num += (luminance(interp) - target) * (luminance(interp) - target);
+        den += target * target;
       }
     }
     return den > 0 ? std::sqrt(num / den) : 0.0;
@@ -250,8 +263,6 @@ FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolu
   result.residualBefore = misfit(volume.sh);
 
   if (progress && !progress(0.9)) throw Cancelled();
-  std::vector<ShRgb> targets(points.size());
-  for (size_t i = 0; i < points.size(); ++i) targets[i] = caps[i].sh;
   std::vector<float> fitted =
       leastSquaresValues(volume, loc, targets, s.regularization, &result.iterations);
   result.residualAfter = misfit(fitted);

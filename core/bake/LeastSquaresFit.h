@@ -48,7 +48,7 @@ struct FitResult {
 };
 
 /// Throws ps::ParameterError naming the setting out of range, or when `probes` probes would
-/// need more than 20 million fit points (fitProbeValues checks too; the bake calls it before
+/// need more than 5 million fit points (fitProbeValues checks too; the bake calls it before
 /// its capture).
 void checkFitSettings(const FitSettings& settings, size_t probes = 0);
 

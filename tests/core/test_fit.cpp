@@ -180,8 +180,8 @@ TEST(Fit, BadSettingsAreRefusedBeforeTheCapture) {
   s.lightClearanceRelative = 0.5;
   EXPECT_THROW(checkFitSettings(s), ParameterError);
   s = {};
-  EXPECT_NO_THROW(checkFitSettings(s, 1000));
-  EXPECT_THROW(checkFitSettings(s, 1'000'000), ParameterError);  // 128 million fit points
+  EXPECT_NO_THROW(checkFitSettings(s, 39'000));               // 4.99 million fit points
+  EXPECT_THROW(checkFitSettings(s, 40'000), ParameterError);  // 5.12 million
   // The bake checks before it traces anything: a cancelled progress would throw Cancelled.
   const ProbeSet set = acceptedSet(grid(2, {-1, 1, -1}, {1, 3, 1}));
   BakeSettings bs;
