@@ -121,7 +121,8 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   fit_->setToolTip(
       tr("Fit the probes' values so that the volume's interpolation comes closest to captures at "
          "random points of the domain, instead of keeping each probe's own capture: lower error "
-         "overall, at about eight times the capture work; beside a sharp bright patch the dark "
+         "overall, at the capture work of about eight 1024-spp bakes; beside a sharp bright patch "
+         "the dark "
          "side can come out brighter"));
   bakeForm->addRow(fit_);
   bake_ = new QPushButton(tr("Bake accepted probes"));

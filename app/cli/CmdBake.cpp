@@ -1,6 +1,7 @@
 // probestudio bake: parses its options, calls the core stages and prints what it did; bad
 // input surfaces as ps::Error, caught in main.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -63,12 +64,20 @@ void registerBake(CLI::App& app) {
   cmd->add_option("--fit-regularization", o->fitSettings.regularization,
                   "With --fit: pull of each probe towards its own capture, relative to the fit "
                   "points' (default 0.01)");
-  cmd->callback([o] {
-    if ((o->fitSettings.pointsPerProbe != FitSettings{}.pointsPerProbe ||
-         o->fitSettings.samplesPerPoint != FitSettings{}.samplesPerPoint ||
-         o->fitSettings.regularization != FitSettings{}.regularization) &&
-        !o->fit)
+  cmd->callback([o, cmd] {
+    // The fit's options, named, before anything is read or traced.
+    if (!o->fit && (cmd->count("--fit-points") || cmd->count("--fit-spp") ||
+                    cmd->count("--fit-regularization")))
       throw ParameterError("--fit-points, --fit-spp, --fit-regularization: give --fit too");
+    const FitSettings& f = o->fitSettings;
+    if (f.pointsPerProbe < 1 || f.pointsPerProbe > 4096)
+      throw ParameterError("--fit-points: expected 1 to 4096 points per probe, got " +
+                           std::to_string(f.pointsPerProbe));
+    if (f.samplesPerPoint < 1 || f.samplesPerPoint > (1 << 20))
+      throw ParameterError("--fit-spp: expected 1 to 1048576 samples per point, got " +
+                           std::to_string(f.samplesPerPoint));
+    if (!(f.regularization > 0) || !std::isfinite(f.regularization))
+      throw ParameterError("--fit-regularization: expected a positive number");
     if (o->sampling.spp > kMaxSamplesPerProbe)
       throw ParameterError("--spp: " + std::to_string(o->sampling.spp) +
                            " samples per probe is above the " + "limit of " +

@@ -88,11 +88,18 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
 
 BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSettings& settings,
                         const ProgressFn& progress) {
-  if (settings.fit) checkFitSettings(*settings.fit);  // before anything is traced
   BakeResult r;
   BakeProbes probes = gatherAcceptedProbes(set);
+  // The fit's settings and domain before anything is traced.
+  std::optional<FitSettings> fit = settings.fit;
+  if (fit) {
+    fit->mode = settings.capture.mode;
+    fit->threads = settings.capture.threads;
+    checkFitSettings(*fit, probes.positions.size());
+    checkFitDomain(tracer, set.rig, importanceBoxes(set.importanceVolumes), *fit);
+  }
   leakRefineStage(probes, tracer, settings, r);
-  if (settings.fit) checkFitSettings(*settings.fit, probes.positions.size());
+  if (fit) checkFitSettings(*fit, probes.positions.size());  // with the added probes
   r.probes = probes.positions.size();
   auto t0 = std::chrono::steady_clock::now();
   // Progress: the capture, then the fit (when asked) in as much again.
@@ -109,7 +116,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
     ProgressFn fitProgress;
     if (progress) fitProgress = [&](double f) { return progress(0.45 + 0.5 * f); };
     r.fit = fitProbeValues(tracer, set.rig, r.file.volume, importanceBoxes(set.importanceVolumes),
-                           *settings.fit, fitProgress);
+                           *fit, fitProgress);
   }
 
   nlohmann::ordered_json meta;

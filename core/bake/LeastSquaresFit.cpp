@@ -69,7 +69,7 @@ struct SparseMatrix {
 };
 
 /// Solves A x = b by conjugate gradients with the Jacobi preconditioner, from x's value, to a
-/// residual of 1e-10 of b's norm. Returns the iterations taken.
+/// residual of 1e-8 of b's norm (the values are stored as floats). Returns the iterations taken.
 int conjugateGradients(const SparseMatrix& A, const std::vector<double>& b,
                        std::vector<double>& x) {
   const size_t n = b.size();
@@ -95,7 +95,7 @@ int conjugateGradients(const SparseMatrix& A, const std::vector<double>& b,
   const int maxIterations = int(std::min<size_t>(10 * n + 100, 5000));
   int it = 0;
   for (; it < maxIterations; ++it) {
-    if (std::sqrt(dotp(r, r)) <= 1e-10 * bNorm) break;
+    if (std::sqrt(dotp(r, r)) <= 1e-8 * bNorm) break;
     A.multiply(p, ap);
     const double pap = dotp(p, ap);
     if (!(pap > 0)) break;
@@ -119,7 +119,10 @@ std::vector<float> leastSquaresValues(const ProbeVolume& volume, std::span<const
                                       std::span<const ShRgb> targets, double regularization,
                                       int* iterations) {
   PS_CHECK_EQ(at.size(), targets.size());
+  PS_CHECK(regularization > 0);  // else a probe no point reaches has a zero row
   const size_t n = volume.probeCount();
+  PS_CHECK_EQ(volume.sh.size(), n * kValues);
+  for (const VolumeLocation& l : at) PS_CHECK(l.tet >= 0 && size_t(l.tet) < volume.tets.size());
   // Normal equations: (W^T W + lambda m I) c = W^T s + lambda m c0, one column per SH value,
   // W holding each point's barycentric weights, c0 the current values, m the mean of W^T W's
   // diagonal (what the points weigh for a probe on average).
@@ -144,7 +147,7 @@ std::vector<float> leastSquaresValues(const ProbeVolume& volume, std::span<const
   double meanDiag = 0;
   for (size_t i = 0; i < n; ++i) meanDiag += A.vals[A.diag[i]] / double(n);
   // No point at all: every probe keeps its value (any positive pull gives that).
-  const double lambda = meanDiag > 0 ? regularization * meanDiag : 1.0;
+  const double lambda = meanDiag > 0 ? regularization * meanDiag : regularization;
   for (size_t i = 0; i < n; ++i) {
     A.vals[A.diag[i]] += lambda;
     for (int v = 0; v < kValues; ++v)
@@ -187,6 +190,15 @@ void checkFitSettings(const FitSettings& s, size_t probes) {
                          "limit of 5 million fit points; lower the points per probe");
 }
 
+void checkFitDomain(const Tracer& tracer, const LightingRig& rig, std::span<const Bounds3> domain,
+                    const FitSettings& s) {
+  try {
+    const DomainPoints points(tracer, rig, domain, s.lightClearanceRelative);
+  } catch (const ParameterError& e) {
+    throw ParameterError(std::string("fit: ") + e.what());
+  }
+}
+
 FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolume& volume,
                          std::span<const Bounds3> domain, const FitSettings& s,
                          const ProgressFn& progress) {
@@ -198,6 +210,7 @@ FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolu
   FitResult result;
 
   // The fit points: uniform over the domain of interest, as eval's queries are.
+  checkFitDomain(tracer, rig, domain, s);
   const DomainPoints domainPoints(tracer, rig, domain, s.lightClearanceRelative);
   std::vector<Vec3> drawn(wanted);
   std::vector<char> found(wanted, 0);
@@ -227,6 +240,8 @@ FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolu
     CaptureSettings cs;
     cs.samplesPerProbe = s.samplesPerPoint;
     cs.seed = (s.seed ^ 0xF17F17F17ull) + first;  // another stream per chunk
+    cs.mode = s.mode;
+    cs.threads = s.threads;
     ProgressFn captureProgress;
     if (progress)
       captureProgress = [&](double f) {

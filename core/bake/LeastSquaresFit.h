@@ -15,6 +15,7 @@
 #include <span>
 #include <vector>
 
+#include "core/capture/Capture.h"
 #include "core/common/Progress.h"
 #include "core/math/Sh.h"
 #include "core/scene/LightingRig.h"
@@ -36,6 +37,10 @@ struct FitSettings {
   /// points there would decide every value around it).
   double lightClearanceRelative = kDefaultLightClearanceRelative;
   uint64_t seed = 1;
+  /// What the fit points capture, as the probes' own capture does (the bake passes its own:
+  /// fitting indirect-only probes to full light would be wrong).
+  CaptureMode mode = CaptureMode::Full;
+  int threads = 0;  ///< CaptureSettings::threads
 };
 
 struct FitResult {
@@ -54,11 +59,16 @@ void checkFitSettings(const FitSettings& settings, size_t probes = 0);
 
 /// The least-squares values (ProbeVolume::sh layout) for SH `targets` at points located at `at`
 /// in `volume` (clamped locations count with their face weights), pulled towards volume.sh with
-/// `regularization` x the mean weight the points give a probe. Sets `*iterations` to the most
+/// `regularization` (> 0) x the mean weight the points give a probe. Sets `*iterations` to the most
 /// conjugate-gradient iterations of the 27 systems.
 std::vector<float> leastSquaresValues(const ProbeVolume& volume, std::span<const VolumeLocation> at,
                                       std::span<const ShRgb> targets, double regularization,
                                       int* iterations = nullptr);
+
+/// The fit's domain points (DomainPoints) for `domain`; throws ps::ParameterError when the
+/// domain has no volume (a flat importance box), as the bake checks before its capture.
+void checkFitDomain(const Tracer& tracer, const LightingRig& rig, std::span<const Bounds3> domain,
+                    const FitSettings& settings);
 
 /// Replaces volume.sh by the least-squares values. `domain`: the importance volumes' boxes
 /// (empty: the scene bounds). Deterministic for the seed. Throws ps::ParameterError when a

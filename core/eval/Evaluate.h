@@ -64,9 +64,10 @@ struct EvalResult {
   double relRmse = 0;
   /// sqrt(sum Var(E_ref) / sum E_ref^2): the reference's own noise on the scale of relRmse, the
   /// rel_rmse that a volume equal to the true irradiance would show (its square adds to the
-  /// square of the volume's true error). An upper bound: the reference's draw is stratified,
-  /// which the per-sample variance does not see. Differences between volumes smaller than this
-  /// are not resolved; a higher reference spp lowers it as 1 / sqrt(spp).
+  /// square of the volume's true error; 0 with one reference sample, which gives no estimate).
+  /// An upper bound: the reference's draw is stratified, which the per-sample variance does not
+  /// see. Differences between volumes smaller than this are not resolved; a higher reference
+  /// spp lowers it as 1 / sqrt(spp).
   double referenceRelNoise = 0;
   /// The standard error of relRmse from the finite number of queries (delta method): another
   /// draw of as many queries gives a relRmse about this far away. Near point lights a few

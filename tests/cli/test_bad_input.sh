@@ -49,7 +49,17 @@ expect_error "$m/vol-huge-probe-count.psv: header: counts" "$cli" query "$m/vol-
 expect_error "--spp: 100000000 samples per probe is above the limit" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --spp 100000000
 expect_error "--fit-points, --fit-spp, --fit-regularization: give --fit too" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --fit-points 8
 "$cli" place "$root/resources/scenes/cornell.gltf" --method uniform --budget 8 --accept -o "$tmp/c8.json" >/dev/null
-expect_error "fit: the regularization must be a positive number" "$cli" bake "$tmp/c8.json" -o "$tmp/v.psv" --fit --fit-regularization -1
+expect_error "--fit-regularization: expected a positive number" "$cli" bake "$tmp/c8.json" -o "$tmp/v.psv" --fit --fit-regularization -1
+expect_error "--fit-points: expected 1 to 4096 points per probe, got 0" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --fit --fit-points 0
+expect_error "--fit-points, --fit-spp, --fit-regularization: give --fit too" "$cli" bake "$tmp/c8.json" -o "$tmp/v.psv" --fit-regularization 0.01
+# A flat importance volume: refused before the capture, naming the fit.
+python3 - "$tmp/c8.json" "$tmp/c8-flat.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["importance_volumes"] = [{"name": "flat", "min": [0, 1, 0], "max": [1, 1, 1], "weight": 1}]
+json.dump(s, open(sys.argv[2], "w"))
+PY
+expect_error "fit: the importance volumes have no volume" "$cli" bake "$tmp/c8-flat.json" -o "$tmp/v.psv" --fit --no-cache
 test ! -e "$tmp/v.psv" || { echo "FAIL: a failed bake wrote its output"; fail=1; }
 expect_error "--queries: 2000000000 is above the limit" "$cli" eval "$m/ps-empty.json" --queries 2000000000
 expect_error "budget: expected at most 1000000 probes (the limit), got 2000000000" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2000000000 -o "$tmp/s.json"

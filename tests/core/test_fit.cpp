@@ -190,6 +190,13 @@ TEST(Fit, BadSettingsAreRefusedBeforeTheCapture) {
   bs.fit->regularization = -1;
   EXPECT_THROW(bakeProbeSet(set, cornell().tracer, bs, [](double) { return false; }),
                ParameterError);
+  // So is a flat importance volume, where no fit point can be drawn.
+  ProbeSet flat = set;
+  flat.importanceVolumes.push_back({"flat", {0, 1, 0}, {1, 1, 1}, 1.0});
+  bs.fit = FitSettings{};
+  EXPECT_THROW(bakeProbeSet(flat, cornell().tracer, bs, [](double) { return false; }),
+               ParameterError);
+  EXPECT_THROW(bakeProbeSet(set, cornell().tracer, bs, [](double) { return false; }), Cancelled);
 }
 
 TEST(Fit, TheBakeRecordsTheFitInTheVolume) {
