@@ -22,6 +22,12 @@ int axisCount(double extent, double spacing) {
 
 }  // namespace
 
+/// The spacing along axis a.
+double axisSpacing(const UniformSettings& s, int a) {
+  const Vec3& v = s.axisSpacingMeters;
+  return v.x > 0 && v.y > 0 && v.z > 0 ? v[a] : s.spacingMeters;
+}
+
 double uniformGridPointCount(const Bounds3& b, double spacing) {
   const Vec3 e = b.extent();
   return double(axisCount(e.x, spacing)) * axisCount(e.y, spacing) * axisCount(e.z, spacing);
@@ -29,28 +35,30 @@ double uniformGridPointCount(const Bounds3& b, double spacing) {
 
 std::vector<Vec3> placeUniform(const Tracer& tracer, const UniformSettings& s,
                                const ProgressFn& progress) {
-  if (!(s.spacingMeters > 0) || !std::isfinite(s.spacingMeters))
-    throw ParameterError("spacing: expected a positive number of metres, got " +
-                         std::to_string(s.spacingMeters));
+  for (int a = 0; a < 3; ++a)
+    if (!(axisSpacing(s, a) > 0) || !std::isfinite(axisSpacing(s, a)))
+      throw ParameterError("spacing: expected a positive number of metres, got " +
+                           std::to_string(axisSpacing(s, a)));
   const Bounds3& b = tracer.scene().bounds;
-  const double count = uniformGridPointCount(b, s.spacingMeters);
+  const Vec3 e = b.extent();
+  const int n[3] = {axisCount(e.x, axisSpacing(s, 0)), axisCount(e.y, axisSpacing(s, 1)),
+                    axisCount(e.z, axisSpacing(s, 2))};
+  const double count = double(n[0]) * n[1] * n[2];
   if (count > kMaxGridPoints)
     throw ParameterError("spacing " + std::to_string(s.spacingMeters) + " m would make " +
                          std::to_string(static_cast<long long>(count)) +
                          " grid points (limit 50 million); use a larger spacing");
-  const Vec3 e = b.extent();
-  const int n[3] = {axisCount(e.x, s.spacingMeters), axisCount(e.y, s.spacingMeters),
-                    axisCount(e.z, s.spacingMeters)};
   // Cell-centred grid at exactly the requested spacing, centred in the bounds.
   Vec3 origin;
-  for (int a = 0; a < 3; ++a) origin[a] = b.center()[a] - 0.5 * (n[a] - 1) * s.spacingMeters;
+  for (int a = 0; a < 3; ++a) origin[a] = b.center()[a] - 0.5 * (n[a] - 1) * axisSpacing(s, a);
 
   const size_t total = size_t(n[0]) * n[1] * n[2];
   std::vector<Vec3> grid(total);
   for (int k = 0; k < n[2]; ++k)
     for (int j = 0; j < n[1]; ++j)
       for (int i = 0; i < n[0]; ++i)
-        grid[(size_t(k) * n[1] + j) * n[0] + i] = origin + Vec3(i, j, k) * s.spacingMeters;
+        grid[(size_t(k) * n[1] + j) * n[0] + i] =
+            origin + Vec3(i * axisSpacing(s, 0), j * axisSpacing(s, 1), k * axisSpacing(s, 2));
 
   // Kontkanen & Laine sec. 5: a point whose rays see back faces is inside geometry.
   std::vector<char> valid(total, 0);
@@ -113,6 +121,52 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
     else
       hi = spacing;
     if (hi / lo < 1.0001) break;
+  }
+  if (bestMiss <= 0.1 || best.points.empty()) return best;
+
+  // No cubic grid is close enough: grids with up to one fewer or two more points per axis than
+  // the closest one, spacings within a factor 1.5 of each other, most promising first (their
+  // point counts scaled by the closest grid's valid fraction), at most 12 of them placed.
+  const double s0 = best.spacingMeters;
+  const int base[3] = {axisCount(e.x, s0), axisCount(e.y, s0), axisCount(e.z, s0)};
+  const double validFraction = double(best.points.size()) / (double(base[0]) * base[1] * base[2]);
+  struct Candidate {
+    int n[3];
+    double estimateMiss;
+  };
+  std::vector<Candidate> candidates;
+  for (int dx = -1; dx <= 2; ++dx)
+    for (int dy = -1; dy <= 2; ++dy)
+      for (int dz = -1; dz <= 2; ++dz) {
+        const Candidate c{{base[0] + dx, base[1] + dy, base[2] + dz}, 0};
+        if (c.n[0] < 1 || c.n[1] < 1 || c.n[2] < 1 || (dx == 0 && dy == 0 && dz == 0)) continue;
+        double lo3 = std::numeric_limits<double>::infinity(), hi3 = 0;
+        for (int a = 0; a < 3; ++a) {
+          const double sp = e[a] / (c.n[a] + 0.5);  // floor(e / sp) = n
+          lo3 = std::min(lo3, sp);
+          hi3 = std::max(hi3, sp);
+        }
+        if (hi3 > 1.5 * lo3) continue;
+        const double estimate = double(c.n[0]) * c.n[1] * c.n[2] * validFraction;
+        candidates.push_back({{c.n[0], c.n[1], c.n[2]}, std::abs(estimate - budget) / budget});
+      }
+  std::stable_sort(
+      candidates.begin(), candidates.end(),
+      [](const Candidate& x, const Candidate& y) { return x.estimateMiss < y.estimateMiss; });
+  for (size_t i = 0; i < std::min<size_t>(candidates.size(), 12); ++i) {
+    const Candidate& c = candidates[i];
+    const Vec3 axis(e.x / (c.n[0] + 0.5), e.y / (c.n[1] + 0.5), e.z / (c.n[2] + 0.5));
+    s.axisSpacingMeters = axis;
+    std::vector<Vec3> pts = placeUniform(tracer, s, {});
+    if (progress && !progress(1.0)) throw Cancelled();
+    const double miss = std::abs(double(pts.size()) - budget) / budget;
+    if (miss < bestMiss) {
+      bestMiss = miss;
+      best.points = std::move(pts);
+      best.axisSpacingMeters = axis;
+      best.spacingMeters = std::cbrt(axis.x * axis.y * axis.z);
+    }
+    if (bestMiss <= 0.1) break;
   }
   return best;
 }

@@ -10,6 +10,9 @@ namespace ps {
 
 struct UniformSettings {
   double spacingMeters = 1.0;
+  /// Per-axis spacings (x, y, z) when all three are positive, else spacingMeters on every axis.
+  /// placeUniformBudget uses them when no single spacing gets within 10 % of the budget.
+  Vec3 axisSpacingMeters{0, 0, 0};
   double invalidBackfaceFraction = 0.25;  ///< tol::kDefaultInvalidBackfaceFraction
   int validityRays = 64;
   uint64_t seed = 1;
@@ -23,11 +26,14 @@ std::vector<Vec3> placeUniform(const Tracer& tracer, const UniformSettings& sett
 
 struct UniformBudgetResult {
   std::vector<Vec3> points;
-  double spacingMeters = 0;
+  double spacingMeters = 0;  ///< the grid's spacing (the geometric mean of axisSpacingMeters)
+  Vec3 axisSpacingMeters{0, 0, 0};  ///< per axis when the grid is not cubic, else zero
 };
 
-/// The grid spacing whose valid points number `budget` within 10 % (the closest count found when
-/// no spacing gets that close), so that methods are compared at equal probe count.
+/// The grid spacing whose valid points number `budget` within 10 %, so that methods are
+/// compared at equal probe count. A box's cubic grids jump in count (on cornell 27, then 64):
+/// when no single spacing gets within 10 %, grids with one to a few more or fewer points per axis
+/// (spacings within a factor 1.5 of each other) are tried too; the closest count found is kept.
 /// Throws ps::ParameterError for a budget below 4 or above 1 million.
 UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, UniformSettings settings,
                                        const ProgressFn& progress = {});
