@@ -116,8 +116,8 @@ PlaceOutcome placeWithGreedy(const Context& c) {
                              g.positions.size() + kept.size()));
   if (g.noImprovement)
     out.notes.push_back(
-        format("greedy: from %zu probes on, no candidate lowered the field error (its noise "
-               "floor: a larger --field-spp lowers it)",
+        format("greedy: from %zu probes on, no candidate lowered the field error; the rest "
+               "went where they did least harm (eval measures what they bring)",
                g.probesAtNoImprovement));
   out.spacingMeters = field.baseSpacingMeters;
   for (size_t i = 0; i < g.positions.size(); ++i)
