@@ -1,7 +1,6 @@
 // probestudio bake: parses its options, calls the core stages and prints what it did; bad
 // input surfaces as ps::Error, caught in main.
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -69,15 +68,7 @@ void registerBake(CLI::App& app) {
     if (!o->fit && (cmd->count("--fit-points") || cmd->count("--fit-spp") ||
                     cmd->count("--fit-regularization")))
       throw ParameterError("--fit-points, --fit-spp, --fit-regularization: give --fit too");
-    const FitSettings& f = o->fitSettings;
-    if (f.pointsPerProbe < 1 || f.pointsPerProbe > 4096)
-      throw ParameterError("--fit-points: expected 1 to 4096 points per probe, got " +
-                           std::to_string(f.pointsPerProbe));
-    if (f.samplesPerPoint < 1 || f.samplesPerPoint > (1 << 20))
-      throw ParameterError("--fit-spp: expected 1 to 1048576 samples per point, got " +
-                           std::to_string(f.samplesPerPoint));
-    if (!(f.regularization > 0) || !std::isfinite(f.regularization))
-      throw ParameterError("--fit-regularization: expected a positive number");
+    checkFitSettings(o->fitSettings);
     if (o->sampling.spp > kMaxSamplesPerProbe)
       throw ParameterError("--spp: " + std::to_string(o->sampling.spp) +
                            " samples per probe is above the " + "limit of " +

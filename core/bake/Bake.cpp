@@ -103,7 +103,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   r.probes = probes.positions.size();
   auto t0 = std::chrono::steady_clock::now();
   // Progress: the capture, then the fit (when asked) in as much again.
-  const double captureShare = settings.fit ? 0.45 : 0.95;
+  const double captureShare = fit ? 0.45 : 0.95;
   ProgressFn captureProgress;
   if (progress) captureProgress = [&](double f) { return progress(captureShare * f); };
   captureStage(probes, set.rig, tracer, settings, captureProgress, r);
@@ -112,7 +112,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   auto t2 = std::chrono::steady_clock::now();
   r.captureSeconds = std::chrono::duration<double>(t1 - t0).count();
   r.tetraSeconds = std::chrono::duration<double>(t2 - t1).count();
-  if (settings.fit) {
+  if (fit) {
     ProgressFn fitProgress;
     if (progress) fitProgress = [&](double f) { return progress(0.45 + 0.5 * f); };
     r.fit = fitProbeValues(tracer, set.rig, r.file.volume, importanceBoxes(set.importanceVolumes),
@@ -126,13 +126,13 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   meta["capture_spp"] = settings.capture.samplesPerProbe;
   meta["probe_ids"] = probes.ids;
   meta["leak_probes_added"] = r.leakProbesAdded;
-  if (settings.fit)
+  if (fit)
     meta["fit"] = {{"method", "least-squares"},
-                   {"points_per_probe", settings.fit->pointsPerProbe},
-                   {"samples_per_point", settings.fit->samplesPerPoint},
-                   {"regularization", settings.fit->regularization},
-                   {"light_clearance_relative", settings.fit->lightClearanceRelative},
-                   {"seed", settings.fit->seed},
+                   {"points_per_probe", fit->pointsPerProbe},
+                   {"samples_per_point", fit->samplesPerPoint},
+                   {"regularization", fit->regularization},
+                   {"light_clearance_relative", fit->lightClearanceRelative},
+                   {"seed", fit->seed},
                    {"points", r.fit->points}};
   // The set's domain of interest, so that eval of the volume draws its queries where eval of
   // the set does.

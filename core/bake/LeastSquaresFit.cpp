@@ -173,30 +173,37 @@ std::vector<float> leastSquaresValues(const ProbeVolume& volume, std::span<const
 
 void checkFitSettings(const FitSettings& s, size_t probes) {
   if (s.pointsPerProbe < 1 || s.pointsPerProbe > 4096)
-    throw ParameterError("fit: points per probe must be in [1, 4096], got " +
+    throw ParameterError("--fit-points: expected 1 to 4096 points per probe, got " +
                          std::to_string(s.pointsPerProbe));
   if (s.samplesPerPoint < 1 || s.samplesPerPoint > (1 << 20))
-    throw ParameterError("fit: samples per point must be in [1, 1048576], got " +
+    throw ParameterError("--fit-spp: expected 1 to 1048576 samples per point, got " +
                          std::to_string(s.samplesPerPoint));
   if (!(s.regularization > 0) || !std::isfinite(s.regularization))
-    throw ParameterError("fit: the regularization must be a positive number");
-  if (!(s.lightClearanceRelative >= 0 && s.lightClearanceRelative < 0.5))
-    throw ParameterError(
-        "fit: the light clearance must be a fraction of the domain's diagonal "
-        "in [0, 0.5)");
+    throw ParameterError("--fit-regularization: expected a positive number");
+  checkLightClearance(s.lightClearanceRelative);
   if (probes * size_t(s.pointsPerProbe) > kMaxFitPoints)
     throw ParameterError("fit: " + std::to_string(probes) + " probes x " +
                          std::to_string(s.pointsPerProbe) + " points per probe is above the " +
                          "limit of 5 million fit points; lower the points per probe");
 }
 
-void checkFitDomain(const Tracer& tracer, const LightingRig& rig, std::span<const Bounds3> domain,
-                    const FitSettings& s) {
+namespace {
+
+/// The fit points' domain; its errors (a flat importance box) say they come from the fit.
+DomainPoints fitDomain(const Tracer& tracer, const LightingRig& rig,
+                       std::span<const Bounds3> domain, const FitSettings& s) {
   try {
-    const DomainPoints points(tracer, rig, domain, s.lightClearanceRelative);
+    return DomainPoints(tracer, rig, domain, s.lightClearanceRelative);
   } catch (const ParameterError& e) {
     throw ParameterError(std::string("fit: ") + e.what());
   }
+}
+
+}  // namespace
+
+void checkFitDomain(const Tracer& tracer, const LightingRig& rig, std::span<const Bounds3> domain,
+                    const FitSettings& s) {
+  fitDomain(tracer, rig, domain, s);
 }
 
 FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolume& volume,
@@ -210,8 +217,7 @@ FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolu
   FitResult result;
 
   // The fit points: uniform over the domain of interest, as eval's queries are.
-  checkFitDomain(tracer, rig, domain, s);
-  const DomainPoints domainPoints(tracer, rig, domain, s.lightClearanceRelative);
+  const DomainPoints domainPoints = fitDomain(tracer, rig, domain, s);
   std::vector<Vec3> drawn(wanted);
   std::vector<char> found(wanted, 0);
   tbb::parallel_for(size_t(0), wanted, [&](size_t q) {

@@ -52,9 +52,9 @@ struct FitResult {
   double seconds = 0;
 };
 
-/// Throws ps::ParameterError naming the setting out of range, or when `probes` probes would
-/// need more than 5 million fit points (fitProbeValues checks too; the bake calls it before
-/// its capture).
+/// Throws ps::ParameterError naming the setting out of range (by its `bake` option), or when
+/// `probes` probes would need more than 5 million fit points (fitProbeValues checks too; the
+/// bake and the CLI call it before their capture).
 void checkFitSettings(const FitSettings& settings, size_t probes = 0);
 
 /// The least-squares values (ProbeVolume::sh layout) for SH `targets` at points located at `at`

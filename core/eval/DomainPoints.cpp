@@ -8,29 +8,42 @@
 
 namespace ps {
 
-DomainPoints::DomainPoints(const Tracer& tracer, const LightingRig& rig,
-                           std::span<const Bounds3> domain, double clearanceRelative)
-    : tracer_(tracer), fromVolumes_(!domain.empty()) {
-  if (!(clearanceRelative >= 0 && clearanceRelative < 0.5))
+void checkLightClearance(double relative) {
+  if (!(relative >= 0 && relative < 0.5))
     throw ParameterError(
         "light clearance: expected a fraction of the domain's diagonal in [0, 0.5), got " +
-        std::to_string(clearanceRelative));
+        std::to_string(relative));
+}
+
+double lightClearanceMeters(const Tracer& tracer, std::span<const Bounds3> domain,
+                            double relative) {
+  Bounds3 all;
+  if (domain.empty()) all = tracer.scene().bounds;
+  for (const Bounds3& b : domain) {
+    all.extend(b.lo);
+    all.extend(b.hi);
+  }
+  return all.empty() ? 0.0 : relative * all.diagonal();
+}
+
+DomainPoints::DomainPoints(const Tracer& tracer, const LightingRig& rig,
+                           std::span<const Bounds3> domain, double clearanceRelative)
+    : tracer_(tracer) {
+  checkLightClearance(clearanceRelative);
   if (domain.empty())
     boxes_.push_back(tracer.scene().bounds);
   else
     boxes_.assign(domain.begin(), domain.end());
   // Each box by its share of the total volume (a flat one never: it holds no volume).
-  Bounds3 all;
   for (const Bounds3& b : boxes_) {
     const Vec3 e = b.extent();
     total_ += b.empty() ? 0.0 : std::max(0.0, e.x) * std::max(0.0, e.y) * std::max(0.0, e.z);
     cumulative_.push_back(total_);
-    all.extend(b.lo);
-    all.extend(b.hi);
   }
-  if (fromVolumes_ && !(total_ > 0)) throw ParameterError("the importance volumes have no volume");
+  if (!domain.empty() && !(total_ > 0))
+    throw ParameterError("the importance volumes have no volume");
   punctual_ = punctualLightPositions(tracer.scene(), rig);
-  clearance_ = all.empty() ? 0.0 : clearanceRelative * all.diagonal();
+  clearance_ = lightClearanceMeters(tracer, domain, clearanceRelative);
 }
 
 std::optional<Vec3> DomainPoints::draw(uint64_t& rng, int validityRays,

@@ -14,6 +14,14 @@
 
 namespace ps {
 
+/// Throws ps::ParameterError unless `relative` (a fraction of the domain's diagonal kept from
+/// point and spot lights) is in [0, 0.5).
+void checkLightClearance(double relative);
+
+/// The light clearance in metres: `relative` times the diagonal of the boxes' union (the scene
+/// bounds when there are none).
+double lightClearanceMeters(const Tracer& tracer, std::span<const Bounds3> domain, double relative);
+
 class DomainPoints {
  public:
   /// `domain`: the boxes (empty: the scene bounds). `clearanceRelative`: the fraction of the
@@ -29,9 +37,6 @@ class DomainPoints {
   std::optional<Vec3> draw(uint64_t& rng, int validityRays = 32,
                            double invalidBackfaceFraction = 0.25) const;
 
-  double clearanceMeters() const { return clearance_; }
-  bool fromImportanceVolumes() const { return fromVolumes_; }
-
  private:
   const Tracer& tracer_;
   std::vector<Bounds3> boxes_;
@@ -39,7 +44,6 @@ class DomainPoints {
   double total_ = 0;
   std::vector<Vec3> punctual_;
   double clearance_ = 0;
-  bool fromVolumes_ = false;
 };
 
 }  // namespace ps

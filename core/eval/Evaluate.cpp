@@ -57,33 +57,12 @@ Rgb referenceIrradiance(const Tracer& tracer, const LightingRig& rig,
   return e;
 }
 
-/// The domain's boxes (the scene bounds when none) and the clearance from punctual lights in
-/// metres.
-double lightClearanceMeters(const Tracer& tracer, const EvalSettings& s) {
-  Bounds3 all;
-  if (s.domain.empty()) all = tracer.scene().bounds;
-  for (const Bounds3& b : s.domain) {
-    all.extend(b.lo);
-    all.extend(b.hi);
-  }
-  return all.empty() ? 0.0 : s.lightClearanceRelative * all.diagonal();
-}
-
-void checkLightClearance(const EvalSettings& s) {
-  if (!(s.lightClearanceRelative >= 0 && s.lightClearanceRelative < 0.5))
-    throw ParameterError(
-        "light clearance: expected a fraction of the domain's diagonal in [0, 0.5), got " +
-        std::to_string(s.lightClearanceRelative));
-}
-
 }  // namespace
 
 EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, const EvalSettings& s,
                                const ProgressFn& progress) {
   if (s.queries < 1) throw ParameterError("queries: expected at least 1");
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
-  checkLightClearance(s);
-
   std::optional<DomainPoints> domain;
   try {
     domain.emplace(tracer, rig, s.domain, s.lightClearanceRelative);
@@ -139,7 +118,8 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
 EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const ProbeVolume& volume,
                           const EvalSettings& s, const ProgressFn& progress) {
   if (s.queries < 1) throw ParameterError("queries: expected at least 1");
-  checkLightClearance(s);  // before the cache, whose key leaves it out for some scenes
+  // Before the cache, whose key leaves the clearance out for some scenes.
+  checkLightClearance(s.lightClearanceRelative);
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
   const auto start = std::chrono::steady_clock::now();
   EvalResult r;
@@ -245,7 +225,8 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   r.maxRelError = rel.back();
   r.leakingFraction = double(std::count(leaking.begin(), leaking.end(), 1)) / double(M);
   r.p95RelError = rel[std::min(M - 1, size_t(std::ceil(0.95 * M)) - 1)];
-  r.lightClearanceMeters = hasPunctualLights ? lightClearanceMeters(tracer, s) : 0.0;
+  r.lightClearanceMeters =
+      hasPunctualLights ? lightClearanceMeters(tracer, s.domain, s.lightClearanceRelative) : 0.0;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

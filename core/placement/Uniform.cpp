@@ -131,31 +131,27 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
   const int base[3] = {axisCount(e.x, s0), axisCount(e.y, s0), axisCount(e.z, s0)};
   const double validFraction = double(best.points.size()) / (double(base[0]) * base[1] * base[2]);
   struct Candidate {
-    int n[3];
+    Vec3 spacing;  ///< per axis: e / (n + 0.5), so that floor(e / spacing) = n
     double estimateMiss;
   };
   std::vector<Candidate> candidates;
   for (int dx = -1; dx <= 2; ++dx)
     for (int dy = -1; dy <= 2; ++dy)
       for (int dz = -1; dz <= 2; ++dz) {
-        const Candidate c{{base[0] + dx, base[1] + dy, base[2] + dz}, 0};
-        if (c.n[0] < 1 || c.n[1] < 1 || c.n[2] < 1 || (dx == 0 && dy == 0 && dz == 0)) continue;
-        double lo3 = std::numeric_limits<double>::infinity(), hi3 = 0;
-        for (int a = 0; a < 3; ++a) {
-          const double sp = e[a] / (c.n[a] + 0.5);  // floor(e / sp) = n
-          lo3 = std::min(lo3, sp);
-          hi3 = std::max(hi3, sp);
-        }
-        if (hi3 > 1.5 * lo3) continue;
-        const double estimate = double(c.n[0]) * c.n[1] * c.n[2] * validFraction;
-        candidates.push_back({{c.n[0], c.n[1], c.n[2]}, std::abs(estimate - budget) / budget});
+        const int n[3] = {base[0] + dx, base[1] + dy, base[2] + dz};
+        if (n[0] < 1 || n[1] < 1 || n[2] < 1 || (dx == 0 && dy == 0 && dz == 0)) continue;
+        const Vec3 spacing(e.x / (n[0] + 0.5), e.y / (n[1] + 0.5), e.z / (n[2] + 0.5));
+        if (std::max({spacing.x, spacing.y, spacing.z}) >
+            1.5 * std::min({spacing.x, spacing.y, spacing.z}))
+          continue;
+        const double estimate = double(n[0]) * n[1] * n[2] * validFraction;
+        candidates.push_back({spacing, std::abs(estimate - budget) / budget});
       }
   std::stable_sort(
       candidates.begin(), candidates.end(),
       [](const Candidate& x, const Candidate& y) { return x.estimateMiss < y.estimateMiss; });
   for (size_t i = 0; i < std::min<size_t>(candidates.size(), 12); ++i) {
-    const Candidate& c = candidates[i];
-    const Vec3 axis(e.x / (c.n[0] + 0.5), e.y / (c.n[1] + 0.5), e.z / (c.n[2] + 0.5));
+    const Vec3 axis = candidates[i].spacing;
     s.axisSpacingMeters = axis;
     std::vector<Vec3> pts = placeUniform(tracer, s, {});
     if (progress && !progress(1.0)) throw Cancelled();
