@@ -20,6 +20,29 @@ int axisCount(double extent, double spacing) {
   return std::max(1, static_cast<int>(std::floor(extent / spacing)));
 }
 
+/// The fewest points --budget's grids put along an axis: 2, so that the grid spans 3D and can be
+/// tetrahedralized (a budget grid used to come out as one flat layer on a room much wider than
+/// tall: dream-apartment at 32 and 64); 1 along an axis the scene has no extent on.
+int minAxisCount(const Vec3& extent, int a) {
+  return extent[a] > 1e-6 * std::max({extent.x, extent.y, extent.z}) ? 2 : 1;
+}
+
+/// The per-axis spacings of --budget's grid at `spacing`: `spacing`, except along an axis where it
+/// would give fewer than minAxisCount points, which gets that many (extent / (n + 0.5), so that
+/// floor(extent / spacing) = n). Zero (a cubic grid) when no axis needed it.
+Vec3 budgetAxisSpacing(const Vec3& extent, double spacing) {
+  Vec3 axis(spacing, spacing, spacing);
+  bool changed = false;
+  for (int a = 0; a < 3; ++a) {
+    const int least = minAxisCount(extent, a);
+    if (axisCount(extent[a], spacing) < least) {
+      axis[a] = extent[a] / (least + 0.5);
+      changed = true;
+    }
+  }
+  return changed ? axis : Vec3(0, 0, 0);
+}
+
 }  // namespace
 
 /// The spacing along axis a.
@@ -92,43 +115,67 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
                          " probes (the limit), got " + std::to_string(budget));
   const Bounds3& b = tracer.scene().bounds;
   const Vec3 e = b.extent();
-  // Start from the spacing that gives `budget` grid points if every point were valid, then
-  // bisect on log(spacing): fewer valid points -> smaller spacing.
-  double lo = std::max({e.x, e.y, e.z}) / std::max(2.0, std::cbrt(budget) * 64.0);
-  double hi = std::max({e.x, e.y, e.z}) * 2.0;
   UniformBudgetResult best;
   double bestMiss = std::numeric_limits<double>::infinity();
-  for (int iter = 0; iter < 40; ++iter) {
-    const double spacing = std::sqrt(lo * hi);
-    if (uniformGridPointCount(b, spacing) > kMaxGridPoints) {
-      lo = spacing;
-      continue;
+  double bestCubicSpacing = 0;  ///< the bisection's spacing for `best`, before budgetAxisSpacing
+  // Start from the spacing that gives `budget` grid points if every point were valid, then
+  // bisect on log(spacing): fewer valid points -> smaller spacing. With `hold`, an axis the
+  // spacing would leave with fewer than minAxisCount points keeps that many (budgetAxisSpacing).
+  auto bisect = [&](bool hold) {
+    best = {};
+    bestMiss = std::numeric_limits<double>::infinity();
+    double lo = std::max({e.x, e.y, e.z}) / std::max(2.0, std::cbrt(budget) * 64.0);
+    double hi = std::max({e.x, e.y, e.z}) * 2.0;
+    for (int iter = 0; iter < 40; ++iter) {
+      const double spacing = std::sqrt(lo * hi);
+      if (uniformGridPointCount(b, spacing) > kMaxGridPoints) {
+        lo = spacing;
+        continue;
+      }
+      s.spacingMeters = spacing;
+      s.axisSpacingMeters = hold ? budgetAxisSpacing(e, spacing) : Vec3(0, 0, 0);
+      std::vector<Vec3> pts = placeUniform(tracer, s, {});
+      if (progress && !progress(std::min(1.0, (iter + 1) / 20.0))) throw Cancelled();
+      const size_t count = pts.size();
+      const double miss = std::abs(double(count) - budget) / budget;
+      if (miss < bestMiss) {
+        bestMiss = miss;
+        best.points = std::move(pts);
+        best.spacingMeters = spacing;
+        bestCubicSpacing = spacing;
+        best.axisSpacingMeters = s.axisSpacingMeters;
+        const Vec3& a = best.axisSpacingMeters;
+        if (a.x > 0) best.spacingMeters = std::cbrt(a.x * a.y * a.z);
+      }
+      if (bestMiss <= 0.1) break;
+      // Too many points: the spacing is too small.
+      if (double(count) > budget)
+        lo = spacing;
+      else
+        hi = spacing;
+      if (hi / lo < 1.0001) break;
     }
-    s.spacingMeters = spacing;
-    std::vector<Vec3> pts = placeUniform(tracer, s, {});
-    if (progress && !progress(std::min(1.0, (iter + 1) / 20.0))) throw Cancelled();
-    const size_t count = pts.size();
-    const double miss = std::abs(double(count) - budget) / budget;
-    if (miss < bestMiss) {
-      bestMiss = miss;
-      best.points = std::move(pts);
-      best.spacingMeters = spacing;
+  };
+  bisect(false);
+  // A flat closest grid (a room much wider than tall: dream-apartment at 32 and 64 probes): again,
+  // holding each axis at its fewest points. Grids that span 3D stay as they were.
+  for (int a = 0; a < 3; ++a)
+    if (axisCount(e[a], bestCubicSpacing) < minAxisCount(e, a)) {
+      bisect(true);
+      break;
     }
-    if (bestMiss <= 0.1) break;
-    // Too many points: the spacing is too small.
-    if (double(count) > budget)
-      lo = spacing;
-    else
-      hi = spacing;
-    if (hi / lo < 1.0001) break;
-  }
   if (bestMiss <= 0.1 || best.points.empty()) return best;
 
   // No cubic grid is close enough: grids with up to one fewer or two more points per axis than
-  // the closest one, spacings within a factor 1.5 of each other, most promising first (their
-  // point counts scaled by the closest grid's valid fraction), at most 12 of them placed.
-  const double s0 = best.spacingMeters;
-  const int base[3] = {axisCount(e.x, s0), axisCount(e.y, s0), axisCount(e.z, s0)};
+  // the closest one, spacings within a factor 1.5 of each other (an axis held at its fewest
+  // points aside), most promising first (their point counts scaled by the closest grid's valid
+  // fraction), at most 12 of them placed.
+  int base[3];
+  bool held[3];  ///< the axes budgetAxisSpacing held at their fewest points
+  for (int a = 0; a < 3; ++a) {
+    held[a] = axisCount(e[a], bestCubicSpacing) < minAxisCount(e, a);
+    base[a] = std::max(axisCount(e[a], bestCubicSpacing), minAxisCount(e, a));
+  }
   const double validFraction = double(best.points.size()) / (double(base[0]) * base[1] * base[2]);
   struct Candidate {
     Vec3 spacing;  ///< per axis: e / (n + 0.5), so that floor(e / spacing) = n
@@ -139,11 +186,17 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
     for (int dy = -1; dy <= 2; ++dy)
       for (int dz = -1; dz <= 2; ++dz) {
         const int n[3] = {base[0] + dx, base[1] + dy, base[2] + dz};
-        if (n[0] < 1 || n[1] < 1 || n[2] < 1 || (dx == 0 && dy == 0 && dz == 0)) continue;
-        const Vec3 spacing(e.x / (n[0] + 0.5), e.y / (n[1] + 0.5), e.z / (n[2] + 0.5));
-        if (std::max({spacing.x, spacing.y, spacing.z}) >
-            1.5 * std::min({spacing.x, spacing.y, spacing.z}))
+        if (n[0] < minAxisCount(e, 0) || n[1] < minAxisCount(e, 1) || n[2] < minAxisCount(e, 2) ||
+            (dx == 0 && dy == 0 && dz == 0))
           continue;
+        const Vec3 spacing(e.x / (n[0] + 0.5), e.y / (n[1] + 0.5), e.z / (n[2] + 0.5));
+        double smallest = std::numeric_limits<double>::infinity(), largest = 0;
+        for (int a = 0; a < 3; ++a)
+          if (!held[a] || n[a] > minAxisCount(e, a)) {
+            smallest = std::min(smallest, spacing[a]);
+            largest = std::max(largest, spacing[a]);
+          }
+        if (largest > 1.5 * smallest) continue;
         const double estimate = double(n[0]) * n[1] * n[2] * validFraction;
         candidates.push_back({spacing, std::abs(estimate - budget) / budget});
       }

@@ -34,6 +34,9 @@ struct UniformBudgetResult {
 /// compared at equal probe count. A box's cubic grids jump in count (on cornell 27, then 64):
 /// when no single spacing gets within 10 %, grids with one to a few more or fewer points per axis
 /// (spacings within a factor 1.5 of each other) are tried too; the closest count found is kept.
+/// When the closest cubic grid is one flat layer (a room much wider than tall), the search runs
+/// again with at least 2 points along each axis the scene has extent on, so that the grid spans
+/// 3D and a volume can be made of it.
 /// Throws ps::ParameterError for a budget below 4 or above 1 million.
 UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, UniformSettings settings,
                                        const ProgressFn& progress = {});

@@ -474,6 +474,33 @@ TEST(Uniform, BudgetGivesTheProbeCountWithinTenPercent) {
     }
 }
 
+TEST(Uniform, BudgetGridsSpanThreeDimensionsInAFlatRoom) {
+  // A 10 x 1.2 x 10 m room: the cubic spacing for 32 points (about 1.5 m) fits one layer in its
+  // height, a flat grid no volume can be made of (dream-apartment's uniform 32 and 64 were). The
+  // budget's grids keep at least two points along each axis.
+  Scene scene;
+  ps::testing::addBox(scene, {-5, 0, -5}, {5, 1.2, 5},
+                      ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}), /*inward=*/true);
+  const Tracer tracer(scene);
+  for (int budget : {8, 32, 64}) {
+    const UniformBudgetResult u = placeUniformBudget(tracer, budget, {});
+    EXPECT_LE(std::abs(double(u.points.size()) - budget), 0.1 * budget)
+        << budget << ": " << u.points.size();
+    std::vector<double> heights;
+    for (const Vec3& p : u.points) heights.push_back(p.y);
+    std::sort(heights.begin(), heights.end());
+    heights.erase(std::unique(heights.begin(), heights.end()), heights.end());
+    EXPECT_EQ(heights.size(), 2u) << budget;
+    // The horizontal axes keep one spacing, within a factor 1.5 of each other.
+    const Vec3 a = u.axisSpacingMeters;
+    ASSERT_GT(a.x * a.y * a.z, 0) << budget;
+    EXPECT_NEAR(a.y, 1.2 / 2.5, 1e-12);
+    EXPECT_LE(std::max(a.x, a.z), 1.5 * std::min(a.x, a.z)) << budget;
+    // The volume can be made: the points are not coplanar.
+    EXPECT_NO_THROW(tetrahedralize(u.points)) << budget;
+  }
+}
+
 TEST(Greedy, BeatsUniformOnTwoRoomsAtEqualProbeCount) {
   // Both sets captured at the same spp and measured by core/eval against a path-traced
   // reference at the same random queries.
