@@ -484,7 +484,7 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
   PS_CHECK_EQ(scene.triangleMaterial.size(), scene.triangleCount());
   uint64_t rng = streamState(seed, 0);
   const double offset[2] = {uniform01(rng), uniform01(rng)};
-  int backfaces = 0;
+  int halves = 0;  // back faces seen, in halves: 2 for single-sided geometry, 1 for double-sided
   for (int j = 0; j < rays; ++j) {
     double u, v;
     r2Point(static_cast<uint64_t>(j), offset, u, v);
@@ -492,9 +492,9 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
     if (!hit || hit->frontFace) continue;
     const uint32_t materialIndex = scene.triangleMaterial[hit->triangle];
     PS_CHECK_LT(size_t{materialIndex}, scene.materials.size());
-    if (!scene.materials[materialIndex].doubleSided) ++backfaces;
+    halves += scene.materials[materialIndex].doubleSided ? 1 : 2;
   }
-  return static_cast<double>(backfaces) / rays;
+  return 0.5 * static_cast<double>(halves) / rays;
 }
 
 Rgb traceRadiance(const Tracer& tracer, const LightingRig& rig, Vec3 origin, Vec3 dir,

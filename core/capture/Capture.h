@@ -84,8 +84,14 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
                                         const CaptureSettings& settings,
                                         const ProgressFn& progress = {});
 
-/// Fraction of `rays` uniformly distributed rays from p that hit back faces of single-sided
-/// geometry (Kontkanen & Laine sec. 5). Deterministic for a given seed.
+/// Fraction of `rays` uniformly distributed rays from p that hit back faces (Kontkanen & Laine
+/// sec. 5), a back face of double-sided geometry (glTF doubleSided; its winding still says
+/// which side is out) counting half. Behind one double-sided sheet (a leaf, a wall modelled as
+/// a single plane) at most half of the rays see its back, which stays under the 0.25 of
+/// tol::kDefaultInvalidBackfaceFraction; inside a closed double-sided object nearly all do.
+/// Every asset of the shared real scenes is double-sided: counting those back faces as nothing
+/// left 14 % of dream-apartment's eval queries inside walls and furniture, at zero irradiance
+/// (BENCHMARKS.md). Deterministic for a given seed.
 double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed);
 
 /// Radiance path-traced along a ray leaving point `origin` in unit direction `dir`; exposed for

@@ -29,7 +29,8 @@ std::optional<Vec3> virtualOffset(const Tracer& tracer, Vec3 p,
   const double push =
       settings.pushOutMeters > 0 ? settings.pushOutMeters : 0.005 * scene.bounds.diagonal();
 
-  // Exits: back faces of single-sided geometry seen from p, with their distance.
+  // Exits: back faces seen from p (double-sided ones too: backfaceFraction counts them), with
+  // their distance.
   struct Exit {
     double t;
     Vec3 candidate;
@@ -40,9 +41,6 @@ std::optional<Vec3> virtualOffset(const Tracer& tracer, Vec3 p,
     const Vec3 dir = uniformSphere(uniform01(rng), uniform01(rng));
     const auto hit = tracer.intersect(Ray{p, dir});
     if (!hit || hit->frontFace) continue;
-    const uint32_t m = scene.triangleMaterial[hit->triangle];
-    PS_CHECK_LT(size_t{m}, scene.materials.size());
-    if (scene.materials[m].doubleSided) continue;
     // The front normal points out of the solid: step through the face and push out.
     exits.push_back({hit->t, p + dir * hit->t + hit->geometricNormal * push});
   }

@@ -135,7 +135,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     key = ReferenceCache::key(
         s.sceneHash, rig,
         s.domain.empty() ? std::span<const Bounds3>(&tracer.scene().bounds, 1) : s.domain, s,
-        hasPunctualLights);
+        hasPunctualLights, tracer.scene().hasDoubleSidedSurfaces());
     std::string problem;
     reference = cache->find(key, M, &problem);
     if (!problem.empty())

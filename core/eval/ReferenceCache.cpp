@@ -33,7 +33,7 @@ ReferenceCache::ReferenceCache(std::filesystem::path dir)
 
 uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig,
                              std::span<const Bounds3> domain, const EvalSettings& s,
-                             bool hasPunctualLights) {
+                             bool hasPunctualLights, bool hasDoubleSided) {
   const uint32_t versions[2] = {kAlgorithmVersion, CaptureCache::kAlgorithmVersion};
   uint64_t h = fnv1a64(versions, sizeof versions);
   h = fnv1a64(&sceneHash, sizeof sceneHash, h);
@@ -50,6 +50,9 @@ uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig,
   // other scenes keep their entries.
   if (hasPunctualLights && s.lightClearanceRelative > 0)
     h = fnv1a64(&s.lightClearanceRelative, sizeof s.lightClearanceRelative, h);
+  // Queries moved only in scenes with double-sided geometry: other scenes keep their entries.
+  if (hasDoubleSided)
+    h = fnv1a64(&kDoubleSidedValidityVersion, sizeof kDoubleSidedValidityVersion, h);
   return fnv1a64(&s.seed, sizeof s.seed, h);
 }
 

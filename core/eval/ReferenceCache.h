@@ -32,12 +32,17 @@ class ReferenceCache {
   /// scene bounds, or the importance volumes),
   /// queries, referenceSpp or seed, the light clearance when `hasPunctualLights` (the scene or
   /// rig has a point or spot light), and with kAlgorithmVersion or the capture integrator's
-  /// CaptureCache::kAlgorithmVersion. Throws ps::FileError when the rig's map cannot be read.
+  /// CaptureCache::kAlgorithmVersion; when `hasDoubleSided` (Scene::hasDoubleSidedSurfaces),
+  /// with kDoubleSidedValidityVersion too (only there did the validity of a query change).
+  /// Throws ps::FileError when the rig's map cannot be read.
   static uint64_t key(uint64_t sceneHash, const LightingRig& rig, std::span<const Bounds3> domain,
-                      const EvalSettings& settings, bool hasPunctualLights);
+                      const EvalSettings& settings, bool hasPunctualLights,
+                      bool hasDoubleSided = false);
   static uint64_t key(uint64_t sceneHash, const LightingRig& rig, const Bounds3& domain,
-                      const EvalSettings& settings, bool hasPunctualLights) {
-    return key(sceneHash, rig, std::span<const Bounds3>(&domain, 1), settings, hasPunctualLights);
+                      const EvalSettings& settings, bool hasPunctualLights,
+                      bool hasDoubleSided = false) {
+    return key(sceneHash, rig, std::span<const Bounds3>(&domain, 1), settings, hasPunctualLights,
+               hasDoubleSided);
   }
 
   /// The reference stored for `key` with `queries` queries, or nothing. A damaged entry
@@ -51,6 +56,8 @@ class ReferenceCache {
   const std::filesystem::path& dir() const { return files_.dir(); }
 
   /// Bump when the query sampling or the reference estimator changes its results.
+  /// 2: the back faces of double-sided geometry count half towards "inside" (backfaceFraction).
+  static constexpr uint32_t kDoubleSidedValidityVersion = 2;
   static constexpr uint32_t kAlgorithmVersion = 2;  ///< 2: entries hold the variance
 
  private:

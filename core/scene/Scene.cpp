@@ -15,6 +15,12 @@ bool Scene::hasEmissiveSurfaces() const {
   return false;
 }
 
+bool Scene::hasDoubleSidedSurfaces() const {
+  for (uint32_t m : triangleMaterial)
+    if (m < materials.size() && materials[m].doubleSided) return true;
+  return false;
+}
+
 void Scene::texcoordAt(uint32_t triangle, double u, double v, double& s, double& t) const {
   if (texcoords.size() != 2 * vertexCount()) {
     s = t = 0;

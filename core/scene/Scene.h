@@ -24,8 +24,10 @@ struct Material {
   /// Emitted radiance, W/(m^2 sr) per channel: emissiveFactor times
   /// KHR_materials_emissive_strength; multiplied by `emissionTexture` where there is one.
   Rgb emission{0, 0, 0};
-  bool doubleSided = false;  ///< glTF doubleSided: back faces are surfaces too (never "inside")
-  double alpha = 1;          ///< baseColorFactor[3] (diffuseFactor[3]), times the texture's alpha
+  /// glTF doubleSided: back faces are surfaces too (shaded, and a path goes on from them); its
+  /// back faces count half towards "inside" (backfaceFraction).
+  bool doubleSided = false;
+  double alpha = 1;  ///< baseColorFactor[3] (diffuseFactor[3]), times the texture's alpha
   AlphaMode alphaMode = AlphaMode::Opaque;
   double alphaCutoff = 0.5;  ///< Mask: a point whose alpha is below this is not there
   TextureRef albedoTexture;  ///< baseColorTexture (diffuseTexture); its alpha is coverage
@@ -73,6 +75,8 @@ struct Scene {
   }
   /// True when some triangle emits light (an emissive material is in use).
   bool hasEmissiveSurfaces() const;
+  /// True when some triangle's material is double-sided.
+  bool hasDoubleSidedSurfaces() const;
 
   /// TEXCOORD_0 at barycentrics (u, v) of vertices 1 and 2 of `triangle` (a Hit's u, v).
   void texcoordAt(uint32_t triangle, double u, double v, double& s, double& t) const;

@@ -12,6 +12,7 @@
 
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
+#include "core/common/Tolerances.h"
 #include "tests/core/SceneBuilders.h"
 
 namespace ps {
@@ -355,10 +356,27 @@ TEST(CaptureValidity, BackfaceFractionIsOneInsideASolidAndZeroOutside) {
   const Tracer tracer(s);
   EXPECT_EQ(backfaceFraction(tracer, {0.2, 0.1, -0.3}, 256, 1), 1.0);
   EXPECT_EQ(backfaceFraction(tracer, {0, 3, 0}, 256, 1), 0.0);  // open space
-  EXPECT_EQ(backfaceFraction(tracer, {4, 0, 0}, 256, 1), 0.0);  // inside a double-sided box
+  // Inside a double-sided box every ray sees a back face, which counts half: still above the
+  // 0.25 that makes a point invalid.
+  EXPECT_EQ(backfaceFraction(tracer, {4, 0, 0}, 256, 1), 0.5);
+  EXPECT_GT(backfaceFraction(tracer, {4, 0, 0}, 256, 1), tol::kDefaultInvalidBackfaceFraction);
   // Beside the solid: about the solid angle it covers is front faces, never back faces.
   EXPECT_EQ(backfaceFraction(tracer, {-1.5, 0, 0}, 256, 1), 0.0);
   EXPECT_THROW(backfaceFraction(tracer, {0, 3, 0}, 0, 1), ParameterError);
+  {
+    // Behind one double-sided sheet (4 x 4 m, front facing +z) its back covers less than half of
+    // the sphere, and counts half: the point stays valid, however close.
+    Scene sheet;
+    addQuad(sheet, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0},
+            addMaterial(sheet, {0.5, 0.5, 0.5}, {}, true));
+    const Tracer sheetTracer(sheet);
+    for (double behind : {0.05, 0.5, 2.0}) {
+      const double f = backfaceFraction(sheetTracer, {0.3, -0.2, -behind}, 256, 1);
+      EXPECT_GT(f, 0.0) << behind;
+      EXPECT_LE(f, tol::kDefaultInvalidBackfaceFraction) << behind;
+    }
+    EXPECT_EQ(backfaceFraction(sheetTracer, {0.3, -0.2, 0.5}, 256, 1), 0.0);  // in front
+  }
 
   LightingRig rig;
   rig.skyRadiance = {1, 1, 1};

@@ -197,6 +197,51 @@ TEST(Eval, TheLightClearanceKeysOnlyScenesWithPunctualLights) {
             ReferenceCache::key(5, rig, box, none, true));
 }
 
+TEST(Eval, TheDoubleSidedValidityKeysOnlyScenesWithDoubleSidedSurfaces) {
+  // Counting double-sided back faces moved queries only in scenes that have such surfaces:
+  // the other scenes keep their cache entries.
+  const EvalSettings es;
+  const Bounds3 box{{0, 0, 0}, {1, 1, 1}};
+  const LightingRig rig;
+  EXPECT_NE(ReferenceCache::key(5, rig, box, es, false, true),
+            ReferenceCache::key(5, rig, box, es, false, false));
+  EXPECT_EQ(ReferenceCache::key(5, rig, box, es, false),
+            ReferenceCache::key(5, rig, box, es, false, false));
+  Scene scene;
+  ps::testing::addBox(scene, {-2, 0, -2}, {2, 2, 2},
+                      ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}),
+                      /*inward=*/true);
+  EXPECT_FALSE(scene.hasDoubleSidedSurfaces());
+  ps::testing::addBox(scene, {-1, 0, -1}, {1, 1, 1},
+                      ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}, {}, /*doubleSided=*/true),
+                      /*inward=*/false);
+  EXPECT_TRUE(scene.hasDoubleSidedSurfaces());
+}
+
+TEST(Eval, NoQueryInsideAClosedDoubleSidedObject) {
+  // A glowing 4 x 2 x 4 m room with a closed double-sided block (clear of the walls) filling a
+  // fifth of it. Every asset of the shared real scenes is double-sided, and their insides used
+  // to be drawn as queries (14 % of dream-apartment's, at zero irradiance).
+  Scene scene;
+  ps::testing::addBox(scene, {-2, 0, -2}, {2, 2, 2},
+                      ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}, {1, 1, 1}),
+                      /*inward=*/true);
+  const Vec3 lo{-1, 0.5, -1}, hi{1.5, 1.5, 1.5};
+  ps::testing::addBox(scene, lo, hi,
+                      ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}, {}, /*doubleSided=*/true),
+                      /*inward=*/false);
+  const Tracer tracer(scene);
+  EvalSettings es;
+  es.queries = 1000;
+  es.referenceSpp = 1;
+  const EvalReference ref = computeReference(tracer, {}, es);
+  ASSERT_EQ(ref.points.size(), 1000u);
+  size_t inBlock = 0;
+  for (const Vec3& p : ref.points)
+    inBlock += p.x > lo.x && p.x < hi.x && p.y > lo.y && p.y < hi.y && p.z > lo.z && p.z < hi.z;
+  EXPECT_EQ(inBlock, 0u);
+}
+
 TEST(Eval, ReferenceNoiseMatchesItsSpreadAgainstAFinerReference) {
   // The same queries (same seed) traced at 32 and at 2048 samples on the Cornell box, whose
   // area light makes the reference noisy: the 32-sample reference differs from the finer one by
