@@ -160,9 +160,11 @@ class PathTracer {
   }
 
   /// Radiance arriving at `origin` from direction -dir (travelling along dir from origin).
-  /// `firstHitBackface` is set when the first surface hit is the back of single-sided geometry.
-  Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rng, bool* firstHitBackface) const {
-    if (firstHitBackface) *firstHitBackface = false;
+  /// `firstHitBackface` is set to how much the first surface hit counts towards "inside", as in
+  /// backfaceFraction: 1 for the back of single-sided geometry, 0.5 for the back of double-sided
+  /// geometry (from which the path goes on), else 0.
+  Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rng, double* firstHitBackface) const {
+    if (firstHitBackface) *firstHitBackface = 0;
     Rgb L;
     Rgb beta{1, 1, 1};
     Vec3 o = origin;
@@ -191,9 +193,10 @@ class PathTracer {
       const Material& m = scene_.materials[materialIndex];
       if (!hit->frontFace && !m.doubleSided) {
         // Inside of a solid (Kontkanen & Laine sec. 5): black, and the probe sees a back face.
-        if (bounce == 0 && firstHitBackface) *firstHitBackface = true;
+        if (bounce == 0 && firstHitBackface) *firstHitBackface = 1;
         break;
       }
+      if (!hit->frontFace && bounce == 0 && firstHitBackface) *firstHitBackface = 0.5;
       // Emission, reached by sampled rays only; factor times texture at the hit's UV0.
       if (!m.emission.isBlack())
         L +=
@@ -433,7 +436,7 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
         AxisIrradianceAccumulator irr;
         ProbeCapture& c = out[probe];
         std::array<double, kHueBins> hue{};
-        int backfaces = 0;
+        double backfaces = 0;
         int j = 0;
         for (; j < maxSamples; ++j) {
           if (j % kCancelPollSamples == kCancelPollSamples - 1 && cancelled.load()) return;
@@ -443,9 +446,9 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
           double u, v;
           r2Point(static_cast<uint64_t>(j), offset, u, v);
           const Vec3 dir = uniformSphere(u, v);
-          bool backface = false;
+          double backface = 0;
           const Rgb L = pt.radiance(p, dir, rng, &backface);
-          backfaces += backface ? 1 : 0;
+          backfaces += backface;
           acc.add(dir, L);
           const double lum = luminance(L);
           irr.add(dir, lum);
@@ -455,7 +458,7 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
         }
         const int n = j;
         c.samples = n;
-        c.backfaceFraction = static_cast<double>(backfaces) / n;
+        c.backfaceFraction = backfaces / n;
         for (double& b : c.luminanceHistogram) b /= n;
         double hueTotal = 0;
         for (double b : hue) hueTotal += b;

@@ -58,12 +58,13 @@ int luminanceBin(Rgb radiance);
 int hueBin(Rgb radiance);
 
 struct ProbeCapture {
-  ShRgb sh;                     ///< incident radiance
-  ShRgb shStdError;             ///< standard error of each coefficient
-  int samples = 0;              ///< rays traced from the probe
-  double backfaceFraction = 0;  ///< fraction of probe rays that hit back faces of single-sided
-                                ///< geometry; above the threshold the probe is inside geometry
-  double seconds = 0;           ///< wall time spent on this probe
+  ShRgb sh;          ///< incident radiance
+  ShRgb shStdError;  ///< standard error of each coefficient
+  int samples = 0;   ///< rays traced from the probe
+  /// Fraction of probe rays that hit back faces, a double-sided one counting half (as in
+  /// backfaceFraction()); above the threshold the probe is inside geometry.
+  double backfaceFraction = 0;
+  double seconds = 0;  ///< wall time spent on this probe
   /// The relative standard error of the irradiance reached: for each of the six axis normals,
   /// the standard error of the luminance of the L2 irradiance estimate E(n) (each ray's estimate
   /// is L(w) pi (1 + 2 c + 5/8 (3 c^2 - 1)), c = n . w: the ray's SH L2 projection folded with

@@ -382,11 +382,13 @@ TEST(CaptureValidity, BackfaceFractionIsOneInsideASolidAndZeroOutside) {
   rig.skyRadiance = {1, 1, 1};
   CaptureSettings settings;
   settings.samplesPerProbe = 256;
-  const auto caps =
-      captureProbes(tracer, rig, std::vector<Vec3>{{0.2, 0.1, -0.3}, {0, 3, 0}}, settings);
+  const auto caps = captureProbes(
+      tracer, rig, std::vector<Vec3>{{0.2, 0.1, -0.3}, {0, 3, 0}, {4, 0, 0}}, settings);
   EXPECT_EQ(caps[0].backfaceFraction, 1.0);
   for (int i = 0; i < kShCoeffCount; ++i) EXPECT_EQ(caps[0].sh.c[i], (Rgb{0, 0, 0}));  // black
   EXPECT_EQ(caps[1].backfaceFraction, 0.0);
+  // The capture's own count agrees with backfaceFraction inside the double-sided box.
+  EXPECT_EQ(caps[2].backfaceFraction, 0.5);
 }
 
 // ---- Errors, progress ----------------------------------------------------------------------
