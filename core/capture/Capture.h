@@ -88,8 +88,10 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
 /// Fraction of `rays` uniformly distributed rays from p that hit back faces (Kontkanen & Laine
 /// sec. 5), a back face of double-sided geometry (glTF doubleSided; its winding still says
 /// which side is out) counting half. Behind one double-sided sheet (a leaf, a wall modelled as
-/// a single plane) at most half of the rays see its back, which stays under the 0.25 of
-/// tol::kDefaultInvalidBackfaceFraction; inside a closed double-sided object nearly all do.
+/// a single plane) fewer than half of the rays see its back, which stays under the 0.25 of
+/// tol::kDefaultInvalidBackfaceFraction, except within a few centimetres of a large sheet,
+/// where it nears 0.25 and the ray sample decides; inside a closed double-sided object nearly
+/// all rays see back faces.
 /// Every asset of the shared real scenes is double-sided: counting those back faces as nothing
 /// left 14 % of dream-apartment's eval queries inside walls and furniture, at zero irradiance
 /// (BENCHMARKS.md). Deterministic for a given seed.

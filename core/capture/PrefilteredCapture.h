@@ -3,7 +3,9 @@
 // eq. 5-6 and sec. 6, Algorithm 2): instead of point-sampling the incident radiance at a grid
 // node, the node's SH coefficients are the average of the radiance over the node's support,
 // weighted by its trilinear basis function b_i, from ray origins inside the domain of interest
-// only (sec. 5: the space from which no back face of single-sided geometry is visible). This
+// only (sec. 5: the space from which no back face of single-sided geometry is visible; unlike
+// backfaceFraction, this test still takes double-sided back faces for surfaces, so with
+// double-sided walls a node's support keeps origins inside them). This
 // removes the frequencies a grid of that spacing cannot represent, and a node next to a wall
 // integrates only the light on its side of it.
 #include <span>

@@ -9,8 +9,8 @@ inline constexpr double kRayOffsetRelative = 1e-5;
 inline constexpr double kRayOffsetAbsolute = 1e-6;
 
 /// A probe is inside geometry ("invalid", Kontkanen & Laine sec. 5) when more than this fraction
-/// of its rays hit back faces of single-sided geometry (a back face of double-sided geometry
-/// counts half: backfaceFraction).
+/// of its rays hit back faces, a back face of double-sided geometry counting half
+/// (backfaceFraction).
 inline constexpr double kDefaultInvalidBackfaceFraction = 0.25;
 
 /// Barycentric weights of a query point inside a (possibly sliver) tetrahedron may fall this far

@@ -56,9 +56,10 @@ class ReferenceCache {
   const std::filesystem::path& dir() const { return files_.dir(); }
 
   /// Bump when the query sampling or the reference estimator changes its results.
-  /// 2: the back faces of double-sided geometry count half towards "inside" (backfaceFraction).
-  static constexpr uint32_t kDoubleSidedValidityVersion = 2;
   static constexpr uint32_t kAlgorithmVersion = 2;  ///< 2: entries hold the variance
+  /// Keys only scenes with double-sided surfaces. 2: the back faces of double-sided geometry
+  /// count half towards "inside" (backfaceFraction).
+  static constexpr uint32_t kDoubleSidedValidityVersion = 2;
 
  private:
   KeyedFileCache files_;

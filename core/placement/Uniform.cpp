@@ -20,27 +20,45 @@ int axisCount(double extent, double spacing) {
   return std::max(1, static_cast<int>(std::floor(extent / spacing)));
 }
 
-/// The fewest points --budget's grids put along an axis: 2, so that the grid spans 3D and can be
-/// tetrahedralized (a budget grid used to come out as one flat layer on a room much wider than
-/// tall: dream-apartment at 32 and 64); 1 along an axis the scene has no extent on.
-int minAxisCount(const Vec3& extent, int a) {
-  return extent[a] > 1e-6 * std::max({extent.x, extent.y, extent.z}) ? 2 : 1;
+/// The fewest points a held budget grid puts along an axis: `least`, or 1 along an axis the scene
+/// has no extent on.
+int minAxisCount(const Vec3& extent, int a, int least) {
+  return extent[a] > 1e-6 * std::max({extent.x, extent.y, extent.z}) ? least : 1;
 }
 
-/// The per-axis spacings of --budget's grid at `spacing`: `spacing`, except along an axis where it
-/// would give fewer than minAxisCount points, which gets that many (extent / (n + 0.5), so that
-/// floor(extent / spacing) = n). Zero (a cubic grid) when no axis needed it.
-Vec3 budgetAxisSpacing(const Vec3& extent, double spacing) {
+/// The per-axis spacings of a budget grid at `spacing` holding each axis at `least` points:
+/// `spacing`, except along an axis where it would give fewer, which gets that many
+/// (extent / (n + 0.5), so that floor(extent / spacing) = n). Zero (a cubic grid) when no axis
+/// needed it.
+Vec3 heldAxisSpacing(const Vec3& extent, double spacing, int least) {
   Vec3 axis(spacing, spacing, spacing);
   bool changed = false;
   for (int a = 0; a < 3; ++a) {
-    const int least = minAxisCount(extent, a);
-    if (axisCount(extent[a], spacing) < least) {
-      axis[a] = extent[a] / (least + 0.5);
+    const int n = minAxisCount(extent, a, least);
+    if (axisCount(extent[a], spacing) < n) {
+      axis[a] = extent[a] / (n + 0.5);
       changed = true;
     }
   }
   return changed ? axis : Vec3(0, 0, 0);
+}
+
+/// True when the points do not all lie in one plane (a volume can be made of them).
+bool spans3D(const std::vector<Vec3>& points) {
+  if (points.size() < 4) return false;
+  const Vec3 p0 = points[0];
+  size_t i1 = 0;
+  for (size_t i = 1; i < points.size(); ++i)
+    if (length(points[i] - p0) > length(points[i1] - p0)) i1 = i;
+  const Vec3 u = points[i1] - p0;
+  if (!(length(u) > 0)) return false;
+  Vec3 n;
+  for (const Vec3& p : points)
+    if (length(cross(u, p - p0)) > length(n)) n = cross(u, p - p0);
+  if (!(length(n) > 1e-12 * dot(u, u))) return false;
+  for (const Vec3& p : points)
+    if (std::abs(dot(n, p - p0)) > 1e-9 * length(n) * length(u)) return true;
+  return false;
 }
 
 }  // namespace
@@ -115,25 +133,43 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
                          " probes (the limit), got " + std::to_string(budget));
   const Bounds3& b = tracer.scene().bounds;
   const Vec3 e = b.extent();
-  UniformBudgetResult best;
-  double bestMiss = std::numeric_limits<double>::infinity();
-  double bestCubicSpacing = 0;  ///< the bisection's spacing for `best`, before budgetAxisSpacing
-  // Start from the spacing that gives `budget` grid points if every point were valid, then
-  // bisect on log(spacing): fewer valid points -> smaller spacing. With `hold`, an axis the
-  // spacing would leave with fewer than minAxisCount points keeps that many (budgetAxisSpacing).
-  auto bisect = [&](bool hold) {
-    best = {};
-    bestMiss = std::numeric_limits<double>::infinity();
+
+  // The grid closest to `budget` points whose axes each have at least `least` points (1: any
+  // grid, the search as it always was).
+  auto search = [&](int least) {
+    UniformBudgetResult best;
+    double bestMiss = std::numeric_limits<double>::infinity();
+    double bestCubicSpacing = 0;  // the bisection's spacing for `best`, before holding axes
+    // The grid's spacing: the geometric mean over the axes not held at their fewest points (a
+    // held axis is denser than the rest, and ascent, spawn-merge and the distance kept from
+    // locked probes read this spacing).
+    auto meanSpacing = [&](const Vec3& axis, const bool* held) {
+      double product = 1;
+      int n = 0;
+      for (int a = 0; a < 3; ++a)
+        if (!held[a]) {
+          product *= axis[a];
+          ++n;
+        }
+      if (n == 3 || n == 0) return std::cbrt(axis.x * axis.y * axis.z);
+      return n == 2 ? std::sqrt(product) : product;
+    };
+    // Start from the spacing that gives `budget` grid points if every point were valid, then
+    // bisect on log(spacing): fewer valid points -> smaller spacing.
     double lo = std::max({e.x, e.y, e.z}) / std::max(2.0, std::cbrt(budget) * 64.0);
     double hi = std::max({e.x, e.y, e.z}) * 2.0;
     for (int iter = 0; iter < 40; ++iter) {
       const double spacing = std::sqrt(lo * hi);
-      if (uniformGridPointCount(b, spacing) > kMaxGridPoints) {
+      s.spacingMeters = spacing;
+      s.axisSpacingMeters = heldAxisSpacing(e, spacing, least);
+      const Vec3& axis = s.axisSpacingMeters;
+      const double gridPoints = axis.x > 0 ? double(axisCount(e.x, axis.x)) *
+                                                 axisCount(e.y, axis.y) * axisCount(e.z, axis.z)
+                                           : uniformGridPointCount(b, spacing);
+      if (gridPoints > kMaxGridPoints) {
         lo = spacing;
         continue;
       }
-      s.spacingMeters = spacing;
-      s.axisSpacingMeters = hold ? budgetAxisSpacing(e, spacing) : Vec3(0, 0, 0);
       std::vector<Vec3> pts = placeUniform(tracer, s, {});
       if (progress && !progress(std::min(1.0, (iter + 1) / 20.0))) throw Cancelled();
       const size_t count = pts.size();
@@ -143,9 +179,7 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
         best.points = std::move(pts);
         best.spacingMeters = spacing;
         bestCubicSpacing = spacing;
-        best.axisSpacingMeters = s.axisSpacingMeters;
-        const Vec3& a = best.axisSpacingMeters;
-        if (a.x > 0) best.spacingMeters = std::cbrt(a.x * a.y * a.z);
+        best.axisSpacingMeters = axis;
       }
       if (bestMiss <= 0.1) break;
       // Too many points: the spacing is too small.
@@ -155,69 +189,77 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
         hi = spacing;
       if (hi / lo < 1.0001) break;
     }
-  };
-  bisect(false);
-  // A flat closest grid (a room much wider than tall: dream-apartment at 32 and 64 probes): again,
-  // holding each axis at its fewest points. Grids that span 3D stay as they were.
-  for (int a = 0; a < 3; ++a)
-    if (axisCount(e[a], bestCubicSpacing) < minAxisCount(e, a)) {
-      bisect(true);
-      break;
-    }
-  if (bestMiss <= 0.1 || best.points.empty()) return best;
+    if (best.points.empty() || !(bestCubicSpacing > 0)) return best;
+    bool held[3];  // the axes held at their fewest points by the closest grid
+    for (int a = 0; a < 3; ++a)
+      held[a] = axisCount(e[a], bestCubicSpacing) < minAxisCount(e, a, least);
+    if (best.axisSpacingMeters.x > 0)
+      best.spacingMeters = meanSpacing(best.axisSpacingMeters, held);
+    if (bestMiss <= 0.1) return best;
 
-  // No cubic grid is close enough: grids with up to one fewer or two more points per axis than
-  // the closest one, spacings within a factor 1.5 of each other (an axis held at its fewest
-  // points aside), most promising first (their point counts scaled by the closest grid's valid
-  // fraction), at most 12 of them placed.
-  int base[3];
-  bool held[3];  ///< the axes budgetAxisSpacing held at their fewest points
-  for (int a = 0; a < 3; ++a) {
-    held[a] = axisCount(e[a], bestCubicSpacing) < minAxisCount(e, a);
-    base[a] = std::max(axisCount(e[a], bestCubicSpacing), minAxisCount(e, a));
-  }
-  const double validFraction = double(best.points.size()) / (double(base[0]) * base[1] * base[2]);
-  struct Candidate {
-    Vec3 spacing;  ///< per axis: e / (n + 0.5), so that floor(e / spacing) = n
-    double estimateMiss;
-  };
-  std::vector<Candidate> candidates;
-  for (int dx = -1; dx <= 2; ++dx)
-    for (int dy = -1; dy <= 2; ++dy)
-      for (int dz = -1; dz <= 2; ++dz) {
-        const int n[3] = {base[0] + dx, base[1] + dy, base[2] + dz};
-        if (n[0] < minAxisCount(e, 0) || n[1] < minAxisCount(e, 1) || n[2] < minAxisCount(e, 2) ||
-            (dx == 0 && dy == 0 && dz == 0))
-          continue;
-        const Vec3 spacing(e.x / (n[0] + 0.5), e.y / (n[1] + 0.5), e.z / (n[2] + 0.5));
-        double smallest = std::numeric_limits<double>::infinity(), largest = 0;
+    // No cubic grid is close enough: grids with up to one fewer or two more points per axis
+    // than the closest one, spacings within a factor 1.5 of each other (a held axis aside), most
+    // promising first (their point counts scaled by the closest grid's valid fraction), at most
+    // 12 of them placed.
+    int base[3];
+    for (int a = 0; a < 3; ++a)
+      base[a] = std::max(axisCount(e[a], bestCubicSpacing), minAxisCount(e, a, least));
+    const double validFraction = double(best.points.size()) / (double(base[0]) * base[1] * base[2]);
+    struct Candidate {
+      Vec3 spacing;  // per axis: e / (n + 0.5), so that floor(e / spacing) = n
+      double estimateMiss;
+    };
+    std::vector<Candidate> candidates;
+    for (int dx = -1; dx <= 2; ++dx)
+      for (int dy = -1; dy <= 2; ++dy)
+        for (int dz = -1; dz <= 2; ++dz) {
+          const int n[3] = {base[0] + dx, base[1] + dy, base[2] + dz};
+          if (n[0] < minAxisCount(e, 0, least) || n[1] < minAxisCount(e, 1, least) ||
+              n[2] < minAxisCount(e, 2, least) || (dx == 0 && dy == 0 && dz == 0))
+            continue;
+          const Vec3 spacing(e.x / (n[0] + 0.5), e.y / (n[1] + 0.5), e.z / (n[2] + 0.5));
+          double smallest = std::numeric_limits<double>::infinity(), largest = 0;
+          for (int a = 0; a < 3; ++a)
+            if (!held[a] || n[a] > minAxisCount(e, a, least)) {
+              smallest = std::min(smallest, spacing[a]);
+              largest = std::max(largest, spacing[a]);
+            }
+          if (largest > 1.5 * smallest) continue;
+          const double estimate = double(n[0]) * n[1] * n[2] * validFraction;
+          candidates.push_back({spacing, std::abs(estimate - budget) / budget});
+        }
+    std::stable_sort(
+        candidates.begin(), candidates.end(),
+        [](const Candidate& x, const Candidate& y) { return x.estimateMiss < y.estimateMiss; });
+    for (size_t i = 0; i < std::min<size_t>(candidates.size(), 12); ++i) {
+      const Vec3 axis = candidates[i].spacing;
+      s.axisSpacingMeters = axis;
+      std::vector<Vec3> pts = placeUniform(tracer, s, {});
+      if (progress && !progress(1.0)) throw Cancelled();
+      const double miss = std::abs(double(pts.size()) - budget) / budget;
+      if (miss < bestMiss) {
+        bestMiss = miss;
+        best.points = std::move(pts);
+        best.axisSpacingMeters = axis;
+        bool heldHere[3];
         for (int a = 0; a < 3; ++a)
-          if (!held[a] || n[a] > minAxisCount(e, a)) {
-            smallest = std::min(smallest, spacing[a]);
-            largest = std::max(largest, spacing[a]);
-          }
-        if (largest > 1.5 * smallest) continue;
-        const double estimate = double(n[0]) * n[1] * n[2] * validFraction;
-        candidates.push_back({spacing, std::abs(estimate - budget) / budget});
+          heldHere[a] = held[a] && axisCount(e[a], axis[a]) <= minAxisCount(e, a, least);
+        best.spacingMeters = meanSpacing(axis, heldHere);
       }
-  std::stable_sort(
-      candidates.begin(), candidates.end(),
-      [](const Candidate& x, const Candidate& y) { return x.estimateMiss < y.estimateMiss; });
-  for (size_t i = 0; i < std::min<size_t>(candidates.size(), 12); ++i) {
-    const Vec3 axis = candidates[i].spacing;
-    s.axisSpacingMeters = axis;
-    std::vector<Vec3> pts = placeUniform(tracer, s, {});
-    if (progress && !progress(1.0)) throw Cancelled();
-    const double miss = std::abs(double(pts.size()) - budget) / budget;
-    if (miss < bestMiss) {
-      bestMiss = miss;
-      best.points = std::move(pts);
-      best.axisSpacingMeters = axis;
-      best.spacingMeters = std::cbrt(axis.x * axis.y * axis.z);
+      if (bestMiss <= 0.1) break;
     }
-    if (bestMiss <= 0.1) break;
+    return best;
+  };
+
+  UniformBudgetResult result = search(1);
+  // A flat result (a room much wider than tall: dream-apartment at 32 and 64 probes, or a layer
+  // of the grid inside geometry) cannot be made a volume: search again holding each axis at 2,
+  // then 3 and 4 points. Results that span 3D stay as they were.
+  for (int least = 2; least <= 4 && !spans3D(result.points); ++least) {
+    UniformBudgetResult held = search(least);
+    if (!held.points.empty()) result = std::move(held);
   }
-  return best;
+  return result;
 }
 
 }  // namespace ps

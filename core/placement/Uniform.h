@@ -11,7 +11,8 @@ namespace ps {
 struct UniformSettings {
   double spacingMeters = 1.0;
   /// Per-axis spacings (x, y, z) when all three are positive, else spacingMeters on every axis.
-  /// placeUniformBudget uses them when no single spacing gets within 10 % of the budget.
+  /// placeUniformBudget uses them when no single spacing gets within 10 % of the budget, or when
+  /// it holds an axis at 2 or more points.
   Vec3 axisSpacingMeters{0, 0, 0};
   double invalidBackfaceFraction = 0.25;  ///< tol::kDefaultInvalidBackfaceFraction
   int validityRays = 64;
@@ -26,7 +27,9 @@ std::vector<Vec3> placeUniform(const Tracer& tracer, const UniformSettings& sett
 
 struct UniformBudgetResult {
   std::vector<Vec3> points;
-  double spacingMeters = 0;  ///< the grid's spacing (the geometric mean of axisSpacingMeters)
+  /// The grid's spacing: the geometric mean of axisSpacingMeters, over the axes not held at
+  /// their fewest points when some are.
+  double spacingMeters = 0;
   Vec3 axisSpacingMeters{0, 0, 0};  ///< per axis when the grid is not cubic, else zero
 };
 
@@ -34,9 +37,10 @@ struct UniformBudgetResult {
 /// compared at equal probe count. A box's cubic grids jump in count (on cornell 27, then 64):
 /// when no single spacing gets within 10 %, grids with one to a few more or fewer points per axis
 /// (spacings within a factor 1.5 of each other) are tried too; the closest count found is kept.
-/// When the closest cubic grid is one flat layer (a room much wider than tall), the search runs
-/// again with at least 2 points along each axis the scene has extent on, so that the grid spans
-/// 3D and a volume can be made of it.
+/// When the result's valid points lie in one plane (a room much wider than tall, or a layer of
+/// the grid inside geometry), the search runs again with at least 2, then 3, then 4 points along
+/// each axis the scene has extent on, so that a volume can be made of them; a result that spans
+/// 3D is kept as it is. A held grid has at least 8 points, so budgets 4 to 7 then get 8.
 /// Throws ps::ParameterError for a budget below 4 or above 1 million.
 UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, UniformSettings settings,
                                        const ProgressFn& progress = {});

@@ -365,12 +365,13 @@ TEST(CaptureValidity, BackfaceFractionIsOneInsideASolidAndZeroOutside) {
   EXPECT_THROW(backfaceFraction(tracer, {0, 3, 0}, 0, 1), ParameterError);
   {
     // Behind one double-sided sheet (4 x 4 m, front facing +z) its back covers less than half of
-    // the sphere, and counts half: the point stays valid, however close.
+    // the sphere, and counts half: the point stays valid (within a few centimetres of the sheet
+    // the count nears 0.25 and the rays drawn decide).
     Scene sheet;
     addQuad(sheet, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0},
             addMaterial(sheet, {0.5, 0.5, 0.5}, {}, true));
     const Tracer sheetTracer(sheet);
-    for (double behind : {0.05, 0.5, 2.0}) {
+    for (double behind : {0.2, 0.5, 2.0}) {
       const double f = backfaceFraction(sheetTracer, {0.3, -0.2, -behind}, 256, 1);
       EXPECT_GT(f, 0.0) << behind;
       EXPECT_LE(f, tol::kDefaultInvalidBackfaceFraction) << behind;

@@ -205,8 +205,6 @@ TEST(Eval, TheDoubleSidedValidityKeysOnlyScenesWithDoubleSidedSurfaces) {
   const LightingRig rig;
   EXPECT_NE(ReferenceCache::key(5, rig, box, es, false, true),
             ReferenceCache::key(5, rig, box, es, false, false));
-  EXPECT_EQ(ReferenceCache::key(5, rig, box, es, false),
-            ReferenceCache::key(5, rig, box, es, false, false));
   Scene scene;
   ps::testing::addBox(scene, {-2, 0, -2}, {2, 2, 2},
                       ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}),

@@ -499,6 +499,16 @@ TEST(Uniform, BudgetGridsSpanThreeDimensionsInAFlatRoom) {
     // The volume can be made: the points are not coplanar.
     EXPECT_NO_THROW(tetrahedralize(u.points)) << budget;
   }
+  // A solid slab fills the room's lower half: a layer of two falls inside it, and the search
+  // goes on to more layers until the valid points span 3D.
+  ps::testing::addBox(scene, {-4.9, 0, -4.9}, {4.9, 0.6, 4.9},
+                      ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}), /*inward=*/false);
+  const Tracer slabTracer(scene);
+  for (int budget : {8, 16, 32, 64}) {
+    const UniformBudgetResult u = placeUniformBudget(slabTracer, budget, {});
+    for (const Vec3& p : u.points) EXPECT_GT(p.y, 0.6) << budget;
+    EXPECT_NO_THROW(tetrahedralize(u.points)) << budget;
+  }
 }
 
 TEST(Greedy, BeatsUniformOnTwoRoomsAtEqualProbeCount) {

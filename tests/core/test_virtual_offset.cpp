@@ -72,6 +72,26 @@ TEST(VirtualOffset, ProbeInsideASolidMovesToTheNearestFaceOutside) {
   EXPECT_GT(caps[1].sh.c[0].r, 0.0);
 }
 
+TEST(VirtualOffset, ProbeInsideADoubleSidedSolidLeavesThroughItsBackFaces) {
+  // The same box, double-sided (as every asset of the shared real scenes is): the probe is
+  // invalid (its back faces count half) and leaves through the nearest face, as from a
+  // single-sided solid.
+  Scene s = boxInRoom();
+  Material twoSided = s.materials[0];
+  twoSided.doubleSided = true;
+  s.materials.push_back(twoSided);
+  for (size_t t = 0; t < 12; ++t) s.triangleMaterial[t] = 1;  // the box's 6 faces come first
+  const Tracer tracer(s);
+  const Vec3 p{0.7, 0.1, -0.2};
+  ASSERT_GT(backfaceFraction(tracer, p, 64, 1), 0.25);
+  VirtualOffsetSettings vs;
+  vs.pushOutMeters = 0.05;
+  const auto q = virtualOffset(tracer, p, vs);
+  ASSERT_TRUE(q.has_value());
+  EXPECT_NEAR(q->x, 1.05, 1e-6) << *q;
+  EXPECT_EQ(backfaceFraction(tracer, *q, 256, 7), 0.0) << *q;
+}
+
 TEST(VirtualOffset, ValidProbeStaysAndBadSettingsThrow) {
   const Scene s = boxInRoom();
   const Tracer tracer(s);
