@@ -52,8 +52,11 @@ struct GreedyResult {
   /// True when, at some point, no candidate lowered the field error (the field's noise, or error
   /// its samples do not resolve: on cornell 4x the field spp moved this from 77 to 113 probes
   /// and did not lower eval's error):
-  /// without a budget placement stops there; with one it goes on adding the least harmful
-  /// candidate, so errorHistory is non-increasing only up to probesAtNoImprovement.
+  /// without a budget placement stops there; with one it goes on, adding the least harmful
+  /// candidate whenever none lowers the error and the best one otherwise, so errorHistory is
+  /// non-increasing only up to probesAtNoImprovement (on the real scenes the field error still
+  /// falls overall: japanese-bridge-garden 0.185 at 40 probes, 0.104 at 512, first dead end at
+  /// 35).
   bool noImprovement = false;
   size_t probesAtNoImprovement = 0;  ///< probe count (kept included) when that first happened
   size_t trials = 0;                 ///< meshes tried (candidates evaluated)

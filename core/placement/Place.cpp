@@ -114,11 +114,18 @@ PlaceOutcome placeWithGreedy(const Context& c) {
   const GreedyResult g = placeGreedy(field, kept, gs, c.stage("greedy"));
   out.notes.push_back(format("greedy: field error %.4f with %zu probes", g.fieldError,
                              g.positions.size() + kept.size()));
-  if (g.noImprovement)
-    out.notes.push_back(
-        format("greedy: from %zu probes on, no candidate lowered the field error; the rest "
-               "went where they did least harm (eval measures what they bring)",
-               g.probesAtNoImprovement));
+  if (g.noImprovement) {
+    // Additions that raised the field error: those where no candidate lowered it and the least
+    // harmful one went in. Greedy goes on lowering it with the others.
+    size_t raised = 0;
+    for (size_t k = 1; k < g.errorHistory.size(); ++k)
+      raised += g.errorHistory[k] > g.errorHistory[k - 1] ? 1 : 0;
+    out.notes.push_back(format(
+        "greedy: at %zu probes no candidate lowered the field error for the first time; %zu of "
+        "the %zu additions found none and added the least harmful one (eval measures what they "
+        "bring)",
+        g.probesAtNoImprovement, raised, g.errorHistory.size() - 1));
+  }
   out.spacingMeters = field.baseSpacingMeters;
   for (size_t i = 0; i < g.positions.size(); ++i)
     out.probes.push_back({g.positions[i], g.scores[i]});

@@ -400,7 +400,12 @@ TEST(Greedy, MeetsItsBudgetPastTheFieldsNoiseFloor) {
   const size_t monotone =
       r.noImprovement ? r.probesAtNoImprovement - r.initialCount + 1 : r.errorHistory.size();
   for (size_t i = 1; i < monotone; ++i) EXPECT_LE(r.errorHistory[i], r.errorHistory[i - 1]);
-  std::printf("cornell: no improvement from %zu probes on\n", r.probesAtNoImprovement);
+  size_t raised = 0;
+  for (size_t i = 1; i < r.errorHistory.size(); ++i)
+    raised += r.errorHistory[i] > r.errorHistory[i - 1] ? 1 : 0;
+  std::printf(
+      "cornell: first dead end at %zu probes; %zu of %zu additions raised the field error\n",
+      r.probesAtNoImprovement, raised, r.errorHistory.size() - 1);
 }
 
 TEST(Greedy, EveryRoomAndBothSidesOfThePillarGetProbes) {
