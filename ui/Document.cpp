@@ -442,6 +442,15 @@ void Document::proposeCandidates() {
       const double ratio = std::cbrt(std::max(n, 1.0) / settings.targetProbeCount);
       spacing *= std::clamp(ratio, 0.5, 2.0);
     }
+    if (!pointsSpan3D(points)) {
+      // One flat layer (a room much wider than tall: dream-apartment), of which no volume can be
+      // made: the budget grid, which then keeps at least 2 points along each axis.
+      const UniformBudgetResult grid =
+          placeUniformBudget(*tracer, int(std::lround(settings.targetProbeCount)), {},
+                             [&](double f) { return report(tr("Placing probes…"), 0.4 * f); });
+      points = grid.points;
+      spacing = grid.spacingMeters;
+    }
     result.spacingMeters = spacing;
     for (const Vec3& p : points) {
       Probe probe;

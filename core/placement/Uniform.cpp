@@ -43,8 +43,15 @@ Vec3 heldAxisSpacing(const Vec3& extent, double spacing, int least) {
   return changed ? axis : Vec3(0, 0, 0);
 }
 
-/// True when the points do not all lie in one plane (a volume can be made of them).
-bool spans3D(const std::vector<Vec3>& points) {
+}  // namespace
+
+/// The spacing along axis a.
+double axisSpacing(const UniformSettings& s, int a) {
+  const Vec3& v = s.axisSpacingMeters;
+  return v.x > 0 && v.y > 0 && v.z > 0 ? v[a] : s.spacingMeters;
+}
+
+bool pointsSpan3D(const std::vector<Vec3>& points) {
   if (points.size() < 4) return false;
   const Vec3 p0 = points[0];
   size_t i1 = 0;
@@ -59,14 +66,6 @@ bool spans3D(const std::vector<Vec3>& points) {
   for (const Vec3& p : points)
     if (std::abs(dot(n, p - p0)) > 1e-9 * length(n) * length(u)) return true;
   return false;
-}
-
-}  // namespace
-
-/// The spacing along axis a.
-double axisSpacing(const UniformSettings& s, int a) {
-  const Vec3& v = s.axisSpacingMeters;
-  return v.x > 0 && v.y > 0 && v.z > 0 ? v[a] : s.spacingMeters;
 }
 
 double uniformGridPointCount(const Bounds3& b, double spacing) {
@@ -255,7 +254,7 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
   // A flat result (a room much wider than tall: dream-apartment at 32 and 64 probes, or a layer
   // of the grid inside geometry) cannot be made a volume: search again holding each axis at 2,
   // then 3 and 4 points. Results that span 3D stay as they were.
-  for (int least = 2; least <= 4 && !spans3D(result.points); ++least) {
+  for (int least = 2; least <= 4 && !pointsSpan3D(result.points); ++least) {
     UniformBudgetResult held = search(least);
     if (!held.points.empty()) result = std::move(held);
   }

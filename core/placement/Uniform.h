@@ -45,6 +45,9 @@ struct UniformBudgetResult {
 UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, UniformSettings settings,
                                        const ProgressFn& progress = {});
 
+/// True when the points do not all lie in one plane (a volume can be made of them).
+bool pointsSpan3D(const std::vector<Vec3>& points);
+
 /// Number of grid points (before the validity test) for a spacing over the given bounds.
 double uniformGridPointCount(const Bounds3& bounds, double spacingMeters);
 

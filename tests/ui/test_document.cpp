@@ -8,6 +8,7 @@
 
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/placement/Uniform.h"
 #include "ui/Document.h"
 #include "ui/MainWindow.h"
 #include "ui/ProbeTableModel.h"
@@ -218,6 +219,30 @@ class TestDocument : public QObject {
     QVERIFY(doc.isModified());
     doc.undoStack()->undo();  // the proposal is one undo step
     QCOMPARE(model.rowCount(), 0);
+  }
+
+  void proposalSpansThreeDimensionsInALowWideScene() {
+    // dream-apartment is much wider than tall: a cubic grid of about 80 points is one flat layer,
+    // of which no volume can be made. The proposal's points must not lie in one plane.
+    const QString scene =
+        QStringLiteral(PS_SHARED_SCENES_DIR "/dream-apartment/dream-apartment.glb");
+    if (!QFile::exists(scene)) QSKIP("the shared scene dream-apartment is not present");
+    Document doc;
+    doc.setAutoPropose(false);
+    QSignalSpy finished(&doc, &Document::jobFinished);
+    doc.openScene(scene);
+    LightingRig sky;  // the scene brings no light
+    sky.skyRadiance = {0.3, 0.4, 0.6};
+    doc.setRig(sky, QStringLiteral("Sky"));
+    doc.proposeCandidates();
+    QVERIFY(finished.wait(240000));
+    const QString error = finished.takeFirst().at(0).toString();
+    QVERIFY2(error.isEmpty(), qPrintable(error));
+    std::vector<Vec3> points;
+    for (const Probe& p : doc.probes()) points.push_back(p.position);
+    QVERIFY2(points.size() >= 20 && points.size() <= 200,
+             qPrintable(QString::number(points.size())));
+    QVERIFY(pointsSpan3D(points));
   }
 
   void reopeningCancelsTheRunningProposal() {
