@@ -124,6 +124,16 @@ bool isFinite(Rgb c) {
 
 // ---- Path tracer ---------------------------------------------------------------------------
 
+/// How much a ray's first hit counts towards "inside geometry" (Kontkanen & Laine sec. 5): 1 for
+/// the back of single-sided geometry, 0.5 for the back of double-sided geometry (its winding
+/// still tells its outside; backfaceFraction), 0 for a front face.
+double insideWeight(const Scene& scene, const Hit& hit) {
+  if (hit.frontFace) return 0;
+  const uint32_t materialIndex = scene.triangleMaterial[hit.triangle];
+  PS_CHECK_LT(size_t{materialIndex}, scene.materials.size());
+  return scene.materials[materialIndex].doubleSided ? 0.5 : 1.0;
+}
+
 class PathTracer {
  public:
   PathTracer(const Tracer& tracer, const LightingRig& rig)
@@ -160,9 +170,8 @@ class PathTracer {
   }
 
   /// Radiance arriving at `origin` from direction -dir (travelling along dir from origin).
-  /// `firstHitBackface` is set to how much the first surface hit counts towards "inside", as in
-  /// backfaceFraction: 1 for the back of single-sided geometry, 0.5 for the back of double-sided
-  /// geometry (from which the path goes on), else 0.
+  /// `firstHitBackface` is set to how much the first surface hit counts towards "inside"
+  /// (insideWeight; a path goes on from the back of double-sided geometry).
   Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rng, double* firstHitBackface) const {
     if (firstHitBackface) *firstHitBackface = 0;
     Rgb L;
@@ -191,12 +200,9 @@ class PathTracer {
       const uint32_t materialIndex = scene_.triangleMaterial[hit->triangle];
       PS_CHECK_LT(size_t{materialIndex}, scene_.materials.size());
       const Material& m = scene_.materials[materialIndex];
-      if (!hit->frontFace && !m.doubleSided) {
-        // Inside of a solid (Kontkanen & Laine sec. 5): black, and the probe sees a back face.
-        if (bounce == 0 && firstHitBackface) *firstHitBackface = 1;
-        break;
-      }
-      if (!hit->frontFace && bounce == 0 && firstHitBackface) *firstHitBackface = 0.5;
+      if (bounce == 0 && firstHitBackface) *firstHitBackface = insideWeight(scene_, *hit);
+      // Inside of a solid (Kontkanen & Laine sec. 5): black.
+      if (!hit->frontFace && !m.doubleSided) break;
       // Emission, reached by sampled rays only; factor times texture at the hit's UV0.
       if (!m.emission.isBlack())
         L +=
@@ -487,17 +493,14 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
   PS_CHECK_EQ(scene.triangleMaterial.size(), scene.triangleCount());
   uint64_t rng = streamState(seed, 0);
   const double offset[2] = {uniform01(rng), uniform01(rng)};
-  int halves = 0;  // back faces seen, in halves: 2 for single-sided geometry, 1 for double-sided
+  double inside = 0;
   for (int j = 0; j < rays; ++j) {
     double u, v;
     r2Point(static_cast<uint64_t>(j), offset, u, v);
     const auto hit = tracer.intersect(Ray{p, uniformSphere(u, v)});
-    if (!hit || hit->frontFace) continue;
-    const uint32_t materialIndex = scene.triangleMaterial[hit->triangle];
-    PS_CHECK_LT(size_t{materialIndex}, scene.materials.size());
-    halves += scene.materials[materialIndex].doubleSided ? 1 : 2;
+    if (hit) inside += insideWeight(scene, *hit);
   }
-  return 0.5 * static_cast<double>(halves) / rays;
+  return inside / rays;
 }
 
 Rgb traceRadiance(const Tracer& tracer, const LightingRig& rig, Vec3 origin, Vec3 dir,

@@ -68,6 +68,12 @@ bool pointsSpan3D(const std::vector<Vec3>& points) {
   return false;
 }
 
+/// Number of grid points (before the validity test) placeUniform makes with these settings.
+double gridPointCount(const Vec3& extent, const UniformSettings& s) {
+  return double(axisCount(extent.x, axisSpacing(s, 0))) * axisCount(extent.y, axisSpacing(s, 1)) *
+         axisCount(extent.z, axisSpacing(s, 2));
+}
+
 double uniformGridPointCount(const Bounds3& b, double spacing) {
   const Vec3 e = b.extent();
   return double(axisCount(e.x, spacing)) * axisCount(e.y, spacing) * axisCount(e.z, spacing);
@@ -83,7 +89,7 @@ std::vector<Vec3> placeUniform(const Tracer& tracer, const UniformSettings& s,
   const Vec3 e = b.extent();
   const int n[3] = {axisCount(e.x, axisSpacing(s, 0)), axisCount(e.y, axisSpacing(s, 1)),
                     axisCount(e.z, axisSpacing(s, 2))};
-  const double count = double(n[0]) * n[1] * n[2];
+  const double count = gridPointCount(e, s);
   if (count > kMaxGridPoints)
     throw ParameterError("spacing " + std::to_string(s.spacingMeters) + " m would make " +
                          std::to_string(static_cast<long long>(count)) +
@@ -162,10 +168,7 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
       s.spacingMeters = spacing;
       s.axisSpacingMeters = heldAxisSpacing(e, spacing, least);
       const Vec3& axis = s.axisSpacingMeters;
-      const double gridPoints = axis.x > 0 ? double(axisCount(e.x, axis.x)) *
-                                                 axisCount(e.y, axis.y) * axisCount(e.z, axis.z)
-                                           : uniformGridPointCount(b, spacing);
-      if (gridPoints > kMaxGridPoints) {
+      if (gridPointCount(e, s) > kMaxGridPoints) {
         lo = spacing;
         continue;
       }
