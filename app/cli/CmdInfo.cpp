@@ -32,9 +32,17 @@ void registerInfo(CLI::App& app) {
     if (isVolumePath(*file)) {
       const VolumeFile vf = loadVolume(*file);
       const VolumeSource src = volumeSource(vf, *file);
-      std::printf("%s: probe volume, format version 1, SH order 2\n", file->c_str());
+      std::printf("%s: probe volume, format version %d, SH order 2\n", file->c_str(),
+                  vf.volume.cutPlanes.empty() ? 1 : 2);
       std::printf("  probes %zu, tetrahedra %zu, hull faces %zu\n", vf.volume.probeCount(),
                   vf.volume.tets.size(), vf.volume.hullFaces.size());
+      if (!vf.volume.cutPlanes.empty()) {
+        size_t cutTets = 0;
+        for (size_t t = 0; t < vf.volume.tets.size(); ++t)
+          cutTets += vf.volume.cutStart[t + 1] > vf.volume.cutStart[t];
+        std::printf("  leak cuts: %zu planes in %zu tetrahedra\n", vf.volume.cutPlanes.size(),
+                    cutTets);
+      }
       std::printf("  scene %s, %zu rig lights\n", src.scenePath.c_str(), src.rig.lights.size());
       // How the probes' values were made (volumeSource has checked the metadata is JSON).
       const ojson meta = ojson::parse(vf.metadataJson, nullptr, false);

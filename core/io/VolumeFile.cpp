@@ -5,18 +5,22 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/common/Check.h"
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
 
 // Layout (docs/formats.md, "Probe volume"), all little-endian:
 //   char[8]  magic "PSVOLUM1"
-//   u32      version (1)
+//   u32      version (1, or 2 with leak cuts)
 //   u32      sh order (2 = 9 coefficients)
 //   u32      probe count P, tet count T, hull face count H, metadata byte count M
+//   u32      cut plane count C (version 2 only)
 //   f32[3P]  positions        f32[27P] SH (probe-major, coefficient-major, RGB)
 //   i32[4T]  tets             i32[4T]  neighbours (-1 on the hull)
 //   f32[9T]  barycentric matrices (row-major)
 //   i32[2H]  hull faces (tet, local vertex opposite the face)
+//   u32[T+1] first cut plane of each tet, then C (version 2 only)
+//   C x (f32 nx, ny, nz, d, u32 hide mask) cut planes (version 2 only)
 //   u8[M]    metadata (UTF-8 JSON)
 //   u32      CRC-32 (IEEE) of every byte before it
 namespace ps {
@@ -24,10 +28,14 @@ namespace ps {
 namespace {
 
 constexpr char kMagic[8] = {'P', 'S', 'V', 'O', 'L', 'U', 'M', '1'};
-constexpr uint32_t kVersion = 1;
+// Version 1 has no leak cuts; a volume without them is still written as version 1, so that
+// readers of version 1 read it.
+constexpr uint32_t kVersionNoCuts = 1;
+constexpr uint32_t kVersionCuts = 2;
 constexpr uint32_t kShOrder = 2;
-constexpr size_t kHeaderBytes = 8 + 6 * 4;
+constexpr size_t kHeaderBytes = 8 + 6 * 4;  // version 1; version 2 adds the cut plane count
 
+static_assert(sizeof(ProbeVolume::CutPlane) == 20, "cut planes are stored as 4 floats and a u32");
 static_assert(std::endian::native == std::endian::little,
               "the volume writer assumes a little-endian host");
 
@@ -99,20 +107,27 @@ uint32_t crc32(const void* data, size_t size, uint32_t crc) {
 
 void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
   const ProbeVolume& v = vf.volume;
+  const bool cuts = !v.cutPlanes.empty();
+  PS_CHECK(!cuts || v.cutStart.size() == v.tets.size() + 1);
   Writer w;
   w.bytes(kMagic, 8);
-  w.u32(kVersion);
+  w.u32(cuts ? kVersionCuts : kVersionNoCuts);
   w.u32(kShOrder);
   w.u32(static_cast<uint32_t>(v.probeCount()));
   w.u32(static_cast<uint32_t>(v.tets.size()));
   w.u32(static_cast<uint32_t>(v.hullFaces.size()));
   w.u32(static_cast<uint32_t>(vf.metadataJson.size()));
+  if (cuts) w.u32(static_cast<uint32_t>(v.cutPlanes.size()));
   w.array(v.positions);
   w.array(v.sh);
   w.array(v.tets);
   w.array(v.neighbors);
   w.array(v.matrices);
   w.array(v.hullFaces);
+  if (cuts) {
+    w.array(v.cutStart);
+    w.array(v.cutPlanes);
+  }
   w.bytes(vf.metadataJson.data(), vf.metadataJson.size());
   w.u32(crc32(w.str().data(), w.str().size()));
   writeFileAtomic(path, w.str());
@@ -129,20 +144,27 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
     r.fail("magic", "not a ProbeStudio volume (expected magic \"PSVOLUM1\")");
   r.skip(8);
   const uint32_t version = r.u32("version");
-  if (version != kVersion)
+  if (version != kVersionNoCuts && version != kVersionCuts)
     r.fail("version", "unsupported version " + std::to_string(version) + " (this build reads " +
-                          std::to_string(kVersion) + ")");
+                          std::to_string(kVersionNoCuts) + " and " + std::to_string(kVersionCuts) +
+                          ")");
+  const bool cuts = version == kVersionCuts;
   const uint32_t order = r.u32("sh_order");
   if (order != kShOrder) r.fail("sh_order", "expected SH order 2, got " + std::to_string(order));
   const uint64_t P = r.u32("probe_count"), T = r.u32("tet_count"), H = r.u32("hull_face_count"),
                  M = r.u32("metadata_bytes");
+  const uint64_t C = cuts ? r.u32("cut_plane_count") : 0;
   // Refuse counts the file cannot hold before allocating anything.
-  const uint64_t body = P * (3 + 27) * 4 + T * (4 + 4 + 9) * 4 + H * 2 * 4 + M + 4;
-  if (kHeaderBytes + body != data.size())
+  const uint64_t header = kHeaderBytes + (cuts ? 4 : 0);
+  const uint64_t body = P * (3 + 27) * 4 + T * (4 + 4 + 9) * 4 + H * 2 * 4 +
+                        (cuts ? (T + 1) * 4 + C * 20 : 0) + M + 4;
+  if (header + body != data.size())
     r.fail("header", "counts (" + std::to_string(P) + " probes, " + std::to_string(T) + " tets, " +
-                         std::to_string(H) + " hull faces, " + std::to_string(M) +
-                         " metadata bytes) need " + std::to_string(kHeaderBytes + body) +
-                         " bytes, file has " + std::to_string(data.size()));
+                         std::to_string(H) + " hull faces, " +
+                         (cuts ? std::to_string(C) + " cut planes, " : std::string()) +
+                         std::to_string(M) + " metadata bytes) need " +
+                         std::to_string(header + body) + " bytes, file has " +
+                         std::to_string(data.size()));
   uint32_t stored;
   std::memcpy(&stored, data.data() + data.size() - 4, 4);
   if (crc32(data.data(), data.size() - 4) != stored)
@@ -157,6 +179,10 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
   r.array(v.neighbors, T, "neighbors");
   r.array(v.matrices, T, "matrices");
   r.array(v.hullFaces, H, "hull_faces");
+  if (cuts) {
+    r.array(v.cutStart, T + 1, "cut_start");
+    r.array(v.cutPlanes, C, "cut_planes");
+  }
   vf.metadataJson.assign(data.data() + r.pos(), M);
 
   for (size_t i = 0; i < v.positions.size(); ++i)
@@ -177,6 +203,27 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
     if (v.hullFaces[h][0] < 0 || static_cast<uint64_t>(v.hullFaces[h][0]) >= T ||
         v.hullFaces[h][1] < 0 || v.hullFaces[h][1] > 3)
       r.fail("hull_faces[" + std::to_string(h) + "]", "index out of range");
+  if (cuts) {
+    if (v.cutStart[0] != 0 || v.cutStart[T] != C)
+      r.fail("cut_start", "must run from 0 to the cut plane count " + std::to_string(C));
+    for (size_t t = 0; t < T; ++t)
+      if (v.cutStart[t + 1] < v.cutStart[t] ||
+          v.cutStart[t + 1] - v.cutStart[t] > ProbeVolume::kMaxCutsPerTet)
+        r.fail("cut_start[" + std::to_string(t) + "]",
+               "not non-decreasing, or more than " + std::to_string(ProbeVolume::kMaxCutsPerTet) +
+                   " planes in one tetrahedron");
+    for (size_t c = 0; c < C; ++c) {
+      const auto& q = v.cutPlanes[c].plane;
+      if (!(std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2]) &&
+            std::isfinite(q[3])) ||
+          !(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] > 0.5))
+        r.fail("cut_planes[" + std::to_string(c) + "]",
+               "expected a finite plane with a unit normal");
+      if (v.cutPlanes[c].hide > 0xFF)
+        r.fail("cut_planes[" + std::to_string(c) + "]",
+               "hide mask " + std::to_string(v.cutPlanes[c].hide) + " has bits above 8");
+    }
+  }
   buildLocator(v);  // derived search data is not stored
   return vf;
 }

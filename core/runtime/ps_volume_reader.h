@@ -20,7 +20,8 @@
 // OUT OF OR IN CONNECTION WITH THE SOFTWARE OR THE USE OR OTHER DEALINGS IN THE SOFTWARE.
 //
 // ps_volume_reader.h: a dependency-free, header-only C++17 reader for ProbeStudio probe volumes
-// (.psv, format version 1, docs/formats.md "Probe volume"). Copy this one file into an engine.
+// (.psv, format versions 1 and 2, docs/formats.md "Probe volume"). Copy this one file into an
+// engine.
 //
 //   ps_runtime::Volume vol;
 //   std::string error;
@@ -36,7 +37,8 @@
 // float matrices (double orientations in thin tetrahedra), and clamp a point outside the hull to
 // the nearest point of the hull surface. A query clearly inside its hint tetrahedron is answered
 // from that tetrahedron's double-precision matrix without a walk. The answers equal the core's
-// (tests/runtime).
+// (tests/runtime). In a tetrahedron with leak cuts (version 2), a query interpolates only the
+// probes on its own side of the cut planes (applyCuts below).
 //
 // Loading validates everything before allocating: the header's counts must match the file's
 // size exactly, the CRC-32 must match, and every index must be in range; a bad file gives
@@ -63,6 +65,15 @@ struct Volume {
   std::vector<std::array<int32_t, 4>> neighbors;  // opposite vertex i; -1 on the hull
   std::vector<std::array<float, 9>> matrices;     // (w0, w1, w2) = M (p - v3)
   std::vector<std::array<int32_t, 2>> hullFaces;  // (tet, local vertex opposite the face)
+  // Leak cuts (version 2; empty otherwise): tet t's planes are cutPlanes[cutStart[t] ..
+  // cutStart[t + 1]). p is on a plane's positive side when n.p >= d; bit k of `hide` hides
+  // vertex k from a query on the positive side, bit 4 + k from one on the negative side.
+  struct CutPlane {
+    float plane[4];  // nx, ny, nz, d
+    uint32_t hide;
+  };
+  std::vector<uint32_t> cutStart;
+  std::vector<CutPlane> cutPlanes;
   std::string metadataJson;
   // Derived at load: thin tets (walk with double orientations), per tet the double-precision
   // barycentric matrix with its origin v3 (the fast path of locate(); NaN for thin tets) and a
@@ -82,7 +93,7 @@ struct Volume {
 
 struct Location {
   int32_t tet = -1;
-  float weights[4] = {0, 0, 0, 0};  // barycentric, in [0, 1], sum 1
+  float weights[4] = {0, 0, 0, 0};  // barycentric (cut to the query's side), in [0, 1], sum 1
   bool outside = false;             // clamped to the hull
 };
 
@@ -439,15 +450,19 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   std::memcpy(&first, &probe, 1);
   if (first != 1) return fail(error, "big-endian hosts are not supported");
   const auto* b = static_cast<const uint8_t*>(data);
-  const size_t kHeader = 8 + 6 * 4;
-  if (size < kHeader + 4) return fail(error, "truncated: " + std::to_string(size) + " bytes");
+  if (size < 8 + 6 * 4 + 4) return fail(error, "truncated: " + std::to_string(size) + " bytes");
   if (std::memcmp(b, "PSVOLUM1", 8) != 0) return fail(error, "not a ProbeStudio volume");
-  uint32_t h[6];
-  std::memcpy(h, b + 8, sizeof h);
-  if (h[0] != 1) return fail(error, "unsupported version " + std::to_string(h[0]));
+  uint32_t h[7] = {0, 0, 0, 0, 0, 0, 0};
+  std::memcpy(h, b + 8, 6 * 4);
+  if (h[0] != 1 && h[0] != 2) return fail(error, "unsupported version " + std::to_string(h[0]));
+  const bool cuts = h[0] == 2;  // version 2: a cut plane count, then the cuts after the hull
+  const size_t kHeader = 8 + (cuts ? 7 : 6) * 4;
+  if (size < kHeader + 4) return fail(error, "truncated: " + std::to_string(size) + " bytes");
+  if (cuts) std::memcpy(h + 6, b + 8 + 6 * 4, 4);
   if (h[1] != 2) return fail(error, "unsupported SH order " + std::to_string(h[1]));
-  const uint64_t P = h[2], T = h[3], H = h[4], M = h[5];
-  const uint64_t need = kHeader + P * 30 * 4 + T * 17 * 4 + H * 8 + M + 4;
+  const uint64_t P = h[2], T = h[3], H = h[4], M = h[5], C = h[6];
+  const uint64_t need =
+      kHeader + P * 30 * 4 + T * 17 * 4 + H * 8 + (cuts ? (T + 1) * 4 + C * 20 : 0) + M + 4;
   if (need != size)
     return fail(error, "header counts need " + std::to_string(need) + " bytes, file has " +
                            std::to_string(size));
@@ -462,6 +477,12 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   detail::readArray(p, out.neighbors, size_t(T));
   detail::readArray(p, out.matrices, size_t(T));
   detail::readArray(p, out.hullFaces, size_t(H));
+  out.cutStart.clear();
+  out.cutPlanes.clear();
+  if (cuts) {
+    detail::readArray(p, out.cutStart, size_t(T) + 1);
+    detail::readArray(p, out.cutPlanes, size_t(C));
+  }
   out.metadataJson.assign(reinterpret_cast<const char*>(p), size_t(M));
   for (float x : out.positions)
     if (!std::isfinite(x)) return fail(error, "NaN or infinite probe position");
@@ -481,6 +502,23 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
     if (out.hullFaces[k][0] < 0 || uint64_t(out.hullFaces[k][0]) >= T || out.hullFaces[k][1] < 0 ||
         out.hullFaces[k][1] > 3)
       return fail(error, "hull_faces[" + std::to_string(k) + "]: index out of range");
+  if (cuts) {
+    if (out.cutStart[0] != 0 || out.cutStart[size_t(T)] != C)
+      return fail(error, "cut_start: must run from 0 to the cut plane count");
+    for (size_t t = 0; t < T; ++t)
+      if (out.cutStart[t + 1] < out.cutStart[t] || out.cutStart[t + 1] - out.cutStart[t] > 8)
+        return fail(error, "cut_start[" + std::to_string(t) +
+                               "]: not non-decreasing, or more than 8 planes in one tetrahedron");
+    for (size_t c = 0; c < C; ++c) {
+      const float* q = out.cutPlanes[c].plane;
+      if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2]) ||
+          !std::isfinite(q[3]) ||
+          !(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] > 0.5) ||
+          out.cutPlanes[c].hide > 0xFF)
+        return fail(error, "cut_planes[" + std::to_string(c) +
+                               "]: not a finite unit-normal plane with an 8-bit hide mask");
+    }
+  }
   detail::buildLocator(out);
   return true;
 }
@@ -502,10 +540,8 @@ inline bool loadVolumeFile(const char* path, Volume& out, std::string* error = n
   return true;
 }
 
-/// The tetrahedron containing (x, y, z) and its barycentric weights, walking from `hintTet`
-/// (the previous query's tet, or -1). Outside the hull: the nearest hull point (outside = true).
-inline Location locate(const Volume& v, double x, double y, double z, int32_t hintTet = -1) {
-  using namespace detail;
+namespace detail {
+inline Location locateBarycentric(const Volume& v, double x, double y, double z, int32_t hintTet) {
   if (v.tets.empty()) return {};
   const V3 p = {x, y, z};
   const int32_t n = static_cast<int32_t>(v.tets.size());
@@ -537,6 +573,47 @@ inline Location locate(const Volume& v, double x, double y, double z, int32_t hi
   }
   if (r.kind == WalkKind::Outside) return clampToHull(v, p);
   return bruteForce(v, p);
+}
+
+}  // namespace detail
+
+/// Leak cuts: each cut plane of the query's tetrahedron hides the probes its mask names for the
+/// query's side of it. The kept probes' weights are renormalised (shared equally when they sum
+/// to 0), the hidden ones get 0; when every probe is hidden the weights stay as they were.
+/// (x, y, z) is the query point, before any clamp to the hull.
+inline void applyCuts(const Volume& v, double x, double y, double z, Location& loc) {
+  if (loc.tet < 0 || v.cutStart.empty()) return;
+  const uint32_t first = v.cutStart[size_t(loc.tet)], last = v.cutStart[size_t(loc.tet) + 1];
+  uint32_t kept = 0xF;
+  for (uint32_t c = first; c < last; ++c) {
+    const Volume::CutPlane& cp = v.cutPlanes[c];
+    const bool positive =
+        double(cp.plane[0]) * x + double(cp.plane[1]) * y + double(cp.plane[2]) * z >=
+        double(cp.plane[3]);
+    kept &= ~(positive ? cp.hide : cp.hide >> 4) & 0xFu;
+  }
+  if (kept == 0xF || kept == 0) return;
+  double sum = 0;
+  int count = 0;
+  for (int k = 0; k < 4; ++k)
+    if (kept >> k & 1) {
+      sum += loc.weights[k];
+      ++count;
+    }
+  for (int k = 0; k < 4; ++k)
+    loc.weights[k] = !(kept >> k & 1) ? 0.0f
+                     : sum > 0        ? float(loc.weights[k] / sum)
+                                      : 1.0f / float(count);
+}
+
+/// The tetrahedron containing (x, y, z) and its barycentric weights (cut to the query's side,
+/// above), walking from `hintTet` (the previous query's tet, or -1). Outside the hull: the
+/// nearest hull point (outside = true).
+inline Location locate(const Volume& v, double x, double y, double z, int32_t hintTet = -1) {
+  Location loc = detail::locateBarycentric(v, x, y, z, hintTet);
+  if (!v.cutStart.empty() && std::isfinite(x) && std::isfinite(y) && std::isfinite(z))
+    applyCuts(v, x, y, z, loc);
+  return loc;
 }
 
 /// The SH (27 floats: 9 coefficients x RGB) blended with the location's weights.

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -408,7 +409,9 @@ void buildLocator(ProbeVolume& v) {
   for (size_t c = 0; c < cells; ++c) v.locatorGrid[c] = t = detail::locatorCellTet(v, c, t);
 }
 
-VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet, const HullClamp* clamp) {
+namespace {
+VolumeLocation locateBarycentric(const ProbeVolume& v, Vec3 p, int32_t hintTet,
+                                 const HullClamp* clamp) {
   if (v.tets.empty()) return {};
   const int32_t n = static_cast<int32_t>(v.tets.size());
   const bool hinted = hintTet >= 0 && hintTet < n;
@@ -454,6 +457,26 @@ VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet, const HullC
   }
   gBruteForceCount.fetch_add(1, std::memory_order_relaxed);
   return bruteForce(v, p);
+}
+}  // namespace
+
+void applyCuts(const ProbeVolume& v, Vec3 p, VolumeLocation& loc) {
+  if (loc.tet < 0 || v.cutStart.empty()) return;
+  const uint32_t first = v.cutStart[size_t(loc.tet)], last = v.cutStart[size_t(loc.tet) + 1];
+  const uint32_t kept = detail::cutKeptVertices(v.cutPlanes.data() + first, last - first, p);
+  if (kept == 0xF || kept == 0) return;
+  double sum = 0;
+  for (int k = 0; k < 4; ++k)
+    if (kept >> k & 1) sum += loc.weights[k];
+  const float share = 1.0f / float(std::popcount(kept));
+  for (int k = 0; k < 4; ++k)
+    loc.weights[k] = !(kept >> k & 1) ? 0.0f : sum > 0 ? float(loc.weights[k] / sum) : share;
+}
+
+VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet, const HullClamp* clamp) {
+  VolumeLocation loc = locateBarycentric(v, p, hintTet, clamp);
+  if (!v.cutStart.empty() && isFinite(p)) applyCuts(v, p, loc);
+  return loc;
 }
 
 VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet) {
@@ -597,6 +620,17 @@ ShRgb interpolate(const ProbeVolume& v, const VolumeLocation& loc) {
 }
 
 namespace detail {
+bool cutSide(const std::array<float, 4>& c, Vec3 p) {
+  return double(c[0]) * p.x + double(c[1]) * p.y + double(c[2]) * p.z >= double(c[3]);
+}
+
+uint32_t cutKeptVertices(const ProbeVolume::CutPlane* planes, size_t count, Vec3 p) {
+  uint32_t kept = 0xF;
+  for (size_t c = 0; c < count; ++c)
+    kept &= ~(cutSide(planes[c].plane, p) ? planes[c].hide : planes[c].hide >> 4) & 0xFu;
+  return kept;
+}
+
 bool fastWeights(const ProbeVolume& v, int32_t t, Vec3 p, std::array<float, 4>& weights) {
   return t >= 0 && t < static_cast<int32_t>(v.tets.size()) && frameWeights(v, t, p, weights);
 }

@@ -299,6 +299,30 @@ TEST(VolumeFile, RoundTripIsBitExact) {
   EXPECT_EQ(r.metadataJson, vf.metadataJson);
 }
 
+// A volume without leak cuts is written as version 1 (readers of version 1 read it); one with
+// cuts as version 2, and both read back exactly.
+TEST(VolumeFile, LeakCutsRoundTripAsVersion2) {
+  const fs::path dir = tempDir();
+  VolumeFile vf = oneTetVolume();
+  saveVolume(vf, dir / "plain.psv");
+  EXPECT_EQ(readText(dir / "plain.psv")[8], 1);
+  vf.volume.cutStart = {0, 2};
+  vf.volume.cutPlanes = {{{1, 0, 0, 0.25f}, 0x21}, {{0, -1, 0, -0.5f}, 0x4}};
+  saveVolume(vf, dir / "cut.psv");
+  const std::string bytes = readText(dir / "cut.psv");
+  EXPECT_EQ(bytes[8], 2);
+  EXPECT_EQ(bytes.size(), readText(dir / "plain.psv").size() + 4 + 2 * 4 + 2 * 20);
+  const VolumeFile r = loadVolume(dir / "cut.psv");
+  EXPECT_EQ(r.volume.cutStart, vf.volume.cutStart);
+  ASSERT_EQ(r.volume.cutPlanes.size(), 2u);
+  for (size_t c = 0; c < 2; ++c) {
+    EXPECT_EQ(r.volume.cutPlanes[c].plane, vf.volume.cutPlanes[c].plane);
+    EXPECT_EQ(r.volume.cutPlanes[c].hide, vf.volume.cutPlanes[c].hide);
+  }
+  EXPECT_EQ(r.volume.tets, vf.volume.tets);
+  EXPECT_EQ(r.metadataJson, vf.metadataJson);
+}
+
 TEST(VolumeFile, Crc32MatchesTheStandardCheckValue) {
   // The CRC-32 (IEEE 802.3) check value of "123456789" is 0xCBF43926.
   EXPECT_EQ(crc32("123456789", 9), 0xCBF43926u);

@@ -676,4 +676,65 @@ TEST(ProbeVolume, EmptyAndNonFiniteQueries) {
 }
 
 }  // namespace
+// Leak cuts (applyCuts): the unit tet (0,0,0), (1,0,0), (0,1,0), (0,0,1) with one plane x = 0.5.
+namespace {
+ProbeVolume unitTetWithCut(uint32_t hide) {
+  const std::vector<Vec3> pts = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  ProbeVolume v = buildProbeVolume(tetrahedralize(pts), std::vector<ShRgb>(4));
+  v.cutStart = {0, 1};
+  v.cutPlanes = {{{1, 0, 0, 0.5f}, hide}};
+  return v;
+}
+int localIndexOf(const ProbeVolume& v, Vec3 p) {
+  for (int k = 0; k < 4; ++k)
+    if (v.position(v.tets[0][k]) == p) return k;
+  return -1;
+}
+}  // namespace
+
+TEST(LeakCuts, APlaneHidesItsVerticesFromTheQueriesOnItsSide) {
+  // Vertex (1,0,0) is on the plane's positive side; hide it from queries on the negative side.
+  ProbeVolume probe = unitTetWithCut(0);
+  const int far = localIndexOf(probe, {1, 0, 0});
+  ASSERT_GE(far, 0);
+  const ProbeVolume v = unitTetWithCut(1u << (4 + far));
+  const Vec3 behind(0.2, 0.2, 0.2);  // x < 0.5: negative side
+  const VolumeLocation plain = locate(probe, behind);
+  const VolumeLocation cut = locate(v, behind);
+  ASSERT_EQ(cut.tet, 0);
+  EXPECT_EQ(cut.weights[far], 0.0f);
+  double sum = 0;
+  for (int k = 0; k < 4; ++k) {
+    sum += cut.weights[k];
+    if (k != far) {  // the others keep their proportions
+      EXPECT_NEAR(cut.weights[k], plain.weights[k] / (1 - plain.weights[far]), 1e-6);
+    }
+  }
+  EXPECT_NEAR(sum, 1.0, 1e-6);
+  // On the positive side nothing is hidden.
+  const Vec3 front(0.6, 0.1, 0.1);
+  const VolumeLocation a = locate(probe, front), b = locate(v, front);
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(a.weights[k], b.weights[k]);
+}
+
+TEST(LeakCuts, KeptVerticesWithoutWeightShareItAndHidingAllChangesNothing) {
+  ProbeVolume probe = unitTetWithCut(0);
+  const int far = localIndexOf(probe, {1, 0, 0});
+  // Every vertex but (1,0,0) hidden from the positive side: at (0.6, 0, 0), on the edge from
+  // (0,0,0), it keeps all of the weight.
+  const ProbeVolume keepFar = unitTetWithCut(0xFu & ~(1u << far));
+  const VolumeLocation onEdge = locate(keepFar, {0.6, 0, 0});
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(onEdge.weights[k], k == far ? 1.0f : 0.0f);
+  // Every vertex but (0,0,0) hidden from the positive side: at (0.6, 0.4, 0), on the edge
+  // (1,0,0)-(0,1,0), (0,0,0) has weight 0, so it gets all of it (the kept share equally).
+  const int origin = localIndexOf(probe, {0, 0, 0});
+  const ProbeVolume keepOrigin = unitTetWithCut(0xFu & ~(1u << origin));
+  const VolumeLocation onFace = locate(keepOrigin, {0.6, 0.4, 0});
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(onFace.weights[k], k == origin ? 1.0f : 0.0f);
+  // Every vertex hidden: the weights stay barycentric.
+  const ProbeVolume all = unitTetWithCut(0xF);
+  const VolumeLocation a = locate(probe, {0.7, 0.1, 0.1}), b = locate(all, {0.7, 0.1, 0.1});
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(a.weights[k], b.weights[k]);
+}
+
 }  // namespace ps

@@ -78,18 +78,28 @@ write("ps-locked-string.json", js(probe_set(probes=[probe(0, locked="yes")])))
 
 
 def volume(P=4, T=1, H=4, positions=None, tets=None, neighbors=None, order=2, version=1,
-           magic=b"PSVOLUM1", fix_crc=True, counts=None):
+           magic=b"PSVOLUM1", fix_crc=True, counts=None, cut_start=None, cuts=None):
+    """Version 2 (leak cuts) when cuts is given: a list of (nx, ny, nz, d, hide mask)."""
     positions = positions or [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1][: 3 * P] + [0.5] * max(0, 3 * P - 12)
     tets = tets or [1, 2, 3, 0] * T
     neighbors = neighbors or [-1, -1, -1, -1] * T
     meta = b'{"scene":"room.gltf"}'
     c = counts or (P, T, H, len(meta))
+    if cuts is not None:
+        version = 2 if version == 1 else version
+        cut_start = cut_start or [0] * T + [len(cuts)]
     b = magic + struct.pack("<6I", version, order, *c)
+    if cuts is not None:
+        b += struct.pack("<I", len(cuts))
     b += struct.pack(f"<{3 * P}f", *positions)
     b += struct.pack(f"<{27 * P}f", *[0.01 * i for i in range(27 * P)])
     b += struct.pack(f"<{4 * T}i", *tets) + struct.pack(f"<{4 * T}i", *neighbors)
     b += struct.pack(f"<{9 * T}f", *([1, 0, 0, 0, 1, 0, 0, 0, 1] * T))
     b += struct.pack(f"<{2 * H}i", *sum(([0, k] for k in range(H)), []))
+    if cuts is not None:
+        b += struct.pack(f"<{len(cut_start)}I", *cut_start)
+        for nx, ny, nz, d, hide in cuts:
+            b += struct.pack("<4fI", nx, ny, nz, d, hide)
     b += meta
     return b + struct.pack("<I", zlib.crc32(b) if fix_crc else zlib.crc32(b) ^ 1)
 
@@ -113,6 +123,17 @@ write("vol-tet-index.psv", volume(tets=[1, 2, 3, 4]))
 write("vol-negative-tet-index.psv", volume(tets=[1, 2, -3, 0]))
 write("vol-neighbor-index.psv", volume(neighbors=[-1, 7, -1, -1]))
 write("vol-three-probes.psv", volume(P=3, tets=[1, 2, 0, 0]))
+# Version 2: leak cuts after the hull faces.
+write("vol-cut-start-not-from-zero.psv", volume(cuts=[(1, 0, 0, 0.5, 1)], cut_start=[1, 1]))
+write("vol-cut-start-decreasing.psv",
+      volume(P=5, T=2, H=4, positions=[0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1],
+             tets=[1, 2, 3, 0, 1, 3, 2, 4], neighbors=[-1, -1, -1, 1, -1, -1, -1, 0],
+             cuts=[(1, 0, 0, 0.5, 1)], cut_start=[0, 2, 1]))
+write("vol-cut-too-many-planes.psv", volume(cuts=[(1, 0, 0, 0.1 * k, 1) for k in range(9)]))
+write("vol-cut-nan-plane.psv", volume(cuts=[(float("nan"), 0, 0, 0.5, 1)]))
+write("vol-cut-zero-normal.psv", volume(cuts=[(0, 0, 0, 0.5, 1)]))
+write("vol-cut-hide-mask.psv", volume(cuts=[(1, 0, 0, 0.5, 0x100)]))
+write("vol-cut-truncated.psv", volume(cuts=[(1, 0, 0, 0.5, 1)])[:-30])
 
 # ---- glTF --------------------------------------------------------------------------------
 
@@ -166,6 +187,7 @@ seed("probeset", "good.json", js(probe_set(importance_volumes=[
 seed("probeset", "version1.json", js(dict((k, v) for k, v in probe_set(version=1).items()
                                           if k not in ("scene_hash", "importance_volumes"))))
 seed("volume", "one-tet.psv", good)
+seed("volume", "one-tet-cut.psv", volume(cuts=[(1, 0, 0, 0.25, 0x21)]))
 # Two tets sharing a face: positions 0..4, tets (1,2,3,0) and (1,3,2,4).
 seed("volume", "two-tets.psv", volume(
     P=5, T=2, H=4, positions=[0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1],
