@@ -36,6 +36,8 @@ void registerBake(CLI::App& app) {
     std::string cacheDir;
     bool noCache = false;
     bool noLeakRefine = false;
+    bool noLeakCuts = false;
+    bool leakCutProbes = false;
     bool fit = false;
     FitSettings fitSettings;
   };
@@ -52,6 +54,13 @@ void registerBake(CLI::App& app) {
                 "Capture every probe, neither reading nor writing a cache");
   cmd->add_flag("--no-leak-refine", o->noLeakRefine,
                 "Do not add probes where the probe mesh's edges cross geometry (Sukys 3.2.2)");
+  cmd->add_flag("--no-leak-cuts", o->noLeakCuts,
+                "With leak refinement, only Sukys's probes: no leak cuts (planes that keep a "
+                "query from interpolating probes behind the surfaces in its tetrahedron)");
+  cmd->add_flag("--leak-cut-probes", o->leakCutProbes,
+                "Also add probes where the cuts cannot end a leak: at the hull of the domain's "
+                "valid points and at points the cuts leave leaking (fewer leaks, more probes, "
+                "and on the bundled scenes a higher rel_rmse; BENCHMARKS.md)");
   cmd->add_flag("--fit", o->fit,
                 "Least-squares probe values: fit the volume's interpolation to captures at random "
                 "points of the domain instead of keeping each probe's own capture (lower error, "
@@ -83,6 +92,8 @@ void registerBake(CLI::App& app) {
     bs.capture.seed = o->seed;
     bs.sceneHash = sceneContentHash(set.scenePath);
     bs.leakRefine = !o->noLeakRefine;
+    bs.leakCuts = !o->noLeakCuts;
+    bs.leakCutProbes = o->leakCutProbes;
     if (o->fit) {
       bs.fit = o->fitSettings;
       bs.fit->seed = o->seed;
@@ -113,6 +124,18 @@ void registerBake(CLI::App& app) {
           "tetrahedra with a leaking edge %.2f %% -> %.2f %%\n",
           r.leakProbesAdded, r.leakSeconds, r.leakingEdgesBefore, r.leakingEdgesAfter,
           100 * r.leakingVolumeFractionBefore, 100 * r.leakingVolumeFractionAfter);
+    if (r.leakCuts) {
+      std::printf(
+          "leak cuts: %zu planes in %zu tetrahedra (%.3f s); of %zu valid points drawn in and "
+          "beyond the tetrahedra, %zu interpolated a probe they cannot see, %zu do after the "
+          "cuts (in %zu tetrahedra)\n",
+          r.leakCuts->planes, r.leakCuts->tetsCut, r.leakCuts->seconds, r.leakCuts->samples,
+          r.leakCuts->hiddenSamplesBefore, r.leakCuts->hiddenSamplesAfter,
+          r.leakCuts->tetsUnresolved);
+      if (bs.leakCutProbes)
+        std::printf("  of the probes leak refinement added, %zu are for the cuts\n",
+                    r.leakCutProbesAdded);
+    }
     if (r.fit)
       std::printf(
           "least-squares fit: %zu points at %d spp, %d iterations, misfit at the points %.4f -> "

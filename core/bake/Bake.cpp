@@ -37,19 +37,33 @@ BakeProbes gatherAcceptedProbes(const ProbeSet& set) {
 }
 
 void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSettings& settings,
-                     BakeResult& r) {
+                     const LightingRig& rig, std::span<const Bounds3> domain, BakeResult& r) {
   if (!settings.leakRefine) return;
+  const auto start = std::chrono::steady_clock::now();
+  auto append = [&](const std::vector<Vec3>& added) {
+    for (const Vec3& p : added) {
+      probes.positions.push_back(p);
+      probes.ids.push_back(0);
+    }
+  };
   const LeakRefineResult leak = refineLeaks(tracer, probes.positions, settings.leakRefineSettings);
-  for (const Vec3& p : leak.added) {
-    probes.positions.push_back(p);
-    probes.ids.push_back(0);
+  append(leak.added);
+  // The hull and the cuts' probes after Sukys's refinement: the edges they make are the cuts'.
+  std::vector<Vec3> hull;
+  LeakCutRefineResult forCuts;
+  if (settings.leakCuts && settings.leakCutProbes) {
+    hull = coverDomain(tracer, rig, probes.positions, domain, settings.leakCutSettings);
+    append(hull);
+    forCuts = refineForLeakCuts(tracer, rig, probes.positions, domain, settings.leakCutSettings);
+    append(forCuts.added);
   }
-  r.leakProbesAdded = leak.added.size();
+  r.leakProbesAdded = leak.added.size() + hull.size() + forCuts.added.size();
+  r.leakCutProbesAdded = hull.size() + forCuts.added.size();
   r.leakingEdgesBefore = leak.leakingEdgesBefore;
   r.leakingEdgesAfter = leak.leakingEdgesAfter;
   r.leakingVolumeFractionBefore = leak.leakingVolumeFractionBefore;
   r.leakingVolumeFractionAfter = leak.leakingVolumeFractionAfter;
-  r.leakSeconds = leak.seconds;
+  r.leakSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& tracer,
@@ -98,7 +112,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
     checkFitSettings(*fit, probes.positions.size());
     checkFitDomain(tracer, set.rig, importanceBoxes(set.importanceVolumes), *fit);
   }
-  leakRefineStage(probes, tracer, settings, r);
+  leakRefineStage(probes, tracer, settings, set.rig, importanceBoxes(set.importanceVolumes), r);
   if (fit) checkFitSettings(*fit, probes.positions.size());  // with the added probes
   r.probes = probes.positions.size();
   auto t0 = std::chrono::steady_clock::now();
@@ -110,6 +124,10 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   auto t1 = std::chrono::steady_clock::now();
   r.file.volume = volumeFromProbes(probes.positions, probes.sh);
   auto t2 = std::chrono::steady_clock::now();
+  // Before the fit, which then fits the values that the cut interpolation reads.
+  if (settings.leakRefine && settings.leakCuts)
+    r.leakCuts = computeLeakCuts(tracer, r.file.volume, importanceBoxes(set.importanceVolumes),
+                                 settings.leakCutSettings);
   r.captureSeconds = std::chrono::duration<double>(t1 - t0).count();
   r.tetraSeconds = std::chrono::duration<double>(t2 - t1).count();
   if (fit) {
@@ -126,6 +144,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   meta["capture_spp"] = settings.capture.samplesPerProbe;
   meta["probe_ids"] = probes.ids;
   meta["leak_probes_added"] = r.leakProbesAdded;
+  if (r.leakCuts) meta["leak_cut_planes"] = r.leakCuts->planes;
   if (fit)
     meta["fit"] = {{"method", "least-squares"},
                    {"points_per_probe", fit->pointsPerProbe},

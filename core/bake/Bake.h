@@ -3,7 +3,8 @@
 // the runtime volume (DESIGN.md data flow, last stage). Stages, in order, each a function below
 // so that more can be slotted in: gather the accepted probes -> leak refinement (adds probes
 // where the mesh's edges cross geometry; geometry only, so before the capture) -> capture
-// (through the capture cache, the added probes too) -> tetrahedralize -> metadata.
+// (through the capture cache, the added probes too) -> tetrahedralize -> leak cuts (with leak
+// refinement) -> least-squares fit (when asked) -> metadata.
 #include <filesystem>
 #include <optional>
 #include <span>
@@ -31,7 +32,15 @@ struct BakeSettings {
   uint64_t sceneHash = 0;
   /// Leak refinement (Sukys 3.2.2) before the capture; on by default (`bake --no-leak-refine`).
   bool leakRefine = true;
+  /// With leak refinement: the leak cuts after the tetrahedralization (computeLeakCuts);
+  /// `bake --no-leak-cuts` turns them off, leaving Sukys's refinement alone.
+  bool leakCuts = true;
+  /// With the cuts: probes where they cannot end a leak (coverDomain, refineForLeakCuts); off by
+  /// default (`bake --leak-cut-probes`): on the bundled scenes they end nearly every leak the
+  /// cuts leave but raise rel_rmse (BENCHMARKS.md).
+  bool leakCutProbes = false;
   LeakRefineSettings leakRefineSettings;
+  LeakCutSettings leakCutSettings;
   /// Least-squares probe values (LeastSquaresFit.h) after the tetrahedralization; off by
   /// default (`bake --fit`). The fit points are drawn in the set's importance volumes (the
   /// scene bounds when it has none) and are not cached.
@@ -41,12 +50,14 @@ struct BakeSettings {
 struct BakeResult {
   VolumeFile file;
   size_t probes = 0;
-  size_t captured = 0;         ///< probes traced in this bake
-  size_t cacheHits = 0;        ///< probes whose SH came from the capture cache
-  size_t leakProbesAdded = 0;  ///< probes added by leak refinement (included in `probes`)
+  size_t captured = 0;            ///< probes traced in this bake
+  size_t cacheHits = 0;           ///< probes whose SH came from the capture cache
+  size_t leakProbesAdded = 0;     ///< probes added by leak refinement (included in `probes`)
+  size_t leakCutProbesAdded = 0;  ///< of those, added for the leak cuts (refineForLeakCuts)
   size_t leakingEdgesBefore = 0, leakingEdgesAfter = 0;
   double leakingVolumeFractionBefore = 0, leakingVolumeFractionAfter = 0;
-  double leakSeconds = 0;
+  double leakSeconds = 0;                 ///< the leak refinement stage (the cuts apart)
+  std::optional<LeakCutResult> leakCuts;  ///< with leak refinement and cuts
   double captureSeconds = 0;
   double tetraSeconds = 0;
   std::optional<FitResult> fit;  ///< when BakeSettings::fit was set
@@ -62,10 +73,12 @@ struct BakeProbes {
 /// Stage 1: the accepted probes of `set`. Throws ps::ParameterError when fewer than 4.
 BakeProbes gatherAcceptedProbes(const ProbeSet& set);
 
-/// Stage 2: leak refinement (when settings.leakRefine): appends the added probes (id 0) and
-/// records the counts in r.
+/// Stage 2: leak refinement (when settings.leakRefine): Sukys's edge refinement, then the probes
+/// the leak cuts need (coverDomain and refineForLeakCuts, with the set's rig, for queries in
+/// `domain`: the importance boxes, empty for the scene bounds); appends the added probes (id 0)
+/// and records the counts in r.
 void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSettings& settings,
-                     BakeResult& r);
+                     const LightingRig& rig, std::span<const Bounds3> domain, BakeResult& r);
 
 /// Stage 3: fills `probes.sh`, from the cache where it has an entry, tracing the rest (in one
 /// captureProbes call) and storing them in the cache. Adds to r.captured / r.cacheHits.

@@ -64,15 +64,18 @@ std::optional<Vec3> DomainPoints::draw(uint64_t& rng, int validityRays,
       for (const Bounds3& o : boxes_) holding += o.contains(p) ? 1 : 0;
       if (uniform01(rng) * std::max(holding, 1) >= 1.0) continue;
     }
-    bool nearLight = false;
-    for (const Vec3& l : punctual_)
-      nearLight = nearLight || dot(p - l, p - l) < clearance_ * clearance_;
-    if (nearLight) continue;
+    if (!clearOfLights(p)) continue;
     if (backfaceFraction(tracer_, p, validityRays, splitMix64(rng)) > invalidBackfaceFraction)
       continue;
     return p;
   }
   return std::nullopt;
+}
+
+bool DomainPoints::clearOfLights(Vec3 p) const {
+  for (const Vec3& l : punctual_)
+    if (dot(p - l, p - l) < clearance_ * clearance_) return false;
+  return true;
 }
 
 }  // namespace ps

@@ -37,6 +37,9 @@ class DomainPoints {
   std::optional<Vec3> draw(uint64_t& rng, int validityRays = 32,
                            double invalidBackfaceFraction = 0.25) const;
 
+  /// True when p keeps the clearance from every point and spot light.
+  bool clearOfLights(Vec3 p) const;
+
  private:
   const Tracer& tracer_;
   std::vector<Bounds3> boxes_;

@@ -164,9 +164,13 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     ref[q] = luminance(reference->irradiance[q]);
     const VolumeLocation loc = locate(volume, points[q]);
     got[q] = luminance(interpolate(volume, loc).irradiance(normals[q]));
-    // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking).
+    // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
+    // weight 0 (cut off by a leak cut, or opposite the face a query outside the hull is
+    // clamped to) is not interpolated.
     if (loc.tet >= 0)
-      for (int32_t vi : volume.tets[size_t(loc.tet)]) {
+      for (int k = 0; k < 4; ++k) {
+        if (!(loc.weights[k] > 0)) continue;
+        const int32_t vi = volume.tets[size_t(loc.tet)][k];
         const Vec3 d = volume.position(vi) - points[q];
         const double len = length(d);
         if (len <= 2 * tracer.rayEpsilon()) continue;

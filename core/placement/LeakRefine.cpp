@@ -3,8 +3,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <unordered_map>
 
@@ -12,6 +14,7 @@
 #include "core/common/Check.h"
 #include "core/common/Error.h"
 #include "core/common/Tolerances.h"
+#include "core/eval/DomainPoints.h"
 #include "core/math/Random.h"
 #include "core/tessellation/Tetrahedralization.h"
 
@@ -273,6 +276,423 @@ LeakRefineResult refineLeaks(const Tracer& tracer, std::span<const Vec3> probes,
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
+}
+
+namespace {
+
+using PlaneCoeffs = std::array<float, 4>;  ///< (nx, ny, nz, d), as ProbeVolume::CutPlane
+
+/// A point drawn for a tet's cuts that cannot see some of the vertices it would interpolate.
+struct CutSample {
+  Vec3 p;
+  uint32_t hidden = 0;  ///< bit k: vertex k cannot be seen
+  uint32_t active = 0;  ///< bit k: vertex k has a weight (outside the hull: the face's)
+  uint32_t kept = 0xF;  ///< the vertices the cuts chosen so far keep
+};
+
+/// A candidate cut: plane `plane` hides the vertices `mask` from the queries on side
+/// `positive` (the side of a point that found them hidden by that plane's surface).
+struct CutTriple {
+  uint32_t plane;
+  bool positive;
+  uint32_t mask;
+  bool operator==(const CutTriple&) const = default;
+};
+
+/// Whether a point interpolates a vertex it cannot see, given the vertices kept for it.
+bool cutSampleLeaks(const CutSample& smp, uint32_t kept) {
+  if (kept == 0) return true;  // applyCuts keeps the weights as they were
+  // The vertices with weight; applyCuts shares it equally when the kept ones have none.
+  const uint32_t weighted = (kept & smp.active) ? kept & smp.active : kept;
+  return (weighted & smp.hidden) != 0;
+}
+
+/// Distance from p along `normal` to the far side of the domain boxes holding p (0 if none).
+double reachInDomain(std::span<const Bounds3> domain, Vec3 p, Vec3 normal) {
+  double reach = 0;
+  for (const Bounds3& box : domain) {
+    if (!box.contains(p)) continue;
+    double exit = std::numeric_limits<double>::infinity();
+    for (int axis = 0; axis < 3; ++axis) {
+      const double d = normal[axis];
+      if (d > 1e-12) exit = std::min(exit, (box.hi[axis] - p[axis]) / d);
+      if (d < -1e-12) exit = std::min(exit, (box.lo[axis] - p[axis]) / d);
+    }
+    if (std::isfinite(exit)) reach = std::max(reach, exit);
+  }
+  return reach;
+}
+
+/// One tet's cuts: the points drawn in and beyond it, the candidate planes of the surfaces that
+/// hide vertices from them, and the planes chosen.
+class TetCutter {
+ public:
+  TetCutter(const Tracer& tracer, const LeakCutSettings& s, std::span<const Bounds3> domain,
+            double samePlane, const Vec3 (&corner)[4], uint64_t seed)
+      : tracer_(tracer), s_(s), domain_(domain), samePlane_(samePlane), rng_(seed) {
+    std::copy(corner, corner + 4, corner_);
+  }
+
+  /// A hull face of the tet (the local index of the vertex opposite it): queries beyond it are
+  /// clamped to it. `perVolume`: points per cubic metre, for the count drawn beyond it.
+  void addHullFace(int opposite, double perVolume) {
+    Face face{opposite, {0, 0, 0}, {}, 0};
+    for (int k = 0, m = 0; k < 4; ++k)
+      if (k != opposite) face.f[m++] = k;
+    const Vec3* c = corner_;
+    const Vec3 n = cross(c[face.f[1]] - c[face.f[0]], c[face.f[2]] - c[face.f[0]]);
+    if (!(length(n) > 0)) return;
+    face.normal = normalize(n);
+    if (dot(face.normal, c[opposite] - c[face.f[0]]) > 0) face.normal = -face.normal;
+    const Vec3 centre = (c[face.f[0]] + c[face.f[1]] + c[face.f[2]]) / 3;
+    const double prism = 0.5 * length(n) * reachInDomain(domain_, centre, face.normal);
+    face.count =
+        int(std::clamp(std::round(perVolume * prism), double(s_.samplesPerTet), double(1 << 20)));
+    faces_.push_back(face);
+  }
+
+  /// `share` times `count` points uniform in the tet, and as many in proportion beyond each hull
+  /// face (a point of the face moved out along its normal, up to where the domain ends).
+  void draw(int count, double share) {
+    for (int i = 0, n = int(std::round(count * share)); i < n; ++i) {
+      // Uniform in the tetrahedron: barycentrics from a flat Dirichlet (normalised exponentials).
+      double w[4], sum = 0;
+      for (double& x : w) sum += x = -std::log(1.0 - uniform01(rng_));
+      Vec3 p;
+      for (int k = 0; k < 4; ++k) p += corner_[k] * (w[k] / sum);
+      test(p, 0xF);
+    }
+    for (const Face& face : faces_)
+      for (int i = 0, n = int(std::round(face.count * share)); i < n; ++i) {
+        double a = uniform01(rng_), b = uniform01(rng_);
+        if (a + b > 1) a = 1 - a, b = 1 - b;
+        const Vec3* c = corner_;
+        const Vec3 onFace =
+            c[face.f[0]] + (c[face.f[1]] - c[face.f[0]]) * a + (c[face.f[2]] - c[face.f[0]]) * b;
+        const double reach = reachInDomain(domain_, onFace, face.normal);
+        if (!(reach > 0)) continue;
+        test(onFace + face.normal * (uniform01(rng_) * reach), 0xFu & ~(1u << face.opposite));
+      }
+  }
+
+  /// Greedily: the (plane, side, vertices) that most lowers the count of leaking points, while
+  /// one does and the tet has room for its plane. A point behind two surfaces (a wall and a
+  /// cabinet) needs a plane for each before it stops leaking, so a cut that lowers no count but
+  /// hides more (point, hidden vertex) pairs is taken too. Returns the points still leaking.
+  size_t choose(std::vector<ProbeVolume::CutPlane>& planes) {
+    std::vector<std::vector<char>> sideOf(candidates_.size());
+    for (size_t c = 0; c < candidates_.size(); ++c) {
+      sideOf[c].resize(hidden_.size());
+      for (size_t i = 0; i < hidden_.size(); ++i)
+        sideOf[c][i] = detail::cutSide(candidates_[c], hidden_[i].p);
+    }
+    std::vector<int> slot(candidates_.size(), -1);  // index in `planes`, once chosen
+    std::vector<char> applied(triples_.size(), 0);
+    size_t leaking = hidden_.size();
+    while (leaking > 0) {
+      long bestGain = 0, bestPairs = 0;
+      size_t best = triples_.size();
+      for (size_t j = 0; j < triples_.size(); ++j) {
+        const CutTriple& tr = triples_[j];
+        if (applied[j] || (slot[tr.plane] < 0 && planes.size() >= size_t(s_.maxPlanesPerTet)))
+          continue;
+        long gain = 0, pairs = 0;
+        for (size_t i = 0; i < hidden_.size(); ++i) {
+          const CutSample& smp = hidden_[i];
+          if (bool(sideOf[tr.plane][i]) != tr.positive || !(smp.kept & tr.mask)) continue;
+          gain +=
+              long(cutSampleLeaks(smp, smp.kept)) - long(cutSampleLeaks(smp, smp.kept & ~tr.mask));
+          pairs += std::popcount(smp.kept & tr.mask & smp.hidden);
+        }
+        // Ties go to the first: a vertex alone comes before the masks that hold it.
+        if (gain > bestGain || (gain == bestGain && pairs > bestPairs)) {
+          bestGain = gain;
+          bestPairs = pairs;
+          best = j;
+        }
+      }
+      if (best == triples_.size()) break;  // no cut helps
+      const CutTriple& tr = triples_[best];
+      applied[best] = 1;
+      if (slot[tr.plane] < 0) {
+        slot[tr.plane] = int(planes.size());
+        planes.push_back({candidates_[tr.plane], 0});
+      }
+      planes[size_t(slot[tr.plane])].hide |= tr.mask << (tr.positive ? 0 : 4);
+      for (size_t i = 0; i < hidden_.size(); ++i)
+        if (bool(sideOf[tr.plane][i]) == tr.positive) hidden_[i].kept &= ~tr.mask;
+      leaking -= size_t(bestGain);
+    }
+    return leaking;
+  }
+
+  /// Up to `count` points still leaking, spread out: each the farthest from the vertices and the
+  /// points taken before it.
+  std::vector<Vec3> leakingPoints(size_t count) const {
+    std::vector<Vec3> taken(corner_, corner_ + 4), out;
+    for (size_t pick = 0; pick < count; ++pick) {
+      double farthest = -1;
+      Vec3 best;
+      for (const CutSample& smp : hidden_) {
+        if (!cutSampleLeaks(smp, smp.kept)) continue;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const Vec3& c : taken) nearest = std::min(nearest, length(c - smp.p));
+        if (nearest > farthest) {
+          farthest = nearest;
+          best = smp.p;
+        }
+      }
+      if (!(farthest > 0)) break;
+      taken.push_back(best);
+      out.push_back(best);
+    }
+    return out;
+  }
+
+  size_t samples() const { return samples_; }  ///< valid points drawn
+  size_t hiddenSamples() const { return hidden_.size(); }
+
+ private:
+  struct Face {
+    int opposite, f[3];
+    Vec3 normal;
+    int count;  ///< points drawn beyond it, by the volume there (area x reach at its centre)
+  };
+
+  /// Traces from p to the active vertices; keeps p, with the candidate cuts it asks for, when a
+  /// vertex is hidden and p is valid.
+  void test(Vec3 p, uint32_t active) {
+    CutSample smp{p, 0, active};
+    PlaneCoeffs hitPlanes[4];
+    for (int k = 0; k < 4; ++k) {
+      if (!(active >> k & 1)) continue;
+      const Vec3 d = corner_[k] - p;
+      const double len = length(d);
+      if (len <= 2 * tracer_.rayEpsilon()) continue;
+      const std::optional<Hit> hit =
+          tracer_.intersect(Ray{p, d / len, tracer_.rayEpsilon(), len - tracer_.rayEpsilon()});
+      if (!hit) continue;
+      // The plane of the surface in the way: p and the vertex are on either side of it.
+      const Vec3 n = hit->geometricNormal, at = p + d / len * hit->t;
+      hitPlanes[k] = {float(n.x), float(n.y), float(n.z), float(dot(n, at))};
+      smp.hidden |= 1u << k;
+    }
+    const uint64_t validitySeed = splitMix64(rng_);
+    if (!smp.hidden) {
+      ++samples_;
+      return;
+    }
+    // A point inside geometry is no query's; its "hidden" vertices are no leak.
+    if (backfaceFraction(tracer_, p, s_.validityRays, validitySeed) > s_.invalidBackfaceFraction)
+      return;
+    ++samples_;
+    hidden_.push_back(smp);
+    uint32_t planeOf[4] = {0, 0, 0, 0};
+    for (int k = 0; k < 4; ++k) {
+      if (!(smp.hidden >> k & 1)) continue;
+      // One plane per surface: hits on one wall give one plane to within rounding.
+      const PlaneCoeffs& h = hitPlanes[k];
+      auto same = std::find_if(candidates_.begin(), candidates_.end(), [&](const PlaneCoeffs& c) {
+        return double(c[0]) * h[0] + double(c[1]) * h[1] + double(c[2]) * h[2] > 1 - 1e-6 &&
+               std::abs(double(c[3]) - h[3]) <= samePlane_;
+      });
+      planeOf[k] = uint32_t(same - candidates_.begin());
+      if (same == candidates_.end()) candidates_.push_back(h);
+    }
+    // Per plane, each vertex it hides from p alone and all of them together (a point behind a
+    // wall usually has two or three vertices across it, and needs them all hidden).
+    auto add = [&](const CutTriple& triple) {
+      if (std::find(triples_.begin(), triples_.end(), triple) == triples_.end())
+        triples_.push_back(triple);
+    };
+    for (int k = 0; k < 4; ++k) {
+      if (!(smp.hidden >> k & 1)) continue;
+      uint32_t together = 0;
+      for (int j = 0; j < 4; ++j)
+        if ((smp.hidden >> j & 1) && planeOf[j] == planeOf[k]) together |= 1u << j;
+      const bool side = detail::cutSide(candidates_[planeOf[k]], p);
+      add({planeOf[k], side, 1u << k});
+      add({planeOf[k], side, together});
+    }
+  }
+
+  const Tracer& tracer_;
+  const LeakCutSettings& s_;
+  std::span<const Bounds3> domain_;
+  double samePlane_;
+  uint64_t rng_;
+  Vec3 corner_[4];
+  std::vector<Face> faces_;
+  std::vector<CutSample> hidden_;
+  std::vector<PlaneCoeffs> candidates_;
+  std::vector<CutTriple> triples_;
+  size_t samples_ = 0;
+};
+
+}  // namespace
+
+// Sukys 3.2.2 detects the leaks (edges crossing geometry); refinement alone cannot end them, as
+// any tetrahedralization of probes on both sides of a wall has tetrahedra across it. The cuts
+// split those tetrahedra along the surfaces that hide a vertex.
+LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<const Bounds3> domain,
+                              const LeakCutSettings& s) {
+  if (s.samplesPerTet < 1 || s.maxPlanesPerTet < 1 ||
+      s.maxPlanesPerTet > int(ProbeVolume::kMaxCutsPerTet) || s.validityRays < 1 ||
+      s.denseFactor < 1)
+    throw ParameterError(
+        "leak cuts: samples per tetrahedron, validity rays and the dense factor must be >= 1, "
+        "planes per tetrahedron in [1, " +
+        std::to_string(ProbeVolume::kMaxCutsPerTet) + "]");
+  if (domain.empty()) domain = std::span<const Bounds3>(&tracer.scene().bounds, 1);
+  // Planes closer than this (and parallel) are one surface's.
+  const double samePlane = 1e-5 * tracer.scene().bounds.diagonal();
+  const auto start = std::chrono::steady_clock::now();
+  // Hull faces by tet: queries outside the hull are clamped to them (locate()).
+  std::vector<std::vector<int>> hullFacesOf(v.tets.size());
+  for (const auto& [t, opposite] : v.hullFaces) hullFacesOf[size_t(t)].push_back(opposite);
+  // Points per cubic metre: the total shared out by volume (a tet gets at least samplesPerTet).
+  std::vector<double> volume(v.tets.size());
+  double totalVolume = 0;
+  for (size_t t = 0; t < v.tets.size(); ++t) {
+    const Vec3 a = v.position(v.tets[t][3]);
+    volume[t] = std::abs(dot(v.position(v.tets[t][0]) - a,
+                             cross(v.position(v.tets[t][1]) - a, v.position(v.tets[t][2]) - a))) /
+                6;
+    totalVolume += volume[t];
+  }
+  const double perVolume = totalVolume > 0 ? double(s.samplesTotal) / totalVolume : 0.0;
+  struct TetCuts {
+    std::vector<ProbeVolume::CutPlane> planes;
+    size_t samples = 0, hiddenBefore = 0, hiddenAfter = 0;
+    std::vector<Vec3> unresolved;
+  };
+  std::vector<TetCuts> out(v.tets.size());
+  tbb::parallel_for(size_t(0), v.tets.size(), [&](size_t t) {
+    Vec3 corner[4];
+    for (int k = 0; k < 4; ++k) corner[k] = v.position(v.tets[t][k]);
+    TetCutter cutter(tracer, s, domain, samePlane, corner, streamSeed(s.seed, t));
+    for (int opposite : hullFacesOf[t]) cutter.addHullFace(opposite, perVolume);
+    const int count = int(
+        std::clamp(std::round(perVolume * volume[t]), double(s.samplesPerTet), double(1 << 20)));
+    cutter.draw(count, 1.0);
+    // Where a leak shows, look closer: the cut must hold for the whole tet, not only the
+    // points that found it.
+    if (cutter.hiddenSamples() > 0)
+      cutter.draw(count, std::max(1.0, double(s.samplesPerTet * s.denseFactor) / count) - 1.0);
+    TetCuts& r = out[t];
+    r.hiddenBefore = cutter.hiddenSamples();
+    r.hiddenAfter = cutter.choose(r.planes);
+    r.samples = cutter.samples();
+    if (r.hiddenAfter > 0) r.unresolved = cutter.leakingPoints(s.unresolvedPerTet);
+  });
+  LeakCutResult result;
+  v.cutStart.assign(v.tets.size() + 1, 0);
+  v.cutPlanes.clear();
+  for (size_t t = 0; t < out.size(); ++t) {
+    v.cutPlanes.insert(v.cutPlanes.end(), out[t].planes.begin(), out[t].planes.end());
+    v.cutStart[t + 1] = uint32_t(v.cutPlanes.size());
+    result.tetsCut += !out[t].planes.empty();
+    result.samples += out[t].samples;
+    result.hiddenSamplesBefore += out[t].hiddenBefore;
+    result.hiddenSamplesAfter += out[t].hiddenAfter;
+    result.unresolved.insert(result.unresolved.end(), out[t].unresolved.begin(),
+                             out[t].unresolved.end());
+    result.tetsUnresolved += !out[t].unresolved.empty();
+  }
+  result.planes = v.cutPlanes.size();
+  if (v.cutPlanes.empty()) v.cutStart.clear();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+LeakCutRefineResult refineForLeakCuts(const Tracer& tracer, const LightingRig& rig,
+                                      std::span<const Vec3> probes, std::span<const Bounds3> domain,
+                                      const LeakCutSettings& s) {
+  if (s.refineRounds < 0)
+    throw ParameterError("leak cuts: refinement rounds must be >= 0, got " +
+                         std::to_string(s.refineRounds));
+  const auto start = std::chrono::steady_clock::now();
+  const DomainPoints clearance(tracer, rig, domain, kDefaultLightClearanceRelative);
+  LeakCutRefineResult r;
+  std::vector<Vec3> all(probes.begin(), probes.end());
+  // Two probes closer than this are one (a millimetre in a 10 m scene).
+  const double minSpacing = 1e-4 * tracer.scene().bounds.diagonal();
+  // Each round's cuts are those bake computes on the same probes (same seed), so the round
+  // with the fewest points still leaking is kept: a probe added for one leak can make another.
+  size_t bestLeaking = std::numeric_limits<size_t>::max(), bestAdded = 0;
+  for (int round = 0; round <= s.refineRounds; ++round) {
+    const Tetrahedralization t = tetrahedralize(all);
+    ProbeVolume v = buildProbeVolume(t, std::vector<ShRgb>(t.vertices.size()));
+    const LeakCutResult cuts = computeLeakCuts(tracer, v, domain, s);
+    ++r.rounds;
+    if (cuts.hiddenSamplesAfter < bestLeaking) {
+      bestLeaking = cuts.hiddenSamplesAfter;
+      bestAdded = r.added.size();
+      r.unresolvedTets = cuts.tetsUnresolved;
+    }
+    if (cuts.unresolved.empty() || round == s.refineRounds || r.added.size() >= s.maxAdded) break;
+    PointGrid grid(std::max(minSpacing, 1e-12));
+    for (size_t i = 0; i < all.size(); ++i) grid.insert(all[i], int32_t(i));
+    size_t addedThisRound = 0;
+    for (const Vec3& p : cuts.unresolved) {
+      if (r.added.size() >= s.maxAdded) break;
+      if (!clearance.clearOfLights(p)) continue;
+      if (grid.nearestWithin(p, minSpacing, [](Vec3) { return true; }) >= 0) continue;
+      grid.insert(p, int32_t(all.size()));
+      all.push_back(p);
+      r.added.push_back(p);
+      ++addedThisRound;
+    }
+    if (addedThisRound == 0) break;
+  }
+  r.added.resize(bestAdded);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+std::vector<Vec3> coverDomain(const Tracer& tracer, const LightingRig& rig,
+                              std::span<const Vec3> probes, std::span<const Bounds3> domain,
+                              const LeakCutSettings& s) {
+  if (s.hullPoints < 0 || !(s.hullSpacingRelative >= 0))
+    throw ParameterError("leak cuts: hull points and spacing must be >= 0");
+  std::vector<Vec3> added;
+  if (s.hullPoints == 0) return added;
+  const DomainPoints points(tracer, rig, domain, kDefaultLightClearanceRelative);
+  std::vector<Vec3> drawn(size_t(s.hullPoints));
+  std::vector<char> found(drawn.size(), 0);
+  tbb::parallel_for(size_t(0), drawn.size(), [&](size_t i) {
+    uint64_t rng = streamSeed(s.seed ^ 0x68756c6cull, i);
+    if (const std::optional<Vec3> p = points.draw(rng, s.validityRays, s.invalidBackfaceFraction)) {
+      drawn[i] = *p;
+      found[i] = 1;
+    }
+  });
+  std::vector<Vec3> all(probes.begin(), probes.end());
+  for (size_t i = 0; i < drawn.size(); ++i)
+    if (found[i]) all.push_back(drawn[i]);
+  const Tetrahedralization t = tetrahedralize(all);
+  std::vector<char> onHull(t.vertices.size(), 0);
+  for (size_t k = 0; k < t.tets.size(); ++k)
+    for (int i = 0; i < 4; ++i)
+      if (t.neighbors[k][i] < 0)
+        for (int j = 0; j < 4; ++j)
+          if (j != i) onHull[size_t(t.tets[k][j])] = 1;
+  Bounds3 box;
+  if (domain.empty()) box = tracer.scene().bounds;
+  for (const Bounds3& b : domain) {
+    box.extend(b.lo);
+    box.extend(b.hi);
+  }
+  const double spacing = s.hullSpacingRelative * box.diagonal();
+  PointGrid grid(std::max(spacing, 1e-9));
+  for (size_t i = 0; i < probes.size(); ++i) grid.insert(probes[i], int32_t(i));
+  for (size_t i = probes.size(); i < all.size(); ++i) {
+    if (!onHull[size_t(t.vertexOfInput[i])]) continue;
+    if (grid.nearestWithin(all[i], spacing, [](Vec3) { return true; }) >= 0) continue;
+    grid.insert(all[i], int32_t(i));
+    added.push_back(all[i]);
+  }
+  return added;
 }
 
 }  // namespace ps

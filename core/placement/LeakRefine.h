@@ -9,7 +9,9 @@
 
 #include "core/common/Progress.h"
 #include "core/math/Vec3.h"
+#include "core/scene/LightingRig.h"
 #include "core/trace/Tracer.h"
+#include "core/traversal/ProbeVolume.h"
 
 namespace ps {
 
@@ -75,5 +77,94 @@ size_t countLeakingEdges(const Tracer& tracer, std::span<const Vec3> probes);
 LeakRefineResult refineLeaks(const Tracer& tracer, std::span<const Vec3> probes,
                              const LeakRefineSettings& settings = {},
                              const ProgressFn& progress = {});
+
+/// Leak cuts. Refinement leaves the tetrahedra between the probe layers on each side of a wall
+/// crossing it: a Delaunay mesh must span the wall, so a query in that slab (or in a tetrahedron
+/// reaching past the layers where they are sparse) still interpolates a probe behind the wall.
+/// A cut is a plane through the surface such a probe is hidden by: the query then interpolates
+/// only its tetrahedron's probes on its own side (applyCuts in core/traversal/ProbeVolume.h),
+/// one dot product per plane at run time.
+struct LeakCutSettings {
+  /// Points drawn uniformly in each tetrahedron (at least), and as many beyond each of its hull
+  /// faces (queries
+  /// there are clamped to the face); each one inside geometry is skipped, each other one that
+  /// cannot see a vertex it would interpolate asks for a cut.
+  int samplesPerTet = 32;
+  /// Points drawn in all, shared out by volume (a tetrahedron gets at least samplesPerTet):
+  /// queries are uniform in the domain, so the cuts are tested where they will be.
+  size_t samplesTotal = size_t(1) << 18;
+  /// A tetrahedron in which a point found a hidden vertex draws more, up to this many times
+  /// samplesPerTet.
+  int denseFactor = 8;
+  /// Planes per tetrahedron at most (<= ProbeVolume::kMaxCutsPerTet).
+  int maxPlanesPerTet = 8;
+  /// Validity of a sample that sees a vertex hidden (Kontkanen & Laine sec. 5).
+  int validityRays = 16;
+  double invalidBackfaceFraction = 0.25;  ///< tol::kDefaultInvalidBackfaceFraction
+  uint64_t seed = 1;
+  /// refineForLeakCuts: rounds of (tetrahedralize, cut, add a probe in each tetrahedron the
+  /// cuts leave leaking) at most, and the probes it may add in all.
+  int refineRounds = 8;
+  size_t unresolvedPerTet = 1;
+  /// coverDomain: valid points drawn in the domain, and the spacing (relative to the domain's
+  /// diagonal) below which a point of their hull adds no probe.
+  int hullPoints = 8192;
+  double hullSpacingRelative = 0.06;
+  size_t maxAdded = 10000;
+};
+
+struct LeakCutResult {
+  size_t tetsCut = 0;  ///< tetrahedra that got at least one plane
+  size_t planes = 0;
+  /// Valid samples that interpolate a vertex they cannot see, before and after the cuts.
+  size_t hiddenSamplesBefore = 0;
+  size_t hiddenSamplesAfter = 0;
+  size_t samples = 0;  ///< valid samples drawn
+  /// Per tetrahedron the cuts leave leaking, up to unresolvedPerTet of its points that still
+  /// interpolate a probe they cannot see (each the farthest from the tetrahedron's vertices and
+  /// those before it), in tet order.
+  std::vector<Vec3> unresolved;
+  size_t tetsUnresolved = 0;
+  double seconds = 0;
+};
+
+/// Fills v.cutStart and v.cutPlanes (replacing any cuts it had). Per tetrahedron, greedily: the
+/// candidate planes are those of the surfaces hit by the rays from its samples to the vertices
+/// they cannot see; the plane that leaves the fewest samples interpolating a hidden vertex is
+/// added while it lowers that count, up to the cap. Deterministic for a seed. Throws
+/// ps::ParameterError for settings out of range.
+/// `domain`: where queries can be (the importance volumes' boxes; empty: the scene bounds),
+/// which bounds the points drawn outside the hull.
+LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<const Bounds3> domain,
+                              const LeakCutSettings& settings = {});
+
+/// Queries outside the probes' convex hull are clamped to a hull face, whose probes may all be
+/// hidden from them (the floor band of a room under a hull face that spans two rooms): probes
+/// are added at the vertices of the convex hull of the probes and `hullPoints` valid points of
+/// the domain (each farther than the spacing from every probe), so that the hull holds nearly
+/// all of the domain's valid points. Returns the added probes. Deterministic for a seed.
+/// The points keep the clearance from the scene's and `rig`'s point and spot lights that eval's
+/// queries keep (a probe beside a lamp would spread its glare over its tetrahedra).
+std::vector<Vec3> coverDomain(const Tracer& tracer, const LightingRig& rig,
+                              std::span<const Vec3> probes, std::span<const Bounds3> domain,
+                              const LeakCutSettings& settings = {});
+
+/// Where the cuts cannot stop a leak (a query sees none of the probes its cell keeps, as beside
+/// a box whose faces' planes cut off the probes it sees, or outside the hull in a window's
+/// recess), a probe at that point ends it: rounds of tetrahedralize -> computeLeakCuts -> add
+/// the unresolved points (those not within a millimetre-scale distance of a probe), until none
+/// is left or the caps are hit. Of the rounds' probe sets, the one whose cuts leave the fewest
+/// drawn points leaking is kept (computeLeakCuts with the same settings then gives bake the
+/// same cuts). Returns the added probes, in order. Deterministic for a seed.
+struct LeakCutRefineResult {
+  std::vector<Vec3> added;
+  int rounds = 0;             ///< rounds that computed cuts
+  size_t unresolvedTets = 0;  ///< tetrahedra the cuts leave leaking, with the probes kept
+  double seconds = 0;
+};
+/// Points within eval's clearance of a point or spot light of the scene or `rig` add no probe.
+LeakCutRefineResult refineForLeakCuts(const Tracer& tracer, const LightingRig& rig,
+                                      std::span<const Vec3> probes, std::span<const Bounds3> domain,
+                                      const LeakCutSettings& settings = {});
 
 }  // namespace ps

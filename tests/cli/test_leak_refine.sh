@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Leak refinement through the CLI on two-rooms (a thin wall between a lit and a sunlit room):
 # place adds "leak" probes unless --no-leak-refine; bake refines by default; eval reports
-# leaking_fraction, lower after refinement.
+# leaking_fraction, lower after refinement, and lower again with the leak cuts (bake's default;
+# --no-leak-cuts leaves Sukys's refinement alone); info reports the cuts.
 # Usage: test_leak_refine.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
 cli="$1"; root="$2"
@@ -14,9 +15,15 @@ grep -q "leak refinement added" "$tmp/place.txt"
 "$cli" bake "$tmp/plain.json" -o "$tmp/plain.psv" --spp 128 --no-leak-refine
 "$cli" bake "$tmp/plain.json" -o "$tmp/baked-refined.psv" --spp 128 | tee "$tmp/bake.txt"
 grep -q "leak refinement added" "$tmp/bake.txt"
-"$cli" eval "$tmp/plain.psv" --queries 128 --reference-spp 128 --json >"$tmp/e-plain.json"
-"$cli" eval "$tmp/baked-refined.psv" --queries 128 --reference-spp 128 --json >"$tmp/e-refined.json"
-"$cli" info "$tmp/baked-refined.psv" >/dev/null
+grep -q "leak cuts: " "$tmp/bake.txt"
+"$cli" bake "$tmp/plain.json" -o "$tmp/sukys.psv" --spp 128 --no-leak-cuts | tee "$tmp/bake-sukys.txt"
+! grep -q "leak cuts: " "$tmp/bake-sukys.txt"
+"$cli" eval "$tmp/plain.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-plain.json"
+"$cli" eval "$tmp/sukys.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-sukys.json"
+"$cli" eval "$tmp/baked-refined.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-refined.json"
+"$cli" info "$tmp/baked-refined.psv" | tee "$tmp/info.txt"
+grep -q "leak cuts: .* planes" "$tmp/info.txt"
+! "$cli" info "$tmp/sukys.psv" | grep -q "leak cuts"
 
 python3 - "$tmp" <<'PY'
 import json, sys
@@ -28,10 +35,13 @@ leak = [p for p in refined if p["method"] == "leak"]
 assert len(leak) > 0 and len(refined) == len(plain) + len(leak), (len(plain), len(refined))
 assert all(p["score"] >= 1 for p in leak)
 ep = json.load(open(f"{tmp}/e-plain.json"))
+es = json.load(open(f"{tmp}/e-sukys.json"))
 er = json.load(open(f"{tmp}/e-refined.json"))
-assert er["probes"] > ep["probes"] == len(plain), (ep["probes"], er["probes"])
+assert er["probes"] == es["probes"] > ep["probes"] == len(plain), (ep, es, er)
 assert 0 < ep["leaking_fraction"] <= 1, ep
-assert er["leaking_fraction"] < ep["leaking_fraction"], (ep, er)
-print("leak refinement ok: +%d probes in place, leaking_fraction %.4f -> %.4f" %
-      (len(leak), ep["leaking_fraction"], er["leaking_fraction"]))
+assert es["leaking_fraction"] < ep["leaking_fraction"], (ep, es)
+assert er["leaking_fraction"] < es["leaking_fraction"] / 5, (es, er)
+print("leak refinement ok: +%d probes in place, leaking_fraction %.4f -> %.4f (Sukys) -> %.4f "
+      "(cuts)" % (len(leak), ep["leaking_fraction"], es["leaking_fraction"],
+                  er["leaking_fraction"]))
 PY

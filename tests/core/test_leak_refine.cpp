@@ -242,5 +242,82 @@ TEST(LeakRefine, BakeRefinesThroughTheCacheAndEvalLeaksLess) {
   EXPECT_GT(before.leakingFraction, 0.0);
   EXPECT_LT(after.leakingFraction, before.leakingFraction);
   EXPECT_LT(after.relRmse, before.relRmse);
+
+  // The leak cuts (on by default), and the probes for them (off by default): more queries, for
+  // the leaking fraction only (a cheap reference).
+  ASSERT_TRUE(refined.leakCuts.has_value());
+  EXPECT_GT(refined.leakCuts->planes, 0u);
+  EXPECT_EQ(refined.leakCutProbesAdded, 0u);
+  bs.leakCutProbes = true;
+  const BakeResult withProbes = bakeProbeSet(set, tracer, bs);
+  EXPECT_GT(withProbes.leakCutProbesAdded, 0u);
+  EXPECT_LT(withProbes.leakCuts->hiddenSamplesAfter,
+            withProbes.leakCuts->hiddenSamplesBefore / 100);
+  es.queries = 4096;
+  es.referenceSpp = 1;
+  const double leakingBefore =
+      evaluateVolume(tracer, set.rig, plain.file.volume, es).leakingFraction;
+  const double leakingCut =
+      evaluateVolume(tracer, set.rig, refined.file.volume, es).leakingFraction;
+  const double leakingProbes =
+      evaluateVolume(tracer, set.rig, withProbes.file.volume, es).leakingFraction;
+  std::printf(
+      "leaking at %d queries: %.5f -> %.5f with %zu cut planes -> %.5f with %zu probes for them\n",
+      es.queries, leakingBefore, leakingCut, refined.leakCuts->planes, leakingProbes,
+      withProbes.leakCutProbesAdded);
+  EXPECT_GT(leakingBefore, 0.05);
+  EXPECT_LT(leakingCut, leakingBefore / 5);
+  EXPECT_LE(leakingProbes, 0.001);
   fs::remove_all(dir);
+}
+
+// The cuts alone (no probe added), on the coarse set's mesh: the points drawn that interpolate
+// a probe behind a wall mostly stop doing so, and eval's queries leak far less.
+TEST(LeakCuts, CutsAloneEndMostLeaksOfACoarseSet) {
+  const Tracer& tracer = twoRooms().tracer;
+  const std::vector<Vec3> probes = coarseSet(tracer);
+  const Tetrahedralization t = tetrahedralize(probes);
+  const ProbeVolume plain = buildProbeVolume(t, std::vector<ShRgb>(t.vertices.size()));
+  ProbeVolume cut = plain;
+  const LeakCutResult r = computeLeakCuts(tracer, cut, {});
+  EXPECT_GT(r.tetsCut, 0u);
+  EXPECT_EQ(r.planes, cut.cutPlanes.size());
+  EXPECT_EQ(cut.cutStart.size(), cut.tets.size() + 1);
+  EXPECT_LT(r.hiddenSamplesAfter, r.hiddenSamplesBefore / 20);
+  // Deterministic.
+  ProbeVolume again = plain;
+  computeLeakCuts(tracer, again, {});
+  ASSERT_EQ(again.cutPlanes.size(), cut.cutPlanes.size());
+  for (size_t c = 0; c < cut.cutPlanes.size(); ++c) {
+    EXPECT_EQ(again.cutPlanes[c].plane, cut.cutPlanes[c].plane);
+    EXPECT_EQ(again.cutPlanes[c].hide, cut.cutPlanes[c].hide);
+  }
+  EvalSettings es;
+  es.queries = 2048;
+  es.referenceSpp = 1;
+  const double before = evaluateVolume(tracer, {}, plain, es).leakingFraction;
+  const double after = evaluateVolume(tracer, {}, cut, es).leakingFraction;
+  std::printf("coarse two-rooms set, leaking at %d queries: %.4f -> %.4f with %zu cut planes\n",
+              es.queries, before, after, r.planes);
+  EXPECT_GT(before, 0.05);
+  EXPECT_LT(after, before / 10);
+}
+
+TEST(LeakCuts, BadSettingsThrowParameterError) {
+  const Tracer& tracer = twoRooms().tracer;
+  const std::vector<Vec3> probes = coarseSet(tracer);
+  const Tetrahedralization t = tetrahedralize(probes);
+  ProbeVolume v = buildProbeVolume(t, std::vector<ShRgb>(t.vertices.size()));
+  LeakCutSettings s;
+  s.maxPlanesPerTet = 9;
+  EXPECT_THROW(computeLeakCuts(tracer, v, {}, s), ParameterError);
+  s = {};
+  s.samplesPerTet = 0;
+  EXPECT_THROW(computeLeakCuts(tracer, v, {}, s), ParameterError);
+  s = {};
+  s.refineRounds = -1;
+  EXPECT_THROW(refineForLeakCuts(tracer, {}, probes, {}, s), ParameterError);
+  s = {};
+  s.hullPoints = -1;
+  EXPECT_THROW(coverDomain(tracer, {}, probes, {}, s), ParameterError);
 }
