@@ -53,7 +53,7 @@ struct BakeResult {
   size_t captured = 0;            ///< probes traced in this bake
   size_t cacheHits = 0;           ///< probes whose SH came from the capture cache
   size_t leakProbesAdded = 0;     ///< probes added by leak refinement (included in `probes`)
-  size_t leakCutProbesAdded = 0;  ///< of those, added for the leak cuts (refineForLeakCuts)
+  size_t leakCutProbesAdded = 0;  ///< of those, added for the cuts (coverDomain, refineForLeakCuts)
   size_t leakingEdgesBefore = 0, leakingEdgesAfter = 0;
   double leakingVolumeFractionBefore = 0, leakingVolumeFractionAfter = 0;
   double leakSeconds = 0;                 ///< the leak refinement stage (the cuts apart)

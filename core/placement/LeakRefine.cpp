@@ -388,7 +388,11 @@ class TetCutter {
     }
     std::vector<int> slot(candidates_.size(), -1);  // index in `planes`, once chosen
     std::vector<char> applied(triples_.size(), 0);
-    size_t leaking = hidden_.size();
+    size_t leaking = leakingCount();
+    // The picks in order, with the count after each; the shortest prefix with the fewest is
+    // kept (picks that only hid more pairs and never led to a lower count are dropped).
+    std::vector<size_t> picks;
+    size_t bestCount = leaking, bestPicks = 0;
     while (leaking > 0) {
       long bestGain = 0, bestPairs = 0;
       size_t best = triples_.size();
@@ -422,8 +426,35 @@ class TetCutter {
       for (size_t i = 0; i < hidden_.size(); ++i)
         if (bool(sideOf[tr.plane][i]) == tr.positive) hidden_[i].kept &= ~tr.mask;
       leaking -= size_t(bestGain);
+      picks.push_back(best);
+      if (leaking < bestCount) {
+        bestCount = leaking;
+        bestPicks = picks.size();
+      }
     }
-    return leaking;
+    if (bestPicks < picks.size()) {  // replay the best prefix
+      planes.clear();
+      std::fill(slot.begin(), slot.end(), -1);
+      for (size_t k = 0; k < bestPicks; ++k) {
+        const CutTriple& tr = triples_[picks[k]];
+        if (slot[tr.plane] < 0) {
+          slot[tr.plane] = int(planes.size());
+          planes.push_back({candidates_[tr.plane], 0});
+        }
+        planes[size_t(slot[tr.plane])].hide |= tr.mask << (tr.positive ? 0 : 4);
+      }
+      for (CutSample& smp : hidden_)
+        smp.kept = detail::cutKeptVertices(planes.data(), planes.size(), smp.p);
+    }
+    PS_CHECK_EQ(leakingCount(), bestCount);
+    return bestCount;
+  }
+
+  /// Points that interpolate a vertex they cannot see, with the vertices kept for them now.
+  size_t leakingCount() const {
+    size_t n = 0;
+    for (const CutSample& smp : hidden_) n += cutSampleLeaks(smp, smp.kept);
+    return n;
   }
 
   /// Up to `count` points still leaking, spread out: each the farthest from the vertices and the
@@ -464,8 +495,9 @@ class TetCutter {
   void test(Vec3 p, uint32_t active) {
     CutSample smp{p, 0, active};
     PlaneCoeffs hitPlanes[4];
+    // Every vertex, also one without weight (beyond a hull face): a cut that hides the face's
+    // vertices gives it the weight (applyCuts).
     for (int k = 0; k < 4; ++k) {
-      if (!(active >> k & 1)) continue;
       const Vec3 d = corner_[k] - p;
       const double len = length(d);
       if (len <= 2 * tracer_.rayEpsilon()) continue;
@@ -578,9 +610,9 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
     // Where a leak shows, look closer: the cut must hold for the whole tet, not only the
     // points that found it.
     if (cutter.hiddenSamples() > 0)
-      cutter.draw(count, std::max(1.0, double(s.samplesPerTet * s.denseFactor) / count) - 1.0);
+      cutter.draw(count, std::max(1.0, double(s.samplesPerTet) * s.denseFactor / count) - 1.0);
     TetCuts& r = out[t];
-    r.hiddenBefore = cutter.hiddenSamples();
+    r.hiddenBefore = cutter.leakingCount();
     r.hiddenAfter = cutter.choose(r.planes);
     r.samples = cutter.samples();
     if (r.hiddenAfter > 0) r.unresolved = cutter.leakingPoints(s.unresolvedPerTet);
@@ -619,14 +651,18 @@ LeakCutRefineResult refineForLeakCuts(const Tracer& tracer, const LightingRig& r
   const double minSpacing = 1e-4 * tracer.scene().bounds.diagonal();
   // Each round's cuts are those bake computes on the same probes (same seed), so the round
   // with the fewest points still leaking is kept: a probe added for one leak can make another.
-  size_t bestLeaking = std::numeric_limits<size_t>::max(), bestAdded = 0;
+  double bestLeaking = std::numeric_limits<double>::infinity();
+  size_t bestAdded = 0;
   for (int round = 0; round <= s.refineRounds; ++round) {
     const Tetrahedralization t = tetrahedralize(all);
     ProbeVolume v = buildProbeVolume(t, std::vector<ShRgb>(t.vertices.size()));
     const LeakCutResult cuts = computeLeakCuts(tracer, v, domain, s);
     ++r.rounds;
-    if (cuts.hiddenSamplesAfter < bestLeaking) {
-      bestLeaking = cuts.hiddenSamplesAfter;
+    // A fraction: each round's mesh draws its own number of points.
+    const double leakingFraction =
+        cuts.samples > 0 ? double(cuts.hiddenSamplesAfter) / double(cuts.samples) : 0.0;
+    if (leakingFraction < bestLeaking) {
+      bestLeaking = leakingFraction;
       bestAdded = r.added.size();
       r.unresolvedTets = cuts.tetsUnresolved;
     }

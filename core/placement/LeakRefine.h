@@ -85,41 +85,42 @@ LeakRefineResult refineLeaks(const Tracer& tracer, std::span<const Vec3> probes,
 /// only its tetrahedron's probes on its own side (applyCuts in core/traversal/ProbeVolume.h),
 /// one dot product per plane at run time.
 struct LeakCutSettings {
-  /// Points drawn uniformly in each tetrahedron (at least), and as many beyond each of its hull
-  /// faces (queries
-  /// there are clamped to the face); each one inside geometry is skipped, each other one that
-  /// cannot see a vertex it would interpolate asks for a cut.
+  /// Points drawn uniformly in each tetrahedron (at least; in [1, 65536]), and beyond each of its
+  /// hull faces, where queries are clamped to the face, in proportion to the volume out to the
+  /// domain's edge. A point that sees every vertex counts as drawn; one that does not, only when
+  /// it is valid, and then it asks for cuts.
   int samplesPerTet = 32;
-  /// Points drawn in all, shared out by volume (a tetrahedron gets at least samplesPerTet):
-  /// queries are uniform in the domain, so the cuts are tested where they will be.
+  /// Points drawn in all, shared out by volume (a tetrahedron gets at least samplesPerTet;
+  /// at most 2^32): queries are uniform in the domain, so the cuts are tested where they will be.
   size_t samplesTotal = size_t(1) << 18;
   /// A tetrahedron in which a point found a hidden vertex draws more, up to this many times
-  /// samplesPerTet.
+  /// samplesPerTet (in [1, 1024]).
   int denseFactor = 8;
   /// Planes per tetrahedron at most (<= ProbeVolume::kMaxCutsPerTet).
   int maxPlanesPerTet = 8;
-  /// Validity of a sample that sees a vertex hidden (Kontkanen & Laine sec. 5).
+  /// Validity of a point that sees a vertex hidden (Kontkanen & Laine sec. 5).
   int validityRays = 16;
   double invalidBackfaceFraction = 0.25;  ///< tol::kDefaultInvalidBackfaceFraction
   uint64_t seed = 1;
-  /// refineForLeakCuts: rounds of (tetrahedralize, cut, add a probe in each tetrahedron the
-  /// cuts leave leaking) at most, and the probes it may add in all.
+  /// refineForLeakCuts: rounds of (tetrahedralize, cut, add probes where the cuts leave a leak)
+  /// at most, the points it takes per leaking tetrahedron and round, and the probes it may add
+  /// in all.
   int refineRounds = 8;
   size_t unresolvedPerTet = 1;
+  size_t maxAdded = 10000;
   /// coverDomain: valid points drawn in the domain, and the spacing (relative to the domain's
   /// diagonal) below which a point of their hull adds no probe.
   int hullPoints = 8192;
   double hullSpacingRelative = 0.06;
-  size_t maxAdded = 10000;
 };
 
 struct LeakCutResult {
   size_t tetsCut = 0;  ///< tetrahedra that got at least one plane
   size_t planes = 0;
-  /// Valid samples that interpolate a vertex they cannot see, before and after the cuts.
+  /// Points drawn that interpolate a vertex they cannot see, before and after the cuts.
   size_t hiddenSamplesBefore = 0;
   size_t hiddenSamplesAfter = 0;
-  size_t samples = 0;  ///< valid samples drawn
+  size_t samples = 0;  ///< points drawn that count (LeakCutSettings::samplesPerTet)
   /// Per tetrahedron the cuts leave leaking, up to unresolvedPerTet of its points that still
   /// interpolate a probe they cannot see (each the farthest from the tetrahedron's vertices and
   /// those before it), in tet order.
@@ -128,11 +129,13 @@ struct LeakCutResult {
   double seconds = 0;
 };
 
-/// Fills v.cutStart and v.cutPlanes (replacing any cuts it had). Per tetrahedron, greedily: the
-/// candidate planes are those of the surfaces hit by the rays from its samples to the vertices
-/// they cannot see; the plane that leaves the fewest samples interpolating a hidden vertex is
-/// added while it lowers that count, up to the cap. Deterministic for a seed. Throws
-/// ps::ParameterError for settings out of range.
+/// Fills v.cutStart and v.cutPlanes (replacing any cuts it had). Per tetrahedron: the candidate
+/// cuts come from the surfaces hit by the rays from its points to the vertices they cannot see,
+/// each a (plane, side, vertices) to hide; greedily, the candidate that most lowers the count
+/// of points interpolating a hidden vertex is taken, or on a tie the one that hides the most
+/// (point, hidden vertex) pairs (a point behind a wall and a cabinet needs two planes before its
+/// count falls), up to the cap on planes; the shortest run of picks with the lowest count is
+/// kept. Deterministic for a seed. Throws ps::ParameterError for settings out of range.
 /// `domain`: where queries can be (the importance volumes' boxes; empty: the scene bounds),
 /// which bounds the points drawn outside the hull.
 LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<const Bounds3> domain,

@@ -72,6 +72,7 @@ struct Volume {
     float plane[4];  // nx, ny, nz, d
     uint32_t hide;
   };
+  static_assert(sizeof(CutPlane) == 20, "cut planes are read as 4 floats and a u32");
   std::vector<uint32_t> cutStart;
   std::vector<CutPlane> cutPlanes;
   std::string metadataJson;

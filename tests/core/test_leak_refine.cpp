@@ -287,6 +287,7 @@ TEST(LeakCuts, CutsAloneEndMostLeaksOfACoarseSet) {
   // Deterministic.
   ProbeVolume again = plain;
   computeLeakCuts(tracer, again, {});
+  EXPECT_EQ(again.cutStart, cut.cutStart);
   ASSERT_EQ(again.cutPlanes.size(), cut.cutPlanes.size());
   for (size_t c = 0; c < cut.cutPlanes.size(); ++c) {
     EXPECT_EQ(again.cutPlanes[c].plane, cut.cutPlanes[c].plane);

@@ -731,6 +731,12 @@ TEST(LeakCuts, KeptVerticesWithoutWeightShareItAndHidingAllChangesNothing) {
   const ProbeVolume keepOrigin = unitTetWithCut(0xFu & ~(1u << origin));
   const VolumeLocation onFace = locate(keepOrigin, {0.6, 0.4, 0});
   for (int k = 0; k < 4; ++k) EXPECT_EQ(onFace.weights[k], k == origin ? 1.0f : 0.0f);
+  // Two kept vertices without weight share it equally: at (0.6, 0.4, 0), (0,0,0) and (0,0,1)
+  // both have weight 0.
+  const int top = localIndexOf(probe, {0, 0, 1});
+  const ProbeVolume keepTwo = unitTetWithCut(0xFu & ~(1u << origin) & ~(1u << top));
+  const VolumeLocation shared = locate(keepTwo, {0.6, 0.4, 0});
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(shared.weights[k], k == origin || k == top ? 0.5f : 0.0f);
   // Every vertex hidden: the weights stay barycentric.
   const ProbeVolume all = unitTetWithCut(0xF);
   const VolumeLocation a = locate(probe, {0.7, 0.1, 0.1}), b = locate(all, {0.7, 0.1, 0.1});

@@ -134,6 +134,8 @@ write("vol-cut-nan-plane.psv", volume(cuts=[(float("nan"), 0, 0, 0.5, 1)]))
 write("vol-cut-zero-normal.psv", volume(cuts=[(0, 0, 0, 0.5, 1)]))
 write("vol-cut-hide-mask.psv", volume(cuts=[(1, 0, 0, 0.5, 0x100)]))
 write("vol-cut-truncated.psv", volume(cuts=[(1, 0, 0, 0.5, 1)])[:-30])
+write("vol-cut-header-truncated.psv", volume(cuts=[(1, 0, 0, 0.5, 1)])[:32])
+write("vol-cut-start-end.psv", volume(cuts=[(1, 0, 0, 0.5, 1)], cut_start=[0, 0]))
 
 # ---- glTF --------------------------------------------------------------------------------
 
