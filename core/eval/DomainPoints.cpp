@@ -15,14 +15,19 @@ void checkLightClearance(double relative) {
         std::to_string(relative));
 }
 
-double lightClearanceMeters(const Tracer& tracer, std::span<const Bounds3> domain,
-                            double relative) {
+Bounds3 domainBounds(const Tracer& tracer, std::span<const Bounds3> domain) {
   Bounds3 all;
   if (domain.empty()) all = tracer.scene().bounds;
   for (const Bounds3& b : domain) {
     all.extend(b.lo);
     all.extend(b.hi);
   }
+  return all;
+}
+
+double lightClearanceMeters(const Tracer& tracer, std::span<const Bounds3> domain,
+                            double relative) {
+  const Bounds3 all = domainBounds(tracer, domain);
   return all.empty() ? 0.0 : relative * all.diagonal();
 }
 

@@ -18,6 +18,9 @@ namespace ps {
 /// point and spot lights) is in [0, 0.5).
 void checkLightClearance(double relative);
 
+/// The bounding box of the domain: of the boxes, or the scene bounds when there are none.
+Bounds3 domainBounds(const Tracer& tracer, std::span<const Bounds3> domain);
+
 /// The light clearance in metres: `relative` times the diagonal of the boxes' union (the scene
 /// bounds when there are none).
 double lightClearanceMeters(const Tracer& tracer, std::span<const Bounds3> domain, double relative);

@@ -103,6 +103,10 @@ class PointGrid {
   std::unordered_map<uint64_t, std::vector<std::pair<Vec3, int32_t>>> cells_;
 };
 
+double tetVolume(Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
+  return std::abs(dot(b - a, cross(c - a, d - a))) / 6;
+}
+
 /// Volume of the tets with a leaking edge over the volume of all tets.
 double leakingVolumeFraction(const Tetrahedralization& t,
                              const std::vector<std::pair<int32_t, int32_t>>& edges,
@@ -115,10 +119,8 @@ double leakingVolumeFraction(const Tetrahedralization& t,
   };
   double total = 0, leaking = 0;
   for (const auto& tet : t.tets) {
-    const Vec3 a = t.vertices[tet[0]];
-    const double vol = std::abs(dot(t.vertices[tet[1]] - a,
-                                    cross(t.vertices[tet[2]] - a, t.vertices[tet[3]] - a))) /
-                       6;
+    const double vol =
+        tetVolume(t.vertices[tet[0]], t.vertices[tet[1]], t.vertices[tet[2]], t.vertices[tet[3]]);
     total += vol;
     bool any = false;
     for (int i = 0; i < 4 && !any; ++i)
@@ -586,10 +588,10 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
   std::vector<double> volume(v.tets.size());
   double totalVolume = 0;
   for (size_t t = 0; t < v.tets.size(); ++t) {
-    const Vec3 a = v.position(v.tets[t][3]);
-    volume[t] = std::abs(dot(v.position(v.tets[t][0]) - a,
-                             cross(v.position(v.tets[t][1]) - a, v.position(v.tets[t][2]) - a))) /
-                6;
+    const auto& tet = v.tets[t];
+    // From vertex 3, as the barycentric matrices are (the expression the volumes had before).
+    volume[t] =
+        tetVolume(v.position(tet[3]), v.position(tet[0]), v.position(tet[1]), v.position(tet[2]));
     totalVolume += volume[t];
   }
   const double perVolume = totalVolume > 0 ? double(s.samplesTotal) / totalVolume : 0.0;
@@ -653,6 +655,8 @@ LeakCutRefineResult refineForLeakCuts(const Tracer& tracer, const LightingRig& r
   // with the fewest points still leaking is kept: a probe added for one leak can make another.
   double bestLeaking = std::numeric_limits<double>::infinity();
   size_t bestAdded = 0;
+  PointGrid grid(std::max(minSpacing, 1e-12));
+  for (size_t i = 0; i < all.size(); ++i) grid.insert(all[i], int32_t(i));
   for (int round = 0; round <= s.refineRounds; ++round) {
     const Tetrahedralization t = tetrahedralize(all);
     ProbeVolume v = buildProbeVolume(t, std::vector<ShRgb>(t.vertices.size()));
@@ -667,8 +671,6 @@ LeakCutRefineResult refineForLeakCuts(const Tracer& tracer, const LightingRig& r
       r.unresolvedTets = cuts.tetsUnresolved;
     }
     if (cuts.unresolved.empty() || round == s.refineRounds || r.added.size() >= s.maxAdded) break;
-    PointGrid grid(std::max(minSpacing, 1e-12));
-    for (size_t i = 0; i < all.size(); ++i) grid.insert(all[i], int32_t(i));
     size_t addedThisRound = 0;
     for (const Vec3& p : cuts.unresolved) {
       if (r.added.size() >= s.maxAdded) break;
@@ -713,13 +715,7 @@ std::vector<Vec3> coverDomain(const Tracer& tracer, const LightingRig& rig,
       if (t.neighbors[k][i] < 0)
         for (int j = 0; j < 4; ++j)
           if (j != i) onHull[size_t(t.tets[k][j])] = 1;
-  Bounds3 box;
-  if (domain.empty()) box = tracer.scene().bounds;
-  for (const Bounds3& b : domain) {
-    box.extend(b.lo);
-    box.extend(b.hi);
-  }
-  const double spacing = s.hullSpacingRelative * box.diagonal();
+  const double spacing = s.hullSpacingRelative * domainBounds(tracer, domain).diagonal();
   PointGrid grid(std::max(spacing, 1e-9));
   for (size_t i = 0; i < probes.size(); ++i) grid.insert(probes[i], int32_t(i));
   for (size_t i = probes.size(); i < all.size(); ++i) {
