@@ -19,6 +19,7 @@
 #include "core/placement/Place.h"
 #include "core/placement/Uniform.h"
 #include "core/trace/Tracer.h"
+#include "ui/LightingField.h"
 #include "ui/ProbeCommands.h"
 
 namespace ps::ui {
@@ -541,6 +542,7 @@ bool Document::bake(const BakeRequest& request) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = request.samplesPerProbe;
     bs.leakRefine = request.refineLeaks;
+    bs.leakCuts = request.leakCuts;
     if (request.fit) bs.fit = FitSettings{};
     BakeResult baked = bakeProbeSet(set, *tracer, bs, [&](double f) {
       return report(tr("Baking %1 probes…").arg(accepted), 0.97 * f);
@@ -551,6 +553,11 @@ bool Document::bake(const BakeRequest& request) {
                         .arg(baked.probes)
                         .arg(accepted)
                         .arg(baked.leakProbesAdded);
+    if (baked.leakCuts)
+      result.notes << tr("Leak cuts: %1 planes in %2 tetrahedra (%3 s)")
+                          .arg(baked.leakCuts->planes)
+                          .arg(baked.leakCuts->tetsCut)
+                          .arg(baked.leakCuts->seconds, 0, 'f', 2);
     if (baked.fit)
       result.notes << tr("Values fitted by least squares to %1 points (%2 s)")
                           .arg(baked.fit->points)
@@ -600,8 +607,10 @@ bool Document::evaluate(const EvalRequest& request) {
     if (positions.size() < 4)
       throw ParameterError("evaluate: bake, or accept at least 4 captured probes, first");
     volume = std::make_shared<const ProbeVolume>(volumeFromProbes(positions, sh));  // throws
-    source = tr("preview (accepted probes)");
+    source = request.leakCuts ? tr("preview (accepted probes, leak cuts)")
+                              : tr("preview (accepted probes)");
   }
+  const bool cutPreview = request.leakCuts && volume != volume_;
   const LightingRig rig = set_.rig;
   // The importance volumes: the queries go where probes are wanted.
   const std::vector<Bounds3> domain = importanceBoxes(set_.importanceVolumes);
@@ -624,7 +633,12 @@ bool Document::evaluate(const EvalRequest& request) {
     es.domain = domain;
     es.cacheDir = cacheDir;
     es.sceneHash = sceneHash;
-    const EvalResult r = evaluateVolume(*tracer, rig, *volume, es, [&](double f) {
+    std::optional<ProbeVolume> cut;
+    if (cutPreview) {
+      cut = *volume;
+      previewLeakCuts(*tracer, *cut, domain);
+    }
+    const EvalResult r = evaluateVolume(*tracer, rig, cut ? *cut : *volume, es, [&](double f) {
       return report(tr("Evaluating against the reference…"), f);
     });
     EvaluationPoint e;

@@ -48,6 +48,9 @@ struct BakeRequest {
   /// Leak refinement (Sukys 3.2.2) before the capture: probes added on both sides of walls
   /// that tetrahedron edges cross; they are in the volume, not in the probe set.
   bool refineLeaks = true;
+  /// With refineLeaks: the leak cuts (core/placement/LeakRefine.h computeLeakCuts; `bake
+  /// --no-leak-cuts` turns them off).
+  bool leakCuts = true;
   /// Least-squares probe values (core/bake/LeastSquaresFit.h, `bake --fit`) with its defaults.
   bool fit = false;
 };
@@ -56,6 +59,9 @@ struct BakeRequest {
 struct EvalRequest {
   int queries = 128;
   int referenceSpp = 256;
+  /// The preview (when there is no up-to-date baked volume) with the viewport's leak cuts
+  /// (LightingField.h previewLeakCuts), as it is drawn.
+  bool leakCuts = true;
 };
 
 /// One evaluation the artist ran: the volume's probe count and its errors against the
@@ -66,7 +72,7 @@ struct EvaluationPoint {
   /// How far another draw of as many queries would move relRmse, and the reference's own noise
   /// on relRmse's scale (EvalResult::relRmseStdError, referenceRelNoise).
   double relRmseStdError = 0, referenceRelNoise = 0;
-  QString source;                ///< "baked volume" or "preview (accepted probes)"
+  QString source;                ///< "baked volume" or "preview (accepted probes[, leak cuts])"
   bool referenceCached = false;  ///< the reference came from the eval reference cache
   double seconds = 0;            ///< wall time of the evaluation
 };

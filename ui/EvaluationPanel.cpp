@@ -93,6 +93,7 @@ bool EvaluationPanel::evaluate() {
   EvalRequest r;
   r.queries = queries_->value();
   r.referenceSpp = refSpp_->value();
+  r.leakCuts = leakCuts_;
   try {
     if (doc_->evaluate(r)) return true;
   } catch (const Error& e) {

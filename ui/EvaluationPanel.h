@@ -26,6 +26,8 @@ class EvaluationPanel : public QWidget {
 
   /// Starts an evaluation; false (after emitting failed) when it could not start.
   bool evaluate();
+  /// Whether the preview is evaluated with leak cuts (the viewport's View > Leak cuts).
+  void setLeakCuts(bool on) { leakCuts_ = on; }
 
   QChart* chart() const { return chart_; }
   /// The plotted series: relative RMS error (%) and 95th percentile (%) against probe count.
@@ -50,6 +52,7 @@ class EvaluationPanel : public QWidget {
   QSpinBox *queries_, *refSpp_;
   QPushButton* run_;
   QTableWidget* table_;
+  bool leakCuts_ = true;
 };
 
 }  // namespace ps::ui

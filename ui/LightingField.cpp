@@ -50,6 +50,31 @@ std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
   }
 }
 
+LeakCutSettings previewLeakCutSettings() {
+  LeakCutSettings s;
+  s.samplesPerTet = 8;
+  s.samplesTotal = size_t(1) << 16;
+  return s;
+}
+
+PreviewCuts previewLeakCuts(const Tracer& tracer, ProbeVolume& volume,
+                            std::span<const Bounds3> domain) {
+  PreviewCuts c;
+  c.tets = volume.tets.size();
+  if (c.tets > kMaxPreviewCutTets) {
+    c.skipped = true;
+    return c;
+  }
+  const LeakCutResult r = computeLeakCuts(tracer, volume, domain, previewLeakCutSettings());
+  c.planes = r.planes;
+  c.tetsCut = r.tetsCut;
+  c.samples = r.samples;
+  c.hiddenBefore = r.hiddenSamplesBefore;
+  c.hiddenAfter = r.hiddenSamplesAfter;
+  c.seconds = r.seconds;
+  return c;
+}
+
 PreviewVolumeMirror::PreviewVolumeMirror() = default;
 PreviewVolumeMirror::~PreviewVolumeMirror() = default;
 

@@ -9,10 +9,12 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
 #include "core/io/ProbeSet.h"
+#include "core/placement/LeakRefine.h"
 #include "core/traversal/ProbeVolume.h"
 
 namespace ps {
@@ -41,6 +43,31 @@ enum class PreviewSource {
 /// of them span 3D.
 std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
                                               PreviewSource source);
+
+/// What the leak cuts did to a preview volume (LeakCutResult's counts).
+struct PreviewCuts {
+  size_t tets = 0;  ///< the volume's tetrahedra
+  size_t planes = 0, tetsCut = 0;
+  /// Points drawn, and of them those interpolating a probe they cannot see, before and after.
+  size_t samples = 0, hiddenBefore = 0, hiddenAfter = 0;
+  double seconds = 0;
+  bool skipped = false;  ///< more than kMaxPreviewCutTets tetrahedra: none computed
+};
+
+/// Above this many tetrahedra the preview gets no cuts: their time grows with the tetrahedra and
+/// the scene (on two cores, 0.51 s for 26,155 tetrahedra in two-rooms, 0.76 s for 9,078 in
+/// dream-apartment; BENCHMARKS.md), and the fields wait for them after every edit.
+inline constexpr size_t kMaxPreviewCutTets = 30000;
+
+/// Bake's leak-cut settings with a quarter of its points (8 per tetrahedron at least, 2^16 in
+/// all): on two-rooms' greedy-64 volume they leave 0.60 % of eval's queries leaking against
+/// bake's 0.47 %, in a quarter of the time (BENCHMARKS.md).
+LeakCutSettings previewLeakCutSettings();
+
+/// Cuts `volume` as bake would (computeLeakCuts with previewLeakCutSettings()) for queries in
+/// `domain` (the importance volumes' boxes; empty: the scene bounds), unless it is too large.
+PreviewCuts previewLeakCuts(const Tracer& tracer, ProbeVolume& volume,
+                            std::span<const Bounds3> domain);
 
 /// The preview volume kept in step with the document by local edits (EditableProbeVolume,
 /// Sukys 3.2.1 after Cupisz): sync() compares the probes with what the volume holds and inserts,

@@ -94,6 +94,8 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   sceneLabel_ = new QLabel(tr("No scene"));
   trianglesLabel_ = new QLabel;
   probesLabel_ = new QLabel;
+  cutsLabel_ = new QLabel;
+  cutsLabel_->setObjectName("leakCutsLabel");
   jobLabel_ = new QLabel;
   progress_ = new QProgressBar;
   progress_->setRange(0, 100);
@@ -105,6 +107,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   statusBar()->addWidget(sceneLabel_);
   statusBar()->addWidget(trianglesLabel_);
   statusBar()->addWidget(probesLabel_);
+  statusBar()->addWidget(cutsLabel_);
   statusBar()->addPermanentWidget(jobLabel_);
   statusBar()->addPermanentWidget(progress_);
   statusBar()->addPermanentWidget(cancelJob_);
@@ -126,6 +129,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
                                  .arg(seconds * 1e6, 0, 'f', 0),
                              3000);
   });
+  connect(viewport_, &Viewport::fieldsUpdated, this, &MainWindow::updateCutsLabel);
   connect(doc_, &Document::modifiedChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateStatus);
@@ -320,6 +324,16 @@ void MainWindow::createActions() {
   a = view->addAction(tr("Glyphs at the probes (not the grid)"), viewport_,
                       &Viewport::setGlyphsAtProbes);
   a->setCheckable(true);
+  a = view->addAction(tr("&Leak cuts in the preview"), this, [this](bool on) {
+    viewport_->setLeakCuts(on);
+    evaluation_->setLeakCuts(on);
+  });
+  a->setObjectName("leakCutsAction");
+  a->setCheckable(true);
+  a->setChecked(viewport_->leakCuts());
+  a->setToolTip(
+      tr("Cut the preview volume's tetrahedra where a wall hides their probes, as the "
+         "bake does, so the preview shows the baked volume's light instead of leaks"));
   QMenu* slice = view->addMenu(tr("Slice"));
   auto* sliceModes = new QActionGroup(this);
   a = slice->addAction(tr("Luminance distance to the selected probe"), this,
@@ -591,6 +605,33 @@ void MainWindow::updateStatus() {
                             .arg(counts[int(ProbeState::Accepted)])
                             .arg(counts[int(ProbeState::Candidate)])
                             .arg(counts[int(ProbeState::Rejected)]));
+}
+
+void MainWindow::updateCutsLabel() {
+  const std::optional<PreviewCuts>& c = viewport_->previewCuts();
+  if (!c) {
+    cutsLabel_->setText(viewport_->leakCuts() || !doc_->hasScene() ? QString()
+                                                                   : tr("Leak cuts off"));
+    return;
+  }
+  if (c->skipped) {
+    cutsLabel_->setText(tr("Leak cuts: none (%L1 tetrahedra, above %L2)")
+                            .arg(c->tets)
+                            .arg(qulonglong(kMaxPreviewCutTets)));
+    return;
+  }
+  const double before = c->samples ? double(c->hiddenBefore) / double(c->samples) : 0.0;
+  const double after = c->samples ? double(c->hiddenAfter) / double(c->samples) : 0.0;
+  cutsLabel_->setText(tr("Leak cuts: %L1 planes in %L2 tetrahedra, leaking %3 % -> %4 %")
+                          .arg(c->planes)
+                          .arg(c->tetsCut)
+                          .arg(100 * before, 0, 'f', 1)
+                          .arg(100 * after, 0, 'f', 1));
+  cutsLabel_->setToolTip(tr("Of %L1 points drawn in the preview volume's tetrahedra, the share "
+                            "that interpolates a probe it cannot see, before and after the cuts "
+                            "(%2 s)")
+                             .arg(c->samples)
+                             .arg(c->seconds, 0, 'f', 2));
 }
 
 std::vector<uint64_t> MainWindow::selectedIds() const {

@@ -89,6 +89,8 @@ class MainWindow : public QMainWindow {
   bool maybeSave();
   void updateTitle();
   void updateStatus();
+  /// The status bar's leak-cut figures, from the viewport's last fields.
+  void updateCutsLabel();
   std::vector<uint64_t> selectedIds() const;
   void onTableSelectionChanged();
   void onProbeClicked(std::optional<quint64> id, Qt::KeyboardModifiers mods);
@@ -105,6 +107,7 @@ class MainWindow : public QMainWindow {
   QLabel* sceneLabel_;
   QLabel* trianglesLabel_;
   QLabel* probesLabel_;
+  QLabel* cutsLabel_;  ///< what the preview's leak cuts did (Viewport::previewCuts)
   QLabel* jobLabel_;
   QProgressBar* progress_;
   InspectorPanel* inspector_;

@@ -117,6 +117,14 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
       tr("Add probes on both sides of the walls that tetrahedron edges cross (Sukys 3.2.2); they "
          "go into the volume, not into the probe set"));
   bakeForm->addRow(leakRefine_);
+  leakCuts_ = new QCheckBox(tr("Cut leaks"));
+  leakCuts_->setChecked(true);
+  leakCuts_->setToolTip(
+      tr("With leak refinement: planes through the walls that still hide a tetrahedron's probes "
+         "from part of it; a query there interpolates only the probes on its side (one dot "
+         "product per plane in the renderer; the volume file's version 2)"));
+  bakeForm->addRow(leakCuts_);
+  connect(leakRefine_, &QCheckBox::toggled, leakCuts_, &QWidget::setEnabled);
   fit_ = new QCheckBox(tr("Least-squares values"));
   fit_->setToolTip(
       tr("Fit the probes' values so that the volume's interpolation comes closest to captures at "
@@ -186,6 +194,7 @@ BakeRequest PlacementPanel::bakeRequest() const {
   BakeRequest r;
   r.samplesPerProbe = bakeSpp_->value();
   r.refineLeaks = leakRefine_->isChecked();
+  r.leakCuts = leakCuts_->isChecked();
   r.fit = fit_->isChecked();
   return r;
 }

@@ -62,6 +62,7 @@ class PlacementPanel : public QWidget {
   QCheckBox* replaceBox() const { return replace_; }
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
   QCheckBox* leakRefineBox() const { return leakRefine_; }
+  QCheckBox* leakCutsBox() const { return leakCuts_; }
   QCheckBox* fitBox() const { return fit_; }
   QPushButton* cancelButton() const { return cancel_; }
   /// One row per importance volume: name, weight, min x/y/z, max x/y/z (metres), editable.
@@ -84,6 +85,7 @@ class PlacementPanel : public QWidget {
   QSpinBox* captureSpp_;
   QCheckBox* replace_;
   QCheckBox* leakRefine_ = nullptr;
+  QCheckBox* leakCuts_ = nullptr;
   QCheckBox* fit_ = nullptr;
   QSpinBox* bakeSpp_;
   QPushButton* run_;

@@ -311,7 +311,10 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
     fieldsDirty_ = true;
     update();
   });
-  connect(doc, &Document::importanceVolumesChanged, this, [this] { update(); });
+  connect(doc, &Document::importanceVolumesChanged, this, [this] {
+    fieldsDirty_ = true;  // the leak cuts draw their points in the importance volumes
+    update();
+  });
   connect(doc, &Document::probeInserted, this, &Viewport::onProbesChanged);
   connect(doc, &Document::probeRemoved, this, &Viewport::onProbesChanged);
   // A changed probe (moved, accepted, ...) keeps the drawn size: no O(n^2) radius update.

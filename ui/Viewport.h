@@ -94,6 +94,15 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// Which probes the preview volume uses (accepted only, or all captured).
   void setPreviewSource(PreviewSource s);
   PreviewSource previewSource() const { return previewSource_; }
+  /// Leak cuts on the preview volume and on the error slice's reference (previewLeakCuts in
+  /// LightingField.h): the preview then shows what bake's cuts make of the light behind a wall,
+  /// instead of the leak. On by default; they need the scene's tracer, and the baked volume has
+  /// its own.
+  void setLeakCuts(bool on);
+  bool leakCuts() const { return leakCuts_; }
+  /// What the last fields' cuts did to the preview volume (nothing when there were none to
+  /// compute); does not bring the fields up to date.
+  const std::optional<PreviewCuts>& previewCuts() const { return previewCuts_; }
   /// Cells along the longest side of the glyph grid (one glyph per cell).
   void setGlyphResolution(int cells);
   int glyphResolution() const { return glyphResolution_; }
@@ -243,6 +252,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   bool previewLighting_ = false;
   unsigned overlays_ = 0;
   PreviewSource previewSource_ = PreviewSource::AllCaptured;
+  bool leakCuts_ = true;
+  std::optional<PreviewCuts> previewCuts_;
   int glyphResolution_ = 20;
   bool glyphsAtProbes_ = false;
   int previewResolution_ = 40;

@@ -117,6 +117,13 @@ void Viewport::setPreviewSource(PreviewSource s) {
   update();
 }
 
+void Viewport::setLeakCuts(bool on) {
+  if (on == leakCuts_) return;
+  leakCuts_ = on;
+  fieldsDirty_ = true;
+  update();
+}
+
 void Viewport::setGlyphResolution(int cells) {
   glyphResolution_ = std::clamp(cells, 1, 256);
   fieldsDirty_ = true;
@@ -227,6 +234,7 @@ struct Viewport::Fields {
   std::vector<std::array<int32_t, 2>> edges;
   std::vector<uint8_t> leaks;
   std::vector<float> edgeStops;
+  std::optional<PreviewCuts> cuts;
 };
 
 namespace {
@@ -237,7 +245,8 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 int glyphResolution, int previewResolution,
                                                 std::shared_ptr<const Tracer> tracer,
                                                 std::shared_ptr<const ProbeVolume> baked,
-                                                std::optional<ProbeVolume> preview);
+                                                std::optional<ProbeVolume> preview, bool leakCuts,
+                                                std::vector<Bounds3> domain);
 }  // namespace
 
 namespace {
@@ -263,7 +272,8 @@ void Viewport::updateFields() {
   fieldsDirty_ = false;
   auto f = computeFields(doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
                          glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume(),
-                         previewForFields());
+                         previewForFields(), leakCuts_,
+                         importanceBoxes(doc_->probeSet().importanceVolumes));
   applyFields(std::move(*f));
 }
 
@@ -283,10 +293,10 @@ void Viewport::startFieldsRebuild() {
       update();  // shows the new fields; starts another rebuild if the probes moved meanwhile
     });
   }
-  fieldsWatcher_->setFuture(QtConcurrent::run(computeFields, doc_->probes(), previewSource_,
-                                              scene ? scene->bounds : Bounds3(), glyphResolution_,
-                                              previewResolution_, doc_->tracerShared(),
-                                              doc_->volume(), previewForFields()));
+  fieldsWatcher_->setFuture(QtConcurrent::run(
+      computeFields, doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
+      glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume(),
+      previewForFields(), leakCuts_, importanceBoxes(doc_->probeSet().importanceVolumes)));
 }
 
 void Viewport::applyFields(Fields&& f) {
@@ -300,6 +310,7 @@ void Viewport::applyFields(Fields&& f) {
   edges_ = std::move(f.edges);
   leaks_ = std::move(f.leaks);
   edgeStops_ = std::move(f.edgeStops);
+  previewCuts_ = std::move(f.cuts);
 }
 
 const ProbeVolume* Viewport::drawnPreviewVolume() const {
@@ -324,16 +335,23 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 int glyphResolution, int previewResolution,
                                                 std::shared_ptr<const Tracer> tracer,
                                                 std::shared_ptr<const ProbeVolume> baked,
-                                                std::optional<ProbeVolume> preview) {
+                                                std::optional<ProbeVolume> preview, bool leakCuts,
+                                                std::vector<Bounds3> domain) {
   auto f = std::make_shared<Viewport::Fields>();
+  const bool cut = leakCuts && tracer;
   if (source == PreviewSource::Baked) {
-    if (baked) f->preview = *baked;
+    if (baked) f->preview = *baked;  // with the cuts it was baked with
   } else {
     f->preview = std::move(preview);  // the mirror's copy, kept up to date by local edits
+    if (cut && f->preview) f->cuts = previewLeakCuts(*tracer, *f->preview, domain);
   }
-  f->reference = source == PreviewSource::AllCaptured
-                     ? f->preview
-                     : buildPreviewVolume(probes, PreviewSource::AllCaptured);
+  if (source == PreviewSource::AllCaptured) {
+    f->reference = f->preview;
+  } else {
+    f->reference = buildPreviewVolume(probes, PreviewSource::AllCaptured);
+    // The error slice's reference leaks no more than the preview.
+    if (cut && f->reference) previewLeakCuts(*tracer, *f->reference, domain);
+  }
   if (!f->preview || bounds.empty()) return f;
   f->glyphGrid = sampleGrid(*f->preview, bounds, glyphResolution);
   f->previewGrid = sampleGrid(*f->preview, bounds, previewResolution);

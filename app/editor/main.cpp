@@ -3,6 +3,7 @@
 // The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
 // probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
 // projected pixel position of every probe) and exits: 0 on success, 1 with a one-line error.
+#include <QAction>
 #include <QApplication>
 #include <QCommandLineParser>
 #include <QElapsedTimer>
@@ -156,10 +157,12 @@ int main(int argc, char** argv) {
   const QCommandLineOption windowShotOpt(
       "window-screenshot", "With --screenshot: also write the whole window to this PNG.",
       "WIN.png");
+  const QCommandLineOption noCutsOpt(
+      "no-leak-cuts", "Preview without the leak cuts (View > Leak cuts in the preview, off).");
   const QCommandLineOption recoverOpt(
       "recover", "With --screenshot: recover the newest crashed session's work first.");
   parser.addOptions({probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt, selectOpt,
-                     saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt, windowShotOpt});
+                     saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt, windowShotOpt, noCutsOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -200,6 +203,9 @@ int main(int argc, char** argv) {
         return 1;
       }
     }
+    if (parser.isSet(noCutsOpt))
+      if (auto* cuts = w.findChild<QAction*>("leakCutsAction"); cuts && cuts->isChecked())
+        cuts->trigger();
     if (screenshot) w.viewport()->setFixedSize(size);
     ps::ui::Document* doc = w.document();
     doc->setAutoPropose(probesPath.isEmpty());

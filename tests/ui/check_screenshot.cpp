@@ -175,15 +175,40 @@ int checkVolumes(const char* shotPath, const char* basePath) {
   return 0;
 }
 
+int checkCuts(const char* cutPath, const char* noCutPath) {
+  const QImage cut = QImage(cutPath).convertToFormat(QImage::Format_RGB32);
+  const QImage noCut = QImage(noCutPath).convertToFormat(QImage::Format_RGB32);
+  if (cut.isNull() || noCut.isNull()) return fail("cannot read the images");
+  if (cut.size() != noCut.size()) return fail("the two renders differ in size");
+  auto luma = [](QRgb c) { return 0.2126 * qRed(c) + 0.7152 * qGreen(c) + 0.0722 * qBlue(c); };
+  long changed = 0, darker = 0;
+  for (int y = 0; y < cut.height(); ++y)
+    for (int x = 0; x < cut.width(); ++x) {
+      const QRgb a = cut.pixel(x, y), b = noCut.pixel(x, y);
+      if (channelDiff(a, b) <= 12) continue;
+      ++changed;
+      darker += luma(a) < luma(b);
+    }
+  const double frame = double(cut.width()) * cut.height();
+  std::printf("leak cuts: %ld pixels changed (%.2f %% of the frame), %ld of them darker\n", changed,
+              100.0 * changed / frame, darker);
+  if (changed < 0.005 * frame) return fail("the leak cuts change less than 0.5 % of the frame");
+  if (darker < 0.75 * changed) return fail("the leak cuts do not darken the room behind the wall");
+  std::printf("check_screenshot --cuts: OK\n");
+  return 0;
+}
+
 int main(int argc, char** argv) {
   if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--overlays"))
     return checkOverlays(argv[2], argv[3]);
   if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--volumes"))
     return checkVolumes(argv[2], argv[3]);
+  if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--cuts"))
+    return checkCuts(argv[2], argv[3]);
   if (argc != 3)
     return fail(
         "usage: check_screenshot SHOT.png NOPROBES.png | --overlays SHOT.png BASE.png | "
-        "--volumes SHOT.png BASE.png");
+        "--volumes SHOT.png BASE.png | --cuts CUT.png NOCUT.png");
   const QImage shot = QImage(argv[1]).convertToFormat(QImage::Format_RGB32);
   const QImage bare = QImage(argv[2]).convertToFormat(QImage::Format_RGB32);
   if (shot.isNull() || bare.isNull()) return fail("cannot read the images");

@@ -174,6 +174,58 @@ class TestLightingField : public QObject {
     QVERIFY(crossing > 0);
     QVERIFY(leaking > 0);
   }
+
+  void previewCutsAreBakesWithFewerPointsAndStopAtTheCap() {
+    if (!QFile::exists(kScene)) QSKIP("two-rooms.gltf not present");
+    const Scene scene = loadScene(kScene.toStdString());
+    const Tracer tracer(scene);
+    // A grid through both rooms: previewLeakCuts is computeLeakCuts with the preview's settings
+    // (the same planes), which draw fewer points than bake's.
+    std::vector<Probe> probes;
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 4; ++k) {
+          Probe p;
+          p.id = uint64_t(probes.size() + 1);
+          p.position = Vec3(-5.5 + 2.2 * i, 0.5 + j, -2.4 + 1.6 * k);
+          p.sh = ShRgb();
+          probes.push_back(p);
+        }
+    const auto v = buildPreviewVolume(probes, PreviewSource::AllCaptured);
+    QVERIFY(v);
+    ProbeVolume preview = *v, direct = *v, bake = *v;
+    const PreviewCuts c = previewLeakCuts(tracer, preview, {});
+    const LeakCutResult d = computeLeakCuts(tracer, direct, {}, previewLeakCutSettings());
+    const LeakCutResult b = computeLeakCuts(tracer, bake, {});
+    QVERIFY(!c.skipped);
+    QCOMPARE(c.tets, v->tets.size());
+    QVERIFY(c.planes > 0);
+    QCOMPARE(c.planes, d.planes);
+    QCOMPARE(c.hiddenAfter, d.hiddenSamplesAfter);
+    QCOMPARE(preview.cutStart, direct.cutStart);
+    QVERIFY(c.samples < b.samples / 2);
+    QVERIFY(c.hiddenAfter * 10 < c.hiddenBefore);
+    // Above kMaxPreviewCutTets: no cuts, the volume untouched, and the result says why.
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<Probe> many;
+    const Bounds3 box = scene.bounds;
+    for (int i = 0; i < 8000; ++i) {
+      Probe p;
+      p.id = uint64_t(i + 1);
+      p.position =
+          box.lo + Vec3(u(rng) * box.extent().x, u(rng) * box.extent().y, u(rng) * box.extent().z);
+      p.sh = ShRgb();
+      many.push_back(p);
+    }
+    auto big = buildPreviewVolume(many, PreviewSource::AllCaptured);
+    QVERIFY(big && big->tets.size() > kMaxPreviewCutTets);
+    const PreviewCuts skipped = previewLeakCuts(tracer, *big, {});
+    QVERIFY(skipped.skipped);
+    QCOMPARE(skipped.tets, big->tets.size());
+    QCOMPARE(skipped.planes, size_t(0));
+    QVERIFY(big->cutPlanes.empty() && big->cutStart.empty());
+  }
 };
 
 QTEST_MAIN(TestLightingField)

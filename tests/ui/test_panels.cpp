@@ -2,6 +2,7 @@
 // the background keeps accepted, rejected and locked probes and is one undo step; cancel; bake
 // writes the volume beside the probe set; importance volumes are added, edited, refused, undone,
 // saved and restrict greedy; the lighting panel edits the rig (undoable).
+#include <QAction>
 #include <QCheckBox>
 #include <QComboBox>
 #include <QDoubleSpinBox>
@@ -371,6 +372,24 @@ class TestPanels : public QObject {
                                .arg(doc->volume()->probeCount() - accepted.size())),
              qPrintable(note));
     QCOMPARE(vp->previewVolume()->tets.size(), doc->volume()->tets.size());
+    // With it, the leak cuts (the default): the notes give their planes, the volume has them.
+    QVERIFY(panel->leakCutsBox()->isEnabled());
+    QVERIFY(panel->leakCutsBox()->isChecked());
+    const size_t planes = doc->volume()->cutPlanes.size();
+    QVERIFY2(note.contains(QStringLiteral("Leak cuts: %1 planes").arg(planes)), qPrintable(note));
+    // Without them: the same probes and tets, no planes, no word of them.
+    panel->leakCutsBox()->setChecked(false);
+    QVERIFY(panel->bake());
+    QCOMPARE(waitForJob(doc), QString());
+    QVERIFY(doc->volume()->cutPlanes.empty());
+    QVERIFY(doc->volume()->cutStart.empty());
+    QVERIFY(!doc->lastJobNotes().join(' ').contains("Leak cuts"));
+    panel->leakCutsBox()->setChecked(true);
+    // Refinement off: the cuts' box follows it (bake computes cuts only with refinement).
+    panel->leakRefineBox()->setChecked(false);
+    QVERIFY(!panel->leakCutsBox()->isEnabled());
+    panel->leakRefineBox()->setChecked(true);
+    QVERIFY(panel->leakCutsBox()->isEnabled());
     // Least-squares values: the same mesh, other values, and the notes and the file say so.
     QVERIFY(!panel->fitBox()->isChecked());
     const ProbeVolume captured = *doc->volume();
@@ -443,6 +462,15 @@ class TestPanels : public QObject {
     QVERIFY(QFileInfo(dir.filePath("eval-reference-cache")).isDir());
     QVERIFY(panel->table()->item(0, 3)->text().startsWith("traced"));
     QVERIFY(panel->table()->item(1, 3)->text().startsWith("cached"));
+    // The preview is evaluated as it is drawn: with the leak cuts, unless View turns them off.
+    QCOMPARE(evals[1].source, QStringLiteral("preview (accepted probes, leak cuts)"));
+    QAction* cuts = win.w.findChild<QAction*>("leakCutsAction");
+    QVERIFY(cuts);
+    cuts->trigger();
+    QVERIFY(panel->evaluate());
+    QCOMPARE(waitForJob(doc), QString());
+    QCOMPARE(doc->evaluations().back().source, QStringLiteral("preview (accepted probes)"));
+    cuts->trigger();
     // A new scene starts a new plot.
     QVERIFY(win.w.openScene(QStringLiteral(PS_SOURCE_DIR "/resources/scenes/cornell.gltf")));
     QCOMPARE(panel->rmseSeries()->count(), 0);

@@ -23,6 +23,10 @@ run "$scene" --probes "$tmp/set.json" --select 1 --overlays glyphs,slice,test-ob
   --screenshot "$tmp/overlays.png"
 run "$scene" --probes "$tmp/set.json" --select 1 --screenshot "$tmp/base.png"
 run "$scene" --probes "$tmp/set.json" --overlays preview,tets --screenshot "$tmp/preview.png"
+# The probe-lighting preview with the leak cuts (the default) and without.
+run "$scene" --probes "$tmp/set.json" --overlays preview --screenshot "$tmp/cuts.png"
+run "$scene" --probes "$tmp/set.json" --overlays preview --no-leak-cuts \
+  --screenshot "$tmp/nocuts.png"
 # Two importance volumes (weight 3: orange, 0.5: blue) added to the saved set, with the window.
 sed 's/"importance_volumes": \[\]/"importance_volumes": [{"name": "doorway", "min": [-1, 0.2, -1.2], "max": [1, 2.4, 1.2], "weight": 3}, {"name": "far corner", "min": [3.5, 0.2, 1.5], "max": [5.8, 1.5, 3.8], "weight": 0.5}]/' \
   "$tmp/set.json" > "$tmp/volumes.json"
@@ -31,12 +35,13 @@ run "$scene" --probes "$tmp/volumes.json" --screenshot "$tmp/volumes.png" \
   --window-screenshot "$tmp/volumes-window.png"
 run "$scene" --probes "$tmp/set.json" --screenshot "$tmp/novolumes.png"
 cp "$tmp/volumes-window.png" "$artifacts/editor-two-rooms-volumes-window.png"
-for f in overlays base preview volumes; do
+for f in overlays base preview volumes cuts nocuts; do
   cp "$tmp/$f.png" "$artifacts/editor-two-rooms-$f.png"
   cp "$tmp/$f.png.json" "$artifacts/editor-two-rooms-$f.png.json"
 done
 "$checker" --overlays "$tmp/overlays.png" "$tmp/base.png"
 "$checker" --volumes "$tmp/volumes.png" "$tmp/novolumes.png"
+"$checker" --cuts "$tmp/cuts.png" "$tmp/nocuts.png"
 
 # A file that fails to load: one line on stderr, exit 1, no screenshot.
 if run "$tmp/missing.gltf" --screenshot "$tmp/none.png" 2> "$tmp/err.txt"; then
