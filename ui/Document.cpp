@@ -541,7 +541,8 @@ bool Document::bake(const BakeRequest& request) {
   startJob("bake", tr("Baking…"), [=](JobResult& result, const auto& report) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = request.samplesPerProbe;
-    bs.leakRefine = request.refineLeaks;
+    bs.leakRefine = request.refineLeaks || request.leakCuts;
+    bs.leakRefineProbes = request.refineLeaks;
     bs.leakCuts = request.leakCuts;
     if (request.fit) bs.fit = FitSettings{};
     BakeResult baked = bakeProbeSet(set, *tracer, bs, [&](double f) {

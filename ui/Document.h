@@ -48,8 +48,8 @@ struct BakeRequest {
   /// Leak refinement (Sukys 3.2.2) before the capture: probes added on both sides of walls
   /// that tetrahedron edges cross; they are in the volume, not in the probe set.
   bool refineLeaks = true;
-  /// With refineLeaks: the leak cuts (core/placement/LeakRefine.h computeLeakCuts; `bake
-  /// --no-leak-cuts` turns them off).
+  /// The leak cuts (core/placement/LeakRefine.h computeLeakCuts), with refineLeaks or without
+  /// it (`bake --leak-cuts-only`: the volume holds exactly the accepted probes).
   bool leakCuts = true;
   /// Least-squares probe values (core/bake/LeastSquaresFit.h, `bake --fit`) with its defaults.
   bool fit = false;

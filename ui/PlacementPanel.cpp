@@ -120,11 +120,11 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   leakCuts_ = new QCheckBox(tr("Cut leaks"));
   leakCuts_->setChecked(true);
   leakCuts_->setToolTip(
-      tr("With leak refinement: planes through the walls that still hide a tetrahedron's probes "
-         "from part of it; a query there interpolates only the probes on its side (one dot "
-         "product per plane in the renderer; the volume file's version 2)"));
+      tr("Planes through the walls that hide a tetrahedron's probes from part of it; a query "
+         "there interpolates only the probes on its side (one dot product per plane in the "
+         "renderer; the volume file's version 2). Without \"Refine leaks\", the volume holds "
+         "exactly the accepted probes"));
   bakeForm->addRow(leakCuts_);
-  connect(leakRefine_, &QCheckBox::toggled, leakCuts_, &QWidget::setEnabled);
   fit_ = new QCheckBox(tr("Least-squares values"));
   fit_->setToolTip(
       tr("Fit the probes' values so that the volume's interpolation comes closest to captures at "

@@ -38,6 +38,8 @@ void registerBake(CLI::App& app) {
     bool noLeakRefine = false;
     bool noLeakCuts = false;
     bool leakCutProbes = false;
+    bool leakCutsOnly = false;
+    double overCutWeight = LeakCutSettings{}.overCutWeight;
     bool fit = false;
     FitSettings fitSettings;
   };
@@ -57,6 +59,15 @@ void registerBake(CLI::App& app) {
   cmd->add_flag("--no-leak-cuts", o->noLeakCuts,
                 "With leak refinement, only Sukys's probes: no leak cuts (planes that keep a "
                 "query from interpolating probes behind the surfaces in its tetrahedron)");
+  cmd->add_flag(
+      "--leak-cuts-only", o->leakCutsOnly,
+      "Leak cuts without Sukys's probes: the volume holds exactly the set's accepted probes "
+      "(compare sets at equal probe counts, or keep an artist's hand-placed set as it is)");
+  cmd->add_option("--over-cut-weight", o->overCutWeight,
+                  "What a leak cut costs, in leaking points, per unit of weight it moves at a "
+                  "point that sees every probe (a plane also cuts off probes in plain view; eval's "
+                  "over_cut_fraction): default 0.25, 0 counts the leaks alone")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--leak-cut-probes", o->leakCutProbes,
                 "Also add probes where the cuts cannot end a leak: at the hull of the domain's "
                 "valid points and at points the cuts leave leaking (fewer leaks, more probes, "
@@ -78,6 +89,10 @@ void registerBake(CLI::App& app) {
                     cmd->count("--fit-regularization")))
       throw ParameterError("--fit-points, --fit-spp, --fit-regularization: give --fit too");
     checkFitSettings(o->fitSettings);
+    if (o->leakCutsOnly && (o->noLeakRefine || o->noLeakCuts || o->leakCutProbes))
+      throw ParameterError(
+          "--leak-cuts-only: cuts without Sukys's probes; it cannot go with --no-leak-refine, "
+          "--no-leak-cuts or --leak-cut-probes");
     if (o->sampling.spp > kMaxSamplesPerProbe)
       throw ParameterError("--spp: " + std::to_string(o->sampling.spp) +
                            " samples per probe is above the " + "limit of " +
@@ -94,6 +109,8 @@ void registerBake(CLI::App& app) {
     bs.leakRefine = !o->noLeakRefine;
     bs.leakCuts = !o->noLeakCuts;
     bs.leakCutProbes = o->leakCutProbes;
+    bs.leakRefineProbes = !o->leakCutsOnly;
+    bs.leakCutSettings.overCutWeight = o->overCutWeight;
     if (o->fit) {
       bs.fit = o->fitSettings;
       bs.fit->seed = o->seed;

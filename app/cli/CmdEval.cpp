@@ -136,6 +136,7 @@ void registerEval(CLI::App& app) {
       j["p95_rel_error"] = r.p95RelError;
       j["max_rel_error"] = r.maxRelError;
       j["leaking_fraction"] = r.leakingFraction;
+      j["over_cut_fraction"] = r.overCutFraction;
       j["seconds"] = r.seconds;
       j["reference_cached"] = r.referenceCached;
       j["light_clearance_m"] = r.lightClearanceMeters;
@@ -143,12 +144,12 @@ void registerEval(CLI::App& app) {
     } else {
       std::printf(
           "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
-          "leaking %.4f (%.2f s%s)\n"
+          "leaking %.4f, over-cut %.4f (%.2f s%s)\n"
           "rel_rmse's standard error from the queries drawn %.4f; reference noise %.4f (the "
           "relative RMS error of a perfect volume against this reference)\n",
           r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
-          r.seconds, r.referenceCached ? ", reference from the cache" : "", r.relRmseStdError,
-          r.referenceRelNoise);
+          r.overCutFraction, r.seconds, r.referenceCached ? ", reference from the cache" : "",
+          r.relRmseStdError, r.referenceRelNoise);
     }
   });
 }

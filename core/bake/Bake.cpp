@@ -46,7 +46,9 @@ void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSetting
       probes.ids.push_back(0);
     }
   };
-  const LeakRefineResult leak = refineLeaks(tracer, probes.positions, settings.leakRefineSettings);
+  LeakRefineSettings sukys = settings.leakRefineSettings;
+  if (!settings.leakRefineProbes) sukys.maxIterations = 0;  // trace and count, add nothing
+  const LeakRefineResult leak = refineLeaks(tracer, probes.positions, sukys);
   append(leak.added);
   // The hull and the cuts' probes after Sukys's refinement: the edges they make are the cuts'.
   std::vector<Vec3> hull;
@@ -144,7 +146,10 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   meta["capture_spp"] = settings.capture.samplesPerProbe;
   meta["probe_ids"] = probes.ids;
   meta["leak_probes_added"] = r.leakProbesAdded;
-  if (r.leakCuts) meta["leak_cut_planes"] = r.leakCuts->planes;
+  if (r.leakCuts) {
+    meta["leak_cut_planes"] = r.leakCuts->planes;
+    meta["leak_cut_over_cut_weight"] = settings.leakCutSettings.overCutWeight;
+  }
   if (fit)
     meta["fit"] = {{"method", "least-squares"},
                    {"points_per_probe", fit->pointsPerProbe},

@@ -32,6 +32,10 @@ struct BakeSettings {
   uint64_t sceneHash = 0;
   /// Leak refinement (Sukys 3.2.2) before the capture; on by default (`bake --no-leak-refine`).
   bool leakRefine = true;
+  /// With leak refinement: Sukys's probes on both sides of the walls the mesh's edges cross.
+  /// Off (`bake --leak-cuts-only`), the edges are traced and counted but nothing is added: with
+  /// the cuts, the volume holds exactly the set's accepted probes.
+  bool leakRefineProbes = true;
   /// With leak refinement: the leak cuts after the tetrahedralization (computeLeakCuts);
   /// `bake --no-leak-cuts` turns them off, leaving Sukys's refinement alone.
   bool leakCuts = true;

@@ -157,29 +157,44 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   const std::vector<Vec3>& points = reference->points;
   const std::vector<Vec3>& normals = reference->normals;
 
-  // The volume at each query, and whether it interpolates a probe the query cannot see.
+  // The volume at each query, and whether it interpolates a probe the query cannot see. With leak
+  // cuts, also the weights without them (the same tet), to see what the cuts moved.
+  std::optional<ProbeVolume> uncut;
+  if (!volume.cutPlanes.empty()) {
+    uncut = volume;
+    uncut->cutStart.clear();
+    uncut->cutPlanes.clear();
+  }
   std::vector<double> ref(M), got(M);
-  std::vector<char> leaking(M, 0);
+  std::vector<char> leaking(M, 0), overCut(M, 0);
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     ref[q] = luminance(reference->irradiance[q]);
     const VolumeLocation loc = locate(volume, points[q]);
     got[q] = luminance(interpolate(volume, loc).irradiance(normals[q]));
+    if (loc.tet < 0) return;
+    const VolumeLocation before = uncut ? locate(*uncut, points[q], loc.tet) : loc;
     // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
     // weight 0 (cut off by a leak cut, or opposite the face a query outside the hull is
     // clamped to) is not interpolated.
-    if (loc.tet >= 0)
-      for (int k = 0; k < 4; ++k) {
-        if (!(loc.weights[k] > 0)) continue;
-        const int32_t vi = volume.tets[size_t(loc.tet)][k];
-        const Vec3 d = volume.position(vi) - points[q];
-        const double len = length(d);
-        if (len <= 2 * tracer.rayEpsilon()) continue;
-        if (tracer.occluded(
-                Ray{points[q], d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len})) {
-          leaking[q] = 1;
-          break;
-        }
+    bool seesAll = true;  // every probe it interpolates without the cuts
+    for (int k = 0; k < 4; ++k) {
+      if (!(loc.weights[k] > 0) && !(before.weights[k] > 0)) continue;
+      const int32_t vi = volume.tets[size_t(loc.tet)][k];
+      const Vec3 d = volume.position(vi) - points[q];
+      const double len = length(d);
+      if (len <= 2 * tracer.rayEpsilon()) continue;
+      if (tracer.occluded(
+              Ray{points[q], d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len})) {
+        if (loc.weights[k] > 0) leaking[q] = 1;
+        if (before.weights[k] > 0) seesAll = false;
       }
+    }
+    // A cut is a plane: it can take weight from probes in plain view (over-cut).
+    if (uncut && seesAll && before.tet == loc.tet) {
+      double moved = 0;
+      for (int k = 0; k < 4; ++k) moved += std::abs(double(loc.weights[k]) - before.weights[k]);
+      overCut[q] = 0.5 * moved > kOverCutWeightChange;
+    }
   });
   if (progress && !progress(1.0)) throw Cancelled();
 
@@ -228,6 +243,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   std::sort(rel.begin(), rel.end());
   r.maxRelError = rel.back();
   r.leakingFraction = double(std::count(leaking.begin(), leaking.end(), 1)) / double(M);
+  r.overCutFraction = double(std::count(overCut.begin(), overCut.end(), 1)) / double(M);
   r.p95RelError = rel[std::min(M - 1, size_t(std::ceil(0.95 * M)) - 1)];
   r.lightClearanceMeters =
       hasPunctualLights ? lightClearanceMeters(tracer, s.domain, s.lightClearanceRelative) : 0.0;

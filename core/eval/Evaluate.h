@@ -47,6 +47,10 @@ struct EvalReference {
   bool operator==(const EvalReference&) const = default;
 };
 
+/// A query's weights count as moved by the leak cuts (EvalResult::overCutFraction) when they
+/// change by more than this in total variation (half the sum of |change|, 0 to 1).
+inline constexpr double kOverCutWeightChange = 0.05;
+
 /// One query of an evaluation: where it was, what the reference and the volume gave.
 struct EvalQuery {
   Vec3 point, normal;
@@ -81,6 +85,11 @@ struct EvalResult {
   /// outside) has a probe not visible from the query point: light leaks through geometry
   /// there (Sukys 3.2.2).
   double leakingFraction = 0;
+  /// Fraction of the queries that see every probe their tetrahedron would interpolate without
+  /// the leak cuts, but whose weights the cuts move by more than kOverCutWeightChange (half the
+  /// sum of |change|): a cut is a plane, and can take weight from probes in plain view. 0 for a
+  /// volume without cuts. LeakCutSettings::overCutWeight trades it against leakingFraction.
+  double overCutFraction = 0;
   double seconds = 0;
   double lightClearanceMeters = 0;  ///< the clearance kept from punctual lights (0: none)
   /// The reference came from the cache (nothing was traced for it).

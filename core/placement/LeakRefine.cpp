@@ -284,12 +284,13 @@ namespace {
 
 using PlaneCoeffs = std::array<float, 4>;  ///< (nx, ny, nz, d), as ProbeVolume::CutPlane
 
-/// A point drawn for a tet's cuts that cannot see some of the vertices it would interpolate.
+/// A point drawn for a tet's cuts.
 struct CutSample {
   Vec3 p;
-  uint32_t hidden = 0;  ///< bit k: vertex k cannot be seen
-  uint32_t active = 0;  ///< bit k: vertex k has a weight (outside the hull: the face's)
-  uint32_t kept = 0xF;  ///< the vertices the cuts chosen so far keep
+  uint32_t hidden = 0;        ///< bit k: vertex k cannot be seen
+  uint32_t active = 0;        ///< bit k: vertex k has a weight (outside the hull: the face's)
+  uint32_t kept = 0xF;        ///< the vertices the cuts chosen so far keep
+  std::array<double, 4> w{};  ///< its barycentric weights (outside the hull: on the face)
 };
 
 /// A candidate cut: plane `plane` hides the vertices `mask` from the queries on side
@@ -307,6 +308,24 @@ bool cutSampleLeaks(const CutSample& smp, uint32_t kept) {
   // The vertices with weight; applyCuts shares it equally when the kept ones have none.
   const uint32_t weighted = (kept & smp.active) ? kept & smp.active : kept;
   return (weighted & smp.hidden) != 0;
+}
+
+/// How far the cuts move the weights of a point that sees every vertex it interpolates: the total
+/// variation distance (half the sum of |change|, in [0, 1]) between its barycentric weights and
+/// those applyCuts gives it with `kept` (renormalised over the kept vertices, shared equally
+/// when they have none, unchanged when none or all are kept).
+double cutWeightChange(const CutSample& smp, uint32_t kept) {
+  if (kept == 0 || kept == 0xF) return 0;
+  double sum = 0;
+  for (int k = 0; k < 4; ++k)
+    if (kept >> k & 1) sum += smp.w[size_t(k)];
+  const double equal = 1.0 / std::popcount(kept);
+  double change = 0;
+  for (int k = 0; k < 4; ++k) {
+    const double after = (kept >> k & 1) ? (sum > 0 ? smp.w[size_t(k)] / sum : equal) : 0.0;
+    change += std::abs(after - smp.w[size_t(k)]);
+  }
+  return 0.5 * change;
 }
 
 /// Distance from p along `normal` to the far side of the domain boxes holding p (0 if none).
@@ -361,8 +380,12 @@ class TetCutter {
       double w[4], sum = 0;
       for (double& x : w) sum += x = -std::log(1.0 - uniform01(rng_));
       Vec3 p;
-      for (int k = 0; k < 4; ++k) p += corner_[k] * (w[k] / sum);
-      test(p, 0xF);
+      std::array<double, 4> bary;
+      for (int k = 0; k < 4; ++k) {
+        bary[size_t(k)] = w[k] / sum;
+        p += corner_[k] * bary[size_t(k)];
+      }
+      test(p, 0xF, bary);
     }
     for (const Face& face : faces_)
       for (int i = 0, n = int(std::round(face.count * share)); i < n; ++i) {
@@ -373,51 +396,91 @@ class TetCutter {
             c[face.f[0]] + (c[face.f[1]] - c[face.f[0]]) * a + (c[face.f[2]] - c[face.f[0]]) * b;
         const double reach = reachInDomain(domain_, onFace, face.normal);
         if (!(reach > 0)) continue;
-        test(onFace + face.normal * (uniform01(rng_) * reach), 0xFu & ~(1u << face.opposite));
+        // locate() clamps the point back to onFace: the face's barycentrics are its weights.
+        std::array<double, 4> bary{};
+        bary[size_t(face.f[0])] = 1 - a - b;
+        bary[size_t(face.f[1])] = a;
+        bary[size_t(face.f[2])] = b;
+        test(onFace + face.normal * (uniform01(rng_) * reach), 0xFu & ~(1u << face.opposite), bary);
       }
   }
 
-  /// Greedily: the (plane, side, vertices) that most lowers the count of leaking points, while
-  /// one does and the tet has room for its plane. A point behind two surfaces (a wall and a
-  /// cabinet) needs a plane for each before it stops leaking, so a cut that lowers no count but
-  /// hides more (point, hidden vertex) pairs is taken too. Returns the points still leaking.
+  /// Greedily: the (plane, side, vertices) that most lowers the cost, while one does and the tet
+  /// has room for its plane. The cost is the count of leaking points plus overCutWeight times
+  /// how far the cuts move the weights of the points that see every vertex (cutWeightChange): a
+  /// plane is infinite, and one through a pillar's face would otherwise cut off probes in plain
+  /// view of the points beside the pillar. A point behind two surfaces (a wall and a cabinet)
+  /// needs a plane for each before it stops leaking, so when no cut lowers the cost, one that
+  /// ends no leak but hides more (point, hidden vertex) pairs is taken (the one that costs
+  /// least). The shortest run of picks with the lowest cost is kept. Returns the points still
+  /// leaking.
   size_t choose(std::vector<ProbeVolume::CutPlane>& planes) {
+    const double alpha = s_.overCutWeight;
+    const size_t nh = hidden_.size(), nc = clean_.size();
     std::vector<std::vector<char>> sideOf(candidates_.size());
     for (size_t c = 0; c < candidates_.size(); ++c) {
-      sideOf[c].resize(hidden_.size());
-      for (size_t i = 0; i < hidden_.size(); ++i)
-        sideOf[c][i] = detail::cutSide(candidates_[c], hidden_[i].p);
+      sideOf[c].resize(nh + nc);
+      for (size_t i = 0; i < nh; ++i) sideOf[c][i] = detail::cutSide(candidates_[c], hidden_[i].p);
+      for (size_t i = 0; i < nc; ++i)
+        sideOf[c][nh + i] = detail::cutSide(candidates_[c], clean_[i].p);
     }
     std::vector<int> slot(candidates_.size(), -1);  // index in `planes`, once chosen
     std::vector<char> applied(triples_.size(), 0);
     size_t leaking = leakingCount();
-    // The picks in order, with the count after each; the shortest prefix with the fewest is
-    // kept (picks that only hid more pairs and never led to a lower count are dropped).
+    double cost = double(leaking);  // no cut moves a weight yet
+    // The picks in order, with the cost after each; the shortest prefix with the lowest is kept
+    // (picks that only hid more pairs and never led to a lower cost are dropped).
     std::vector<size_t> picks;
-    size_t bestCount = leaking, bestPicks = 0;
+    double bestCost = cost;
+    size_t bestPicks = 0, bestLeaking = leaking;
+    constexpr double kEps = 1e-9;
     while (leaking > 0) {
-      long bestGain = 0, bestPairs = 0;
-      size_t best = triples_.size();
+      // Best by cost lowered (ties: more pairs hidden); else the exploring pick.
+      double bestGain = 0, exploreGain = 0;
+      long bestPairs = 0, explorePairs = 0, bestLeakGain = 0;
+      size_t best = triples_.size(), explore = triples_.size();
       for (size_t j = 0; j < triples_.size(); ++j) {
         const CutTriple& tr = triples_[j];
         if (applied[j] || (slot[tr.plane] < 0 && planes.size() >= size_t(s_.maxPlanesPerTet)))
           continue;
-        long gain = 0, pairs = 0;
-        for (size_t i = 0; i < hidden_.size(); ++i) {
+        const std::vector<char>& side = sideOf[tr.plane];
+        long leakGain = 0, pairs = 0;
+        for (size_t i = 0; i < nh; ++i) {
           const CutSample& smp = hidden_[i];
-          if (bool(sideOf[tr.plane][i]) != tr.positive || !(smp.kept & tr.mask)) continue;
-          gain +=
+          if (bool(side[i]) != tr.positive || !(smp.kept & tr.mask)) continue;
+          leakGain +=
               long(cutSampleLeaks(smp, smp.kept)) - long(cutSampleLeaks(smp, smp.kept & ~tr.mask));
           pairs += std::popcount(smp.kept & tr.mask & smp.hidden);
         }
+        double moved = 0;
+        for (size_t i = 0; i < nc; ++i) {
+          const CutSample& smp = clean_[i];
+          if (bool(side[nh + i]) != tr.positive || !(smp.kept & tr.mask)) continue;
+          moved += cutWeightChange(smp, smp.kept & ~tr.mask) - cutWeightChange(smp, smp.kept);
+        }
+        const double gain = double(leakGain) - alpha * moved;
         // Ties go to the first: a vertex alone comes before the masks that hold it.
-        if (gain > bestGain || (gain == bestGain && pairs > bestPairs)) {
+        if (gain > bestGain + kEps ||
+            (gain > kEps && gain >= bestGain - kEps && pairs > bestPairs)) {
           bestGain = gain;
           bestPairs = pairs;
+          bestLeakGain = leakGain;
           best = j;
         }
+        if (leakGain == 0 && pairs > 0 &&
+            (explore == triples_.size() || pairs > explorePairs ||
+             (pairs == explorePairs && gain > exploreGain + kEps))) {
+          explorePairs = pairs;
+          exploreGain = gain;
+          explore = j;
+        }
       }
-      if (best == triples_.size()) break;  // no cut helps
+      if (best == triples_.size()) {
+        if (explore == triples_.size()) break;  // no cut helps
+        best = explore;
+        bestGain = exploreGain;
+        bestLeakGain = 0;
+      }
       const CutTriple& tr = triples_[best];
       applied[best] = 1;
       if (slot[tr.plane] < 0) {
@@ -425,13 +488,17 @@ class TetCutter {
         planes.push_back({candidates_[tr.plane], 0});
       }
       planes[size_t(slot[tr.plane])].hide |= tr.mask << (tr.positive ? 0 : 4);
-      for (size_t i = 0; i < hidden_.size(); ++i)
+      for (size_t i = 0; i < nh; ++i)
         if (bool(sideOf[tr.plane][i]) == tr.positive) hidden_[i].kept &= ~tr.mask;
-      leaking -= size_t(bestGain);
+      for (size_t i = 0; i < nc; ++i)
+        if (bool(sideOf[tr.plane][nh + i]) == tr.positive) clean_[i].kept &= ~tr.mask;
+      leaking -= size_t(bestLeakGain);
+      cost -= bestGain;
       picks.push_back(best);
-      if (leaking < bestCount) {
-        bestCount = leaking;
+      if (cost < bestCost - kEps) {
+        bestCost = cost;
         bestPicks = picks.size();
+        bestLeaking = leaking;
       }
     }
     if (bestPicks < picks.size()) {  // replay the best prefix
@@ -447,9 +514,11 @@ class TetCutter {
       }
       for (CutSample& smp : hidden_)
         smp.kept = detail::cutKeptVertices(planes.data(), planes.size(), smp.p);
+      for (CutSample& smp : clean_)
+        smp.kept = detail::cutKeptVertices(planes.data(), planes.size(), smp.p);
     }
-    PS_CHECK_EQ(leakingCount(), bestCount);
-    return bestCount;
+    PS_CHECK_EQ(leakingCount(), bestLeaking);
+    return bestLeaking;
   }
 
   /// Points that interpolate a vertex they cannot see, with the vertices kept for them now.
@@ -494,8 +563,8 @@ class TetCutter {
 
   /// Traces from p to the active vertices; keeps p, with the candidate cuts it asks for, when a
   /// vertex is hidden and p is valid.
-  void test(Vec3 p, uint32_t active) {
-    CutSample smp{p, 0, active};
+  void test(Vec3 p, uint32_t active, const std::array<double, 4>& bary) {
+    CutSample smp{p, 0, active, 0xF, bary};
     PlaneCoeffs hitPlanes[4];
     // Every vertex, also one without weight (beyond a hull face): a cut that hides the face's
     // vertices gives it the weight (applyCuts).
@@ -514,6 +583,8 @@ class TetCutter {
     const uint64_t validitySeed = splitMix64(rng_);
     if (!smp.hidden) {
       ++samples_;
+      // A cut may yet reach it: what it moves of its weights counts against the cut.
+      if (s_.overCutWeight > 0) clean_.push_back(smp);
       return;
     }
     // A point inside geometry is no query's; its "hidden" vertices are no leak.
@@ -558,6 +629,7 @@ class TetCutter {
   Vec3 corner_[4];
   std::vector<Face> faces_;
   std::vector<CutSample> hidden_;
+  std::vector<CutSample> clean_;  ///< valid points that see every vertex (overCutWeight > 0)
   std::vector<PlaneCoeffs> candidates_;
   std::vector<CutTriple> triples_;
   size_t samples_ = 0;
@@ -572,11 +644,11 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
                               const LeakCutSettings& s) {
   if (s.samplesPerTet < 1 || s.maxPlanesPerTet < 1 ||
       s.maxPlanesPerTet > int(ProbeVolume::kMaxCutsPerTet) || s.validityRays < 1 ||
-      s.denseFactor < 1)
+      s.denseFactor < 1 || !(s.overCutWeight >= 0) || !std::isfinite(s.overCutWeight))
     throw ParameterError(
         "leak cuts: samples per tetrahedron, validity rays and the dense factor must be >= 1, "
         "planes per tetrahedron in [1, " +
-        std::to_string(ProbeVolume::kMaxCutsPerTet) + "]");
+        std::to_string(ProbeVolume::kMaxCutsPerTet) + "], the over-hide weight finite and >= 0");
   if (domain.empty()) domain = std::span<const Bounds3>(&tracer.scene().bounds, 1);
   // Planes closer than this (and parallel) are one surface's.
   const double samePlane = 1e-5 * tracer.scene().bounds.diagonal();

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # scripts/compare-placement at one small budget on cornell: a row per method with every column,
-# the reference's noise among them, and no plots (PLOTS=0).
+# the reference's noise and the leaking fraction among them, and no plots (PLOTS=0); with
+# LEAK_CUTS=1 on two-rooms, the same probe counts and fewer leaking queries.
 # Usage: test_compare_placement.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
 cli="$1"; root="$2"
@@ -14,11 +15,25 @@ rows = list(csv.DictReader(open(sys.argv[1])))
 assert [r["method"] for r in rows] == ["uniform", "greedy"], rows
 for r in rows:
     assert list(r) == ["scene", "method", "budget", "probes", "place_seconds", "rel_rmse", "p95",
-                       "max", "reference_noise", "rel_rmse_std_error"], r
+                       "max", "reference_noise", "rel_rmse_std_error", "leaking_fraction"], r
     assert all(r[k] for k in r), r
+    assert 0 <= float(r["leaking_fraction"]) <= 1, r
     # 256 samples on cornell: noisy, but the volumes are wrong by more than the reference is.
     assert 0 < float(r["reference_noise"]) < float(r["rel_rmse"]) < 1.5, r
     assert 0 < float(r["rel_rmse_std_error"]) < float(r["rel_rmse"]), r
     assert abs(int(r["probes"]) - 16) <= 3, r  # the uniform grid's count is coarse at 16
 PY
 [ ! -e "$tmp/p-error-vs-probes.png" ]
+for cuts in 0 1; do
+  PROBESTUDIO="$cli" SCENES=two-rooms METHODS=uniform QUERIES=256 REFERENCE_SPP=16 BAKE_SPP=16 \
+    PLOTS=0 EVAL_CACHE="$tmp/cache" LEAK_CUTS=$cuts \
+    "$root/scripts/compare-placement" "$tmp/c$cuts.csv" 16 >"$tmp/log" 2>&1 || { cat "$tmp/log"; exit 1; }
+done
+python3 - "$tmp/c0.csv" "$tmp/c1.csv" <<'PY'
+import csv, sys
+plain, cut = (list(csv.DictReader(open(f)))[0] for f in sys.argv[1:3])
+assert plain["probes"] == cut["probes"], (plain, cut)
+assert float(cut["leaking_fraction"]) < float(plain["leaking_fraction"]) / 2, (plain, cut)
+print("compare-placement LEAK_CUTS=1: %s probes, leaking_fraction %s -> %s"
+      % (cut["probes"], plain["leaking_fraction"], cut["leaking_fraction"]))
+PY

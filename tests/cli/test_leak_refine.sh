@@ -2,7 +2,8 @@
 # Leak refinement through the CLI on two-rooms (a thin wall between a lit and a sunlit room):
 # place adds "leak" probes unless --no-leak-refine; bake refines by default; eval reports
 # leaking_fraction, lower after refinement, and lower again with the leak cuts (bake's default;
-# --no-leak-cuts leaves Sukys's refinement alone); info reports the cuts.
+# --no-leak-cuts leaves Sukys's refinement alone; --leak-cuts-only keeps the set's probes and
+# cuts); info reports the cuts.
 # Usage: test_leak_refine.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
 cli="$1"; root="$2"
@@ -18,6 +19,22 @@ grep -q "leak refinement added" "$tmp/bake.txt"
 grep -q "leak cuts: " "$tmp/bake.txt"
 "$cli" bake "$tmp/plain.json" -o "$tmp/sukys.psv" --spp 128 --no-leak-cuts | tee "$tmp/bake-sukys.txt"
 if grep -q "leak cuts: " "$tmp/bake-sukys.txt"; then echo "cuts with --no-leak-cuts" >&2; exit 1; fi
+"$cli" bake "$tmp/plain.json" -o "$tmp/cuts-only.psv" --spp 128 --leak-cuts-only | tee "$tmp/bake-cuts.txt"
+grep -q "leak refinement added 0 probes" "$tmp/bake-cuts.txt"
+grep -q "leak cuts: " "$tmp/bake-cuts.txt"
+if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" --leak-cuts-only --no-leak-cuts 2>"$tmp/err.txt"; then
+  echo "--leak-cuts-only with --no-leak-cuts was accepted" >&2; exit 1
+fi
+grep -q -- "--leak-cuts-only" "$tmp/err.txt"
+[ ! -e "$tmp/x.psv" ]
+"$cli" eval "$tmp/cuts-only.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-cuts-only.json"
+# The cuts chosen for the leaks alone take more weight from probes in plain view.
+"$cli" bake "$tmp/plain.json" -o "$tmp/leaks-alone.psv" --spp 128 --over-cut-weight 0
+"$cli" eval "$tmp/leaks-alone.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-leaks-alone.json"
+if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" --over-cut-weight -1 2>"$tmp/err.txt"; then
+  echo "a negative --over-cut-weight was accepted" >&2; exit 1
+fi
+grep -q -- "--over-cut-weight" "$tmp/err.txt"
 "$cli" eval "$tmp/plain.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-plain.json"
 "$cli" eval "$tmp/sukys.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-sukys.json"
 "$cli" eval "$tmp/baked-refined.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-refined.json"
@@ -38,11 +55,19 @@ assert all(p["score"] >= 1 for p in leak)
 ep = json.load(open(f"{tmp}/e-plain.json"))
 es = json.load(open(f"{tmp}/e-sukys.json"))
 er = json.load(open(f"{tmp}/e-refined.json"))
-assert er["probes"] == es["probes"] > ep["probes"] == len(plain), (ep, es, er)
+ec = json.load(open(f"{tmp}/e-cuts-only.json"))
+ea = json.load(open(f"{tmp}/e-leaks-alone.json"))
+assert ep["over_cut_fraction"] == 0 and es["over_cut_fraction"] == 0, (ep, es)
+assert ea["over_cut_fraction"] > er["over_cut_fraction"], (ea, er)
+assert ea["leaking_fraction"] <= er["leaking_fraction"], (ea, er)
+assert er["probes"] == es["probes"] > ep["probes"] == ec["probes"] == len(plain), (ep, es, er, ec)
+assert ec["leaking_fraction"] < ep["leaking_fraction"] / 5, (ep, ec)
 assert 0 < ep["leaking_fraction"] <= 1, ep
 assert es["leaking_fraction"] < ep["leaking_fraction"], (ep, es)
 assert er["leaking_fraction"] < es["leaking_fraction"] / 5, (es, er)
 print("leak refinement ok: +%d probes in place, leaking_fraction %.4f -> %.4f (Sukys) -> %.4f "
-      "(cuts)" % (len(leak), ep["leaking_fraction"], es["leaking_fraction"],
-                  er["leaking_fraction"]))
+      "(cuts); %.4f with the cuts alone; over_cut_fraction %.4f (default), %.4f (leaks alone, "
+      "leaking %.4f)" % (len(leak), ep["leaking_fraction"], es["leaking_fraction"],
+                         er["leaking_fraction"], ec["leaking_fraction"], er["over_cut_fraction"],
+                         ea["over_cut_fraction"], ea["leaking_fraction"]))
 PY

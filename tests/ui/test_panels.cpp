@@ -373,7 +373,6 @@ class TestPanels : public QObject {
              qPrintable(note));
     QCOMPARE(vp->previewVolume()->tets.size(), doc->volume()->tets.size());
     // With it, the leak cuts (the default): the notes give their planes, the volume has them.
-    QVERIFY(panel->leakCutsBox()->isEnabled());
     QVERIFY(panel->leakCutsBox()->isChecked());
     const size_t planes = doc->volume()->cutPlanes.size();
     QVERIFY2(note.contains(QStringLiteral("Leak cuts: %1 planes").arg(planes)), qPrintable(note));
@@ -385,11 +384,6 @@ class TestPanels : public QObject {
     QVERIFY(doc->volume()->cutStart.empty());
     QVERIFY(!doc->lastJobNotes().join(' ').contains("Leak cuts"));
     panel->leakCutsBox()->setChecked(true);
-    // Refinement off: the cuts' box follows it (bake computes cuts only with refinement).
-    panel->leakRefineBox()->setChecked(false);
-    QVERIFY(!panel->leakCutsBox()->isEnabled());
-    panel->leakRefineBox()->setChecked(true);
-    QVERIFY(panel->leakCutsBox()->isEnabled());
     // Least-squares values: the same mesh, other values, and the notes and the file say so.
     QVERIFY(!panel->fitBox()->isChecked());
     const ProbeVolume captured = *doc->volume();
@@ -401,6 +395,15 @@ class TestPanels : public QObject {
     QVERIFY(doc->lastJobNotes().join(' ').contains("fitted by least squares"));
     QVERIFY(loadVolume(psv.toStdString()).metadataJson.find("\"least-squares\"") !=
             std::string::npos);
+    panel->fitBox()->setChecked(false);
+    // The cuts without refinement: exactly the accepted probes, and planes.
+    panel->leakRefineBox()->setChecked(false);
+    QVERIFY(panel->bake());
+    QCOMPARE(waitForJob(doc), QString());
+    QCOMPARE(doc->volume()->probeCount(), accepted.size());
+    QVERIFY(doc->lastJobNotes().join(' ').contains("0 added by leak refinement"));
+    QVERIFY(doc->lastJobNotes().join(' ').contains("Leak cuts: "));
+    panel->leakRefineBox()->setChecked(true);
   }
 
   void evaluationsArePlottedAgainstProbeCount() {
