@@ -635,9 +635,12 @@ bool Document::evaluate(const EvalRequest& request) {
     es.cacheDir = cacheDir;
     es.sceneHash = sceneHash;
     std::optional<ProbeVolume> cut;
+    QString evaluated = source;
     if (cutPreview) {
       cut = *volume;
-      previewLeakCuts(*tracer, *cut, domain);
+      if (previewLeakCuts(*tracer, *cut, domain).skipped)
+        evaluated = tr("preview (accepted probes; no leak cuts above %L1 tetrahedra)")
+                        .arg(qulonglong(kMaxPreviewCutTets));
     }
     const EvalResult r = evaluateVolume(*tracer, rig, cut ? *cut : *volume, es, [&](double f) {
       return report(tr("Evaluating against the reference…"), f);
@@ -649,7 +652,7 @@ bool Document::evaluate(const EvalRequest& request) {
     e.maxRelError = r.maxRelError;
     e.relRmseStdError = r.relRmseStdError;
     e.referenceRelNoise = r.referenceRelNoise;
-    e.source = source;
+    e.source = evaluated;
     e.referenceCached = r.referenceCached;
     e.seconds = r.seconds;
     result.evaluation = e;

@@ -55,7 +55,7 @@ struct PreviewCuts {
 };
 
 /// Above this many tetrahedra the preview gets no cuts: their time grows with the tetrahedra and
-/// the scene (on two cores, 0.56 s for 26,155 tetrahedra in two-rooms, 0.77 s for 9,078 in
+/// the scene (on two cores, 0.52 s for 26,155 tetrahedra in two-rooms, 0.76 s for 9,078 in
 /// dream-apartment; BENCHMARKS.md), and the fields wait for them after every edit.
 inline constexpr size_t kMaxPreviewCutTets = 30000;
 

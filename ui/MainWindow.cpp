@@ -609,6 +609,7 @@ void MainWindow::updateStatus() {
 
 void MainWindow::updateCutsLabel() {
   const std::optional<PreviewCuts>& c = viewport_->previewCuts();
+  cutsLabel_->setToolTip(QString());
   if (!c) {
     cutsLabel_->setText(viewport_->leakCuts() || !doc_->hasScene() ? QString()
                                                                    : tr("Leak cuts off"));

@@ -94,10 +94,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// Which probes the preview volume uses (accepted only, or all captured).
   void setPreviewSource(PreviewSource s);
   PreviewSource previewSource() const { return previewSource_; }
-  /// Leak cuts on the preview volume and on the error slice's reference (previewLeakCuts in
-  /// LightingField.h): the preview then shows what bake's cuts make of the light behind a wall,
-  /// instead of the leak. On by default; they need the scene's tracer, and the baked volume has
-  /// its own.
+  /// Leak cuts on the preview volume and, while the error slice is shown, on its reference
+  /// (previewLeakCuts in LightingField.h): the preview then shows what bake's cuts make of the
+  /// light behind a wall, instead of the leak. On by default; they need the scene's tracer, and
+  /// the baked volume has its own.
   void setLeakCuts(bool on);
   bool leakCuts() const { return leakCuts_; }
   /// What the last fields' cuts did to the preview volume (nothing when there were none to
@@ -195,7 +195,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// In the DrawVolume tool, a drag ended: the box whose footprint the drag spanned on the
   /// horizontal plane through the surface point pressed, from that point up to the scene's top.
   void volumeDrawn(const ps::Bounds3& box);
-  /// A background rebuild of the lighting fields arrived.
+  /// New lighting fields were applied: a background rebuild arrived, or updateFields() took
+  /// or computed them.
   void fieldsUpdated();
   /// The preview volume was brought up to date with the document by local edits
   /// (EditableProbeVolume) rather than rebuilt: the wall time of the edits and the tet slots
@@ -230,6 +231,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void updateFields();
 
   void applyFields(Fields&& f);
+  /// glyphSamples() from the fields as they are (the frame does not wait for a rebuild).
+  std::vector<GlyphSample> currentGlyphSamples(double* arrowMeters);
+  /// Whether the fields cut the error slice's reference too (only while that slice is shown).
+  bool cutsReference() const;
   /// Brings mirror_ up to date with the document (local edits); emits previewVolumeEdited.
   void syncMirror();
   /// syncMirror(), then a copy of its volume for the fields (nothing when there is none); the

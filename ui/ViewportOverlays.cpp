@@ -103,10 +103,12 @@ void Viewport::setPreviewLighting(bool on) {
 }
 
 void Viewport::setOverlay(Overlay o, bool on) {
+  const bool cut = cutsReference();
   if (on)
     overlays_ |= 1u << int(o);
   else
     overlays_ &= ~(1u << int(o));
+  if (cutsReference() != cut) fieldsDirty_ = true;
   overlaysDirty_ = true;
   update();
 }
@@ -131,9 +133,15 @@ void Viewport::setGlyphResolution(int cells) {
 }
 
 void Viewport::setSliceMode(SliceMode m) {
+  const bool cut = cutsReference();
   sliceMode_ = m;
+  if (cutsReference() != cut) fieldsDirty_ = true;
   overlaysDirty_ = true;
   update();
+}
+
+bool Viewport::cutsReference() const {
+  return leakCuts_ && sliceMode_ == SliceMode::Error && overlay(Overlay::Slice);
 }
 
 void Viewport::setSliceAxis(int axis) {
@@ -192,6 +200,10 @@ void Viewport::setGlyphsAtProbes(bool on) {
 
 std::vector<Viewport::GlyphSample> Viewport::glyphSamples(double* arrowMeters) {
   updateFields();
+  return currentGlyphSamples(arrowMeters);
+}
+
+std::vector<Viewport::GlyphSample> Viewport::currentGlyphSamples(double* arrowMeters) {
   std::vector<GlyphSample> out;
   if (glyphsAtProbes_) {
     // Chajdas Fig. 2 over the captured probes themselves.
@@ -246,7 +258,7 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 std::shared_ptr<const Tracer> tracer,
                                                 std::shared_ptr<const ProbeVolume> baked,
                                                 std::optional<ProbeVolume> preview, bool leakCuts,
-                                                std::vector<Bounds3> domain);
+                                                bool cutReference, std::vector<Bounds3> domain);
 }  // namespace
 
 namespace {
@@ -266,15 +278,19 @@ void Viewport::updateFields() {
     // A background rebuild is under way (or done, its signal not yet delivered): take it now.
     fieldsWatcher_->waitForFinished();
     fieldsPending_ = false;
-    if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));
+    if (auto r = fieldsWatcher_->result()) {
+      applyFields(std::move(*r));
+      emit fieldsUpdated();
+    }
   }
   if (!fieldsDirty_) return;
   fieldsDirty_ = false;
   auto f = computeFields(doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
                          glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume(),
-                         previewForFields(), leakCuts_,
+                         previewForFields(), leakCuts_, cutsReference(),
                          importanceBoxes(doc_->probeSet().importanceVolumes));
   applyFields(std::move(*f));
+  emit fieldsUpdated();
 }
 
 void Viewport::startFieldsRebuild() {
@@ -293,10 +309,11 @@ void Viewport::startFieldsRebuild() {
       update();  // shows the new fields; starts another rebuild if the probes moved meanwhile
     });
   }
-  fieldsWatcher_->setFuture(QtConcurrent::run(
-      computeFields, doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
-      glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume(),
-      previewForFields(), leakCuts_, importanceBoxes(doc_->probeSet().importanceVolumes)));
+  fieldsWatcher_->setFuture(
+      QtConcurrent::run(computeFields, doc_->probes(), previewSource_,
+                        scene ? scene->bounds : Bounds3(), glyphResolution_, previewResolution_,
+                        doc_->tracerShared(), doc_->volume(), previewForFields(), leakCuts_,
+                        cutsReference(), importanceBoxes(doc_->probeSet().importanceVolumes)));
 }
 
 void Viewport::applyFields(Fields&& f) {
@@ -336,7 +353,7 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 std::shared_ptr<const Tracer> tracer,
                                                 std::shared_ptr<const ProbeVolume> baked,
                                                 std::optional<ProbeVolume> preview, bool leakCuts,
-                                                std::vector<Bounds3> domain) {
+                                                bool cutReference, std::vector<Bounds3> domain) {
   auto f = std::make_shared<Viewport::Fields>();
   const bool cut = leakCuts && tracer;
   if (source == PreviewSource::Baked) {
@@ -349,8 +366,9 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
     f->reference = f->preview;
   } else {
     f->reference = buildPreviewVolume(probes, PreviewSource::AllCaptured);
-    // The error slice's reference leaks no more than the preview.
-    if (cut && f->reference) previewLeakCuts(*tracer, *f->reference, domain);
+    // The error slice's reference leaks no more than the preview (only while that slice is
+    // shown: it doubles the rebuild's time).
+    if (cut && cutReference && f->reference) previewLeakCuts(*tracer, *f->reference, domain);
   }
   if (!f->preview || bounds.empty()) return f;
   f->glyphGrid = sampleGrid(*f->preview, bounds, glyphResolution);
@@ -516,7 +534,7 @@ void Viewport::uploadOverlays() {
   glyphCount_ = 0;
   if (overlay(Overlay::Glyphs)) {
     double arrowMeters = 0;
-    const std::vector<GlyphSample> samples = glyphSamples(&arrowMeters);
+    const std::vector<GlyphSample> samples = currentGlyphSamples(&arrowMeters);
     const size_t n = samples.size();
     std::vector<float> inst;
     if (n > 0) {

@@ -1,6 +1,7 @@
 // probestudio bake: parses its options, calls the core stages and prints what it did; bad
 // input surfaces as ps::Error, caught in main.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -89,6 +90,12 @@ void registerBake(CLI::App& app) {
                     cmd->count("--fit-regularization")))
       throw ParameterError("--fit-points, --fit-spp, --fit-regularization: give --fit too");
     checkFitSettings(o->fitSettings);
+    if (!std::isfinite(o->overCutWeight))
+      throw ParameterError("--over-cut-weight: expected a finite number >= 0");
+    if (cmd->count("--over-cut-weight") && (o->noLeakRefine || o->noLeakCuts))
+      throw ParameterError(
+          "--over-cut-weight: it weighs the leak cuts, which --no-leak-refine and --no-leak-cuts "
+          "turn off");
     if (o->leakCutsOnly && (o->noLeakRefine || o->noLeakCuts || o->leakCutProbes))
       throw ParameterError(
           "--leak-cuts-only: cuts without Sukys's probes; it cannot go with --no-leak-refine, "

@@ -169,10 +169,12 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   std::vector<char> leaking(M, 0), overCut(M, 0);
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     ref[q] = luminance(reference->irradiance[q]);
-    const VolumeLocation loc = locate(volume, points[q]);
+    // locate() is the uncut location with the cuts applied: the same tet for both.
+    const VolumeLocation before = locate(uncut ? *uncut : volume, points[q]);
+    VolumeLocation loc = before;
+    if (uncut && loc.tet >= 0) applyCuts(volume, points[q], loc);
     got[q] = luminance(interpolate(volume, loc).irradiance(normals[q]));
     if (loc.tet < 0) return;
-    const VolumeLocation before = uncut ? locate(*uncut, points[q], loc.tet) : loc;
     // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
     // weight 0 (cut off by a leak cut, or opposite the face a query outside the hull is
     // clamped to) is not interpolated.
@@ -190,7 +192,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
       }
     }
     // A cut is a plane: it can take weight from probes in plain view (over-cut).
-    if (uncut && seesAll && before.tet == loc.tet) {
+    if (uncut && seesAll) {
       double moved = 0;
       for (int k = 0; k < 4; ++k) moved += std::abs(double(loc.weights[k]) - before.weights[k]);
       overCut[q] = 0.5 * moved > kOverCutWeightChange;

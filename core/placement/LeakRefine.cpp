@@ -304,7 +304,7 @@ struct CutTriple {
 
 /// Whether a point interpolates a vertex it cannot see, given the vertices kept for it.
 bool cutSampleLeaks(const CutSample& smp, uint32_t kept) {
-  if (kept == 0) return true;  // applyCuts keeps the weights as they were
+  if (kept == 0) return (smp.active & smp.hidden) != 0;  // applyCuts keeps the weights as they were
   // The vertices with weight; applyCuts shares it equally when the kept ones have none.
   const uint32_t weighted = (kept & smp.active) ? kept & smp.active : kept;
   return (weighted & smp.hidden) != 0;
@@ -445,14 +445,18 @@ class TetCutter {
           continue;
         const std::vector<char>& side = sideOf[tr.plane];
         long leakGain = 0, pairs = 0;
+        double moved = 0;
         for (size_t i = 0; i < nh; ++i) {
           const CutSample& smp = hidden_[i];
           if (bool(side[i]) != tr.positive || !(smp.kept & tr.mask)) continue;
           leakGain +=
               long(cutSampleLeaks(smp, smp.kept)) - long(cutSampleLeaks(smp, smp.kept & ~tr.mask));
           pairs += std::popcount(smp.kept & tr.mask & smp.hidden);
+          // Beyond a hull face, a point may see the face's probes and not the one opposite,
+          // which has no weight there: it sees every probe it interpolates.
+          if (alpha > 0 && !(smp.hidden & smp.active))
+            moved += cutWeightChange(smp, smp.kept & ~tr.mask) - cutWeightChange(smp, smp.kept);
         }
-        double moved = 0;
         for (size_t i = 0; i < nc; ++i) {
           const CutSample& smp = clean_[i];
           if (bool(side[nh + i]) != tr.positive || !(smp.kept & tr.mask)) continue;
@@ -584,7 +588,7 @@ class TetCutter {
     if (!smp.hidden) {
       ++samples_;
       // A cut may yet reach it: what it moves of its weights counts against the cut.
-      if (s_.overCutWeight > 0) clean_.push_back(smp);
+      if (s_.overCutWeight > 0) clean_.push_back(smp);  // valid: its rays reach every vertex
       return;
     }
     // A point inside geometry is no query's; its "hidden" vertices are no leak.
@@ -629,7 +633,9 @@ class TetCutter {
   Vec3 corner_[4];
   std::vector<Face> faces_;
   std::vector<CutSample> hidden_;
-  std::vector<CutSample> clean_;  ///< valid points that see every vertex (overCutWeight > 0)
+  /// Points that see every vertex (overCutWeight > 0); not validity-tested, as the points that
+  /// see every vertex were not before (a point inside a solid would hit its inside instead).
+  std::vector<CutSample> clean_;
   std::vector<PlaneCoeffs> candidates_;
   std::vector<CutTriple> triples_;
   size_t samples_ = 0;
@@ -648,7 +654,7 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
     throw ParameterError(
         "leak cuts: samples per tetrahedron, validity rays and the dense factor must be >= 1, "
         "planes per tetrahedron in [1, " +
-        std::to_string(ProbeVolume::kMaxCutsPerTet) + "], the over-hide weight finite and >= 0");
+        std::to_string(ProbeVolume::kMaxCutsPerTet) + "], the over-cut weight finite and >= 0");
   if (domain.empty()) domain = std::span<const Bounds3>(&tracer.scene().bounds, 1);
   // Planes closer than this (and parallel) are one surface's.
   const double samePlane = 1e-5 * tracer.scene().bounds.diagonal();

@@ -35,6 +35,14 @@ if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" --over-cut-weight -1 2>"$tmp/er
   echo "a negative --over-cut-weight was accepted" >&2; exit 1
 fi
 grep -q -- "--over-cut-weight" "$tmp/err.txt"
+for bad in "--over-cut-weight nan" "--over-cut-weight 0.5 --no-leak-cuts" "--over-cut-weight 1 --no-leak-refine"; do
+  # shellcheck disable=SC2086
+  if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" $bad 2>"$tmp/err.txt"; then
+    echo "bake $bad was accepted" >&2; exit 1
+  fi
+  grep -q -- "--over-cut-weight" "$tmp/err.txt"
+  [ ! -e "$tmp/x.psv" ]
+done
 "$cli" eval "$tmp/plain.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-plain.json"
 "$cli" eval "$tmp/sukys.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-sukys.json"
 "$cli" eval "$tmp/baked-refined.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-refined.json"
