@@ -65,13 +65,7 @@ PreviewCuts previewLeakCuts(const Tracer& tracer, ProbeVolume& volume,
     c.skipped = true;
     return c;
   }
-  const LeakCutResult r = computeLeakCuts(tracer, volume, domain, previewLeakCutSettings());
-  c.planes = r.planes;
-  c.tetsCut = r.tetsCut;
-  c.samples = r.samples;
-  c.hiddenBefore = r.hiddenSamplesBefore;
-  c.hiddenAfter = r.hiddenSamplesAfter;
-  c.seconds = r.seconds;
+  c.result = computeLeakCuts(tracer, volume, domain, previewLeakCutSettings());
   return c;
 }
 

@@ -44,14 +44,11 @@ enum class PreviewSource {
 std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
                                               PreviewSource source);
 
-/// What the leak cuts did to a preview volume (LeakCutResult's counts).
+/// What the leak cuts did to a preview volume.
 struct PreviewCuts {
-  size_t tets = 0;  ///< the volume's tetrahedra
-  size_t planes = 0, tetsCut = 0;
-  /// Points drawn, and of them those interpolating a probe they cannot see, before and after.
-  size_t samples = 0, hiddenBefore = 0, hiddenAfter = 0;
-  double seconds = 0;
+  size_t tets = 0;       ///< the volume's tetrahedra
   bool skipped = false;  ///< more than kMaxPreviewCutTets tetrahedra: none computed
+  LeakCutResult result;  ///< computeLeakCuts' (empty when skipped)
 };
 
 /// Above this many tetrahedra the preview gets no cuts: their time grows with the tetrahedra and

@@ -621,18 +621,19 @@ void MainWindow::updateCutsLabel() {
                             .arg(qulonglong(kMaxPreviewCutTets)));
     return;
   }
-  const double before = c->samples ? double(c->hiddenBefore) / double(c->samples) : 0.0;
-  const double after = c->samples ? double(c->hiddenAfter) / double(c->samples) : 0.0;
+  const LeakCutResult& r = c->result;
+  const double before = r.samples ? double(r.hiddenSamplesBefore) / double(r.samples) : 0.0;
+  const double after = r.samples ? double(r.hiddenSamplesAfter) / double(r.samples) : 0.0;
   cutsLabel_->setText(tr("Leak cuts: %L1 planes in %L2 tetrahedra, leaking %3 % -> %4 %")
-                          .arg(c->planes)
-                          .arg(c->tetsCut)
+                          .arg(r.planes)
+                          .arg(r.tetsCut)
                           .arg(100 * before, 0, 'f', 1)
                           .arg(100 * after, 0, 'f', 1));
   cutsLabel_->setToolTip(tr("Of %L1 points drawn in the preview volume's tetrahedra, the share "
                             "that interpolates a probe it cannot see, before and after the cuts "
                             "(%2 s)")
-                             .arg(c->samples)
-                             .arg(c->seconds, 0, 'f', 2));
+                             .arg(r.samples)
+                             .arg(r.seconds, 0, 'f', 2));
 }
 
 std::vector<uint64_t> MainWindow::selectedIds() const {

@@ -195,8 +195,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// In the DrawVolume tool, a drag ended: the box whose footprint the drag spanned on the
   /// horizontal plane through the surface point pressed, from that point up to the scene's top.
   void volumeDrawn(const ps::Bounds3& box);
-  /// New lighting fields were applied: a background rebuild arrived, or updateFields() took
-  /// or computed them.
+  /// New lighting fields were applied (applyFields): a background rebuild arrived, or
+  /// updateFields() took or computed them.
   void fieldsUpdated();
   /// The preview volume was brought up to date with the document by local edits
   /// (EditableProbeVolume) rather than rebuilt: the wall time of the edits and the tet slots

@@ -278,10 +278,7 @@ void Viewport::updateFields() {
     // A background rebuild is under way (or done, its signal not yet delivered): take it now.
     fieldsWatcher_->waitForFinished();
     fieldsPending_ = false;
-    if (auto r = fieldsWatcher_->result()) {
-      applyFields(std::move(*r));
-      emit fieldsUpdated();
-    }
+    if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));
   }
   if (!fieldsDirty_) return;
   fieldsDirty_ = false;
@@ -290,7 +287,6 @@ void Viewport::updateFields() {
                          previewForFields(), leakCuts_, cutsReference(),
                          importanceBoxes(doc_->probeSet().importanceVolumes));
   applyFields(std::move(*f));
-  emit fieldsUpdated();
 }
 
 void Viewport::startFieldsRebuild() {
@@ -304,8 +300,7 @@ void Viewport::startFieldsRebuild() {
     connect(fieldsWatcher_, &QFutureWatcherBase::finished, this, [this] {
       if (!fieldsPending_) return;  // already taken by updateFields()
       fieldsPending_ = false;
-      if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));
-      emit fieldsUpdated();
+      if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));  // emits fieldsUpdated
       update();  // shows the new fields; starts another rebuild if the probes moved meanwhile
     });
   }
@@ -328,6 +323,7 @@ void Viewport::applyFields(Fields&& f) {
   leaks_ = std::move(f.leaks);
   edgeStops_ = std::move(f.edgeStops);
   previewCuts_ = std::move(f.cuts);
+  emit fieldsUpdated();
 }
 
 const ProbeVolume* Viewport::drawnPreviewVolume() const {

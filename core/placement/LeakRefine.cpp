@@ -416,15 +416,21 @@ class TetCutter {
   /// leaking.
   size_t choose(std::vector<ProbeVolume::CutPlane>& planes) {
     const double alpha = s_.overCutWeight;
-    const size_t nh = hidden_.size(), nc = clean_.size();
+    const size_t n = points_.size();
     std::vector<std::vector<char>> sideOf(candidates_.size());
     for (size_t c = 0; c < candidates_.size(); ++c) {
-      sideOf[c].resize(nh + nc);
-      for (size_t i = 0; i < nh; ++i) sideOf[c][i] = detail::cutSide(candidates_[c], hidden_[i].p);
-      for (size_t i = 0; i < nc; ++i)
-        sideOf[c][nh + i] = detail::cutSide(candidates_[c], clean_[i].p);
+      sideOf[c].resize(n);
+      for (size_t i = 0; i < n; ++i) sideOf[c][i] = detail::cutSide(candidates_[c], points_[i].p);
     }
     std::vector<int> slot(candidates_.size(), -1);  // index in `planes`, once chosen
+    // Adds the triple's plane (if new) and its mask on its side to `planes`.
+    auto addToPlanes = [&](const CutTriple& tr) {
+      if (slot[tr.plane] < 0) {
+        slot[tr.plane] = int(planes.size());
+        planes.push_back({candidates_[tr.plane], 0});
+      }
+      planes[size_t(slot[tr.plane])].hide |= tr.mask << (tr.positive ? 0 : 4);
+    };
     std::vector<char> applied(triples_.size(), 0);
     size_t leaking = leakingCount();
     double cost = double(leaking);  // no cut moves a weight yet
@@ -446,21 +452,16 @@ class TetCutter {
         const std::vector<char>& side = sideOf[tr.plane];
         long leakGain = 0, pairs = 0;
         double moved = 0;
-        for (size_t i = 0; i < nh; ++i) {
-          const CutSample& smp = hidden_[i];
+        for (size_t i = 0; i < n; ++i) {
+          const CutSample& smp = points_[i];
           if (bool(side[i]) != tr.positive || !(smp.kept & tr.mask)) continue;
           leakGain +=
               long(cutSampleLeaks(smp, smp.kept)) - long(cutSampleLeaks(smp, smp.kept & ~tr.mask));
           pairs += std::popcount(smp.kept & tr.mask & smp.hidden);
-          // Beyond a hull face, a point may see the face's probes and not the one opposite,
-          // which has no weight there: it sees every probe it interpolates.
+          // A point that sees every probe it interpolates (beyond a hull face, the face's three:
+          // the one opposite has no weight there) is harmed by any weight a cut moves.
           if (alpha > 0 && !(smp.hidden & smp.active))
             moved += cutWeightChange(smp, smp.kept & ~tr.mask) - cutWeightChange(smp, smp.kept);
-        }
-        for (size_t i = 0; i < nc; ++i) {
-          const CutSample& smp = clean_[i];
-          if (bool(side[nh + i]) != tr.positive || !(smp.kept & tr.mask)) continue;
-          moved += cutWeightChange(smp, smp.kept & ~tr.mask) - cutWeightChange(smp, smp.kept);
         }
         const double gain = double(leakGain) - alpha * moved;
         // Ties go to the first: a vertex alone comes before the masks that hold it.
@@ -487,15 +488,9 @@ class TetCutter {
       }
       const CutTriple& tr = triples_[best];
       applied[best] = 1;
-      if (slot[tr.plane] < 0) {
-        slot[tr.plane] = int(planes.size());
-        planes.push_back({candidates_[tr.plane], 0});
-      }
-      planes[size_t(slot[tr.plane])].hide |= tr.mask << (tr.positive ? 0 : 4);
-      for (size_t i = 0; i < nh; ++i)
-        if (bool(sideOf[tr.plane][i]) == tr.positive) hidden_[i].kept &= ~tr.mask;
-      for (size_t i = 0; i < nc; ++i)
-        if (bool(sideOf[tr.plane][nh + i]) == tr.positive) clean_[i].kept &= ~tr.mask;
+      addToPlanes(tr);
+      for (size_t i = 0; i < n; ++i)
+        if (bool(sideOf[tr.plane][i]) == tr.positive) points_[i].kept &= ~tr.mask;
       leaking -= size_t(bestLeakGain);
       cost -= bestGain;
       picks.push_back(best);
@@ -508,17 +503,8 @@ class TetCutter {
     if (bestPicks < picks.size()) {  // replay the best prefix
       planes.clear();
       std::fill(slot.begin(), slot.end(), -1);
-      for (size_t k = 0; k < bestPicks; ++k) {
-        const CutTriple& tr = triples_[picks[k]];
-        if (slot[tr.plane] < 0) {
-          slot[tr.plane] = int(planes.size());
-          planes.push_back({candidates_[tr.plane], 0});
-        }
-        planes[size_t(slot[tr.plane])].hide |= tr.mask << (tr.positive ? 0 : 4);
-      }
-      for (CutSample& smp : hidden_)
-        smp.kept = detail::cutKeptVertices(planes.data(), planes.size(), smp.p);
-      for (CutSample& smp : clean_)
+      for (size_t k = 0; k < bestPicks; ++k) addToPlanes(triples_[picks[k]]);
+      for (CutSample& smp : points_)
         smp.kept = detail::cutKeptVertices(planes.data(), planes.size(), smp.p);
     }
     PS_CHECK_EQ(leakingCount(), bestLeaking);
@@ -528,7 +514,7 @@ class TetCutter {
   /// Points that interpolate a vertex they cannot see, with the vertices kept for them now.
   size_t leakingCount() const {
     size_t n = 0;
-    for (const CutSample& smp : hidden_) n += cutSampleLeaks(smp, smp.kept);
+    for (const CutSample& smp : points_) n += cutSampleLeaks(smp, smp.kept);
     return n;
   }
 
@@ -539,7 +525,7 @@ class TetCutter {
     for (size_t pick = 0; pick < count; ++pick) {
       double farthest = -1;
       Vec3 best;
-      for (const CutSample& smp : hidden_) {
+      for (const CutSample& smp : points_) {
         if (!cutSampleLeaks(smp, smp.kept)) continue;
         double nearest = std::numeric_limits<double>::infinity();
         for (const Vec3& c : taken) nearest = std::min(nearest, length(c - smp.p));
@@ -556,7 +542,7 @@ class TetCutter {
   }
 
   size_t samples() const { return samples_; }  ///< valid points drawn
-  size_t hiddenSamples() const { return hidden_.size(); }
+  size_t hiddenSamples() const { return hiddenSamples_; }
 
  private:
   struct Face {
@@ -588,14 +574,15 @@ class TetCutter {
     if (!smp.hidden) {
       ++samples_;
       // A cut may yet reach it: what it moves of its weights counts against the cut.
-      if (s_.overCutWeight > 0) clean_.push_back(smp);  // valid: its rays reach every vertex
+      if (s_.overCutWeight > 0) points_.push_back(smp);
       return;
     }
     // A point inside geometry is no query's; its "hidden" vertices are no leak.
     if (backfaceFraction(tracer_, p, s_.validityRays, validitySeed) > s_.invalidBackfaceFraction)
       return;
     ++samples_;
-    hidden_.push_back(smp);
+    points_.push_back(smp);
+    ++hiddenSamples_;
     uint32_t planeOf[4] = {0, 0, 0, 0};
     for (int k = 0; k < 4; ++k) {
       if (!(smp.hidden >> k & 1)) continue;
@@ -632,10 +619,11 @@ class TetCutter {
   uint64_t rng_;
   Vec3 corner_[4];
   std::vector<Face> faces_;
-  std::vector<CutSample> hidden_;
-  /// Points that see every vertex (overCutWeight > 0); not validity-tested, as the points that
-  /// see every vertex were not before (a point inside a solid would hit its inside instead).
-  std::vector<CutSample> clean_;
+  /// The valid points that cannot see some vertex, and (with overCutWeight > 0) the points that
+  /// see every vertex, which are not validity-tested (a point inside a solid would hit its
+  /// inside), in the order drawn.
+  std::vector<CutSample> points_;
+  size_t hiddenSamples_ = 0;  ///< of points_, those that cannot see some vertex
   std::vector<PlaneCoeffs> candidates_;
   std::vector<CutTriple> triples_;
   size_t samples_ = 0;

@@ -232,7 +232,8 @@ void BM_PreviewLeakCuts(benchmark::State& state) {
     } else {
       const PreviewCuts c = previewLeakCuts(*tracer, v, {});
       if (c.skipped) state.SkipWithError("above kMaxPreviewCutTets");
-      planes = c.planes, before = c.hiddenBefore, after = c.hiddenAfter, samples = c.samples;
+      planes = c.result.planes, before = c.result.hiddenSamplesBefore,
+      after = c.result.hiddenSamplesAfter, samples = c.result.samples;
     }
   }
   state.counters["tets"] = double(volume->tets.size());

@@ -602,8 +602,9 @@ class TestEditing : public QObject {
     QVERIFY(!vp->previewVolume()->cutPlanes.empty());
     const std::optional<PreviewCuts> cuts = vp->previewCuts();
     QVERIFY(cuts && !cuts->skipped);
-    QCOMPARE(cuts->planes, vp->previewVolume()->cutPlanes.size());
-    QVERIFY(cuts->hiddenBefore > 20 * std::max<size_t>(cuts->hiddenAfter, 1));
+    QCOMPARE(cuts->result.planes, vp->previewVolume()->cutPlanes.size());
+    QVERIFY(cuts->result.hiddenSamplesBefore >
+            20 * std::max<size_t>(cuts->result.hiddenSamplesAfter, 1));
     const int withCuts = mixed(*vp->previewVolume());
     // The View menu's action turns them off: the same tets, no planes, and the light leaks.
     QAction* action = w.findChild<QAction*>("leakCutsAction");
@@ -616,8 +617,8 @@ class TestEditing : public QObject {
     qInfo(
         "room B beside the wall: %d of 400 points mix in room A's light with the cuts, %d "
         "without; cuts: %zu planes in %zu tetrahedra, %zu -> %zu of %zu points leaking",
-        withCuts, without, cuts->planes, cuts->tetsCut, cuts->hiddenBefore, cuts->hiddenAfter,
-        cuts->samples);
+        withCuts, without, cuts->result.planes, cuts->result.tetsCut,
+        cuts->result.hiddenSamplesBefore, cuts->result.hiddenSamplesAfter, cuts->result.samples);
     QVERIFY2(
         without > 100 && withCuts * 20 < without,
         qPrintable(QString("%1 of 400 mixed with cuts, %2 without").arg(withCuts).arg(without)));
@@ -632,8 +633,9 @@ class TestEditing : public QObject {
     QVERIFY(updated.wait(20000));
     const QLabel* label = w.findChild<QLabel*>("leakCutsLabel");
     QVERIFY(label);
-    QVERIFY2(label->text().startsWith(QStringLiteral("Leak cuts: %L1 planes").arg(cuts->planes)),
-             qPrintable(label->text()));
+    QVERIFY2(
+        label->text().startsWith(QStringLiteral("Leak cuts: %L1 planes").arg(cuts->result.planes)),
+        qPrintable(label->text()));
   }
 
   void overlaysToggleFromTheMenuAndTheTestObjectDrags() {

@@ -199,12 +199,12 @@ class TestLightingField : public QObject {
     const LeakCutResult b = computeLeakCuts(tracer, bake, {});
     QVERIFY(!c.skipped);
     QCOMPARE(c.tets, v->tets.size());
-    QVERIFY(c.planes > 0);
-    QCOMPARE(c.planes, d.planes);
-    QCOMPARE(c.hiddenAfter, d.hiddenSamplesAfter);
+    QVERIFY(c.result.planes > 0);
+    QCOMPARE(c.result.planes, d.planes);
+    QCOMPARE(c.result.hiddenSamplesAfter, d.hiddenSamplesAfter);
     QCOMPARE(preview.cutStart, direct.cutStart);
-    QVERIFY(c.samples < b.samples / 2);
-    QVERIFY(c.hiddenAfter * 10 < c.hiddenBefore);
+    QVERIFY(c.result.samples < b.samples / 2);
+    QVERIFY(c.result.hiddenSamplesAfter * 10 < c.result.hiddenSamplesBefore);
     // Above kMaxPreviewCutTets: no cuts, the volume untouched, and the result says why.
     std::mt19937 rng(9);
     std::uniform_real_distribution<double> u(0, 1);
@@ -223,7 +223,7 @@ class TestLightingField : public QObject {
     const PreviewCuts skipped = previewLeakCuts(tracer, *big, {});
     QVERIFY(skipped.skipped);
     QCOMPARE(skipped.tets, big->tets.size());
-    QCOMPARE(skipped.planes, size_t(0));
+    QCOMPARE(skipped.result.planes, size_t(0));
     QVERIFY(big->cutPlanes.empty() && big->cutStart.empty());
   }
 };
