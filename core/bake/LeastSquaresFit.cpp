@@ -218,21 +218,9 @@ FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolu
 
   // The fit points: uniform over the domain of interest, as eval's queries are.
   const DomainPoints domainPoints = fitDomain(tracer, rig, domain, s);
-  std::vector<Vec3> drawn(wanted);
-  std::vector<char> found(wanted, 0);
-  tbb::parallel_for(size_t(0), wanted, [&](size_t q) {
-    // Salted: eval's queries with the same seed are other points (a fit to the very queries
-    // that judge it would hide its error).
-    uint64_t rng = streamSeed(s.seed ^ 0x9E3779B97F4A7C15ull, q);
-    if (const auto p = domainPoints.draw(rng)) {
-      drawn[q] = *p;
-      found[q] = 1;
-    }
-  });
-  std::vector<Vec3> points;
-  points.reserve(wanted);
-  for (size_t q = 0; q < wanted; ++q)
-    if (found[q]) points.push_back(drawn[q]);
+  // Salted: eval's queries with the same seed are other points (a fit to the very queries that
+  // judge it would hide its error).
+  const std::vector<Vec3> points = domainPoints.drawMany(wanted, s.seed ^ 0x9E3779B97F4A7C15ull);
   if (points.empty())
     throw ParameterError(
         "fit: no point of the domain of interest lies outside geometry (and the light "

@@ -1,5 +1,8 @@
 #include "core/eval/DomainPoints.h"
 
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
 #include <string>
 
 #include "core/capture/Capture.h"
@@ -75,6 +78,40 @@ std::optional<Vec3> DomainPoints::draw(uint64_t& rng, int validityRays,
     return p;
   }
   return std::nullopt;
+}
+
+std::vector<Vec3> DomainPoints::drawMany(size_t count, uint64_t seed) const {
+  std::vector<Vec3> drawn(count);
+  std::vector<char> found(count, 0);
+  tbb::parallel_for(size_t(0), count, [&](size_t q) {
+    uint64_t rng = streamSeed(seed, q);
+    if (const auto p = draw(rng)) {
+      drawn[q] = *p;
+      found[q] = 1;
+    }
+  });
+  std::vector<Vec3> points;
+  points.reserve(count);
+  for (size_t q = 0; q < count; ++q)
+    if (found[q]) points.push_back(drawn[q]);
+  return points;
+}
+
+bool DomainPoints::valid(Vec3 p, uint64_t seed, int validityRays,
+                         double invalidBackfaceFraction) const {
+  if (!std::any_of(boxes_.begin(), boxes_.end(), [&](const Bounds3& b) { return b.contains(p); }))
+    return false;
+  return clearOfLights(p) &&
+         backfaceFraction(tracer_, p, validityRays, seed) <= invalidBackfaceFraction;
+}
+
+Bounds3 DomainPoints::bounds() const {
+  Bounds3 all;
+  for (const Bounds3& b : boxes_) {
+    all.extend(b.lo);
+    all.extend(b.hi);
+  }
+  return all;
 }
 
 bool DomainPoints::clearOfLights(Vec3 p) const {

@@ -40,6 +40,18 @@ class DomainPoints {
   std::optional<Vec3> draw(uint64_t& rng, int validityRays = 32,
                            double invalidBackfaceFraction = 0.25) const;
 
+  /// `count` draws, draw q from the stream streamSeed(seed, q) (in parallel, deterministic):
+  /// the points found, in draw order (fewer than `count` where draws failed).
+  std::vector<Vec3> drawMany(size_t count, uint64_t seed) const;
+
+  /// True when p is in one of the boxes, keeps the light clearance and is outside geometry (as
+  /// draw() tests it, with the validity rays seeded by `seed`).
+  bool valid(Vec3 p, uint64_t seed, int validityRays = 32,
+             double invalidBackfaceFraction = 0.25) const;
+
+  /// The bounding box of the boxes.
+  Bounds3 bounds() const;
+
   /// True when p keeps the clearance from every point and spot light.
   bool clearOfLights(Vec3 p) const;
 
