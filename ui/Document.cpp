@@ -481,6 +481,7 @@ bool Document::runPlacement(const PlacementRequest& request) {
   if (request.budget <= 0 && !fieldMethod) place.spacingMeters = request.spacingMeters;
   place.aggressiveness = request.aggressiveness;
   place.field.samplesPerProbe = request.samplesPerProbe;
+  place.probeSpp = request.samplesPerProbe;  // greedy's candidates as the preview captures them
   // The probes that stay (accepted, locked, and the candidates when they are not replaced) are
   // built around; rejected ones are not part of the volume (see onJobDone for them).
   std::vector<Probe> kept;

@@ -65,6 +65,16 @@ void registerPlace(CLI::App& app) {
   cmd->add_option("--field-max-samples", o->request.field.maxSamples,
                   "Dense field sample limit: a base grid above it is an error, a refinement level "
                   "above it is skipped");
+  cmd->add_option("--held-out", o->request.heldOutPerProbe,
+                  "greedy: points per probe of the budget, uniform in the domain and captured at "
+                  "--field-spp, where the error is measured (default 128; 0: on the dense "
+                  "field's own samples)");
+  cmd->add_option("--held-out-uniform", o->request.heldOutUniformShare,
+                  "greedy: the share of the held-out points spread by volume, 0 to 1 (default "
+                  "0.5); the rest go where the dense field is bright, weighted accordingly");
+  cmd->add_option("--probe-spp", o->request.probeSpp,
+                  "greedy: samples per probe of each candidate's own capture (default 1024, the "
+                  "bake's; at most --field-spp: the field sample's capture)");
   cmd->add_option("--ascent-iterations", o->request.ascentIterations,
                   "ascent: steps per probe at most");
   cmd->add_option("--ascent-step", o->request.ascentStepMeters,

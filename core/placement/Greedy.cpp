@@ -75,13 +75,25 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     throw ParameterError("greedy: the dense field has " + std::to_string(S) +
                          " valid samples; at least 4 are needed (use a smaller field spacing)");
   const size_t budget = s.budget != 0 ? size_t(s.budget) : std::min(kMaxProbes, kept.size() + S);
+  // The points the error is measured at: the field's samples [0, S), the candidates, then the
+  // held-out points [S, N).
+  const size_t N = S + s.heldOut.size();
+  std::vector<Vec3> point(N);
+  auto shOf = [&](size_t i) -> const ShRgb& {
+    return i < S ? field.samples[i].sh : s.heldOut[i - S].sh;
+  };
+  auto shStdErrorOf = [&](size_t i) -> const ShRgb& {
+    return i < S ? field.samples[i].shStdError : s.heldOut[i - S].shStdError;
+  };
+  for (size_t i = 0; i < N; ++i)
+    point[i] = i < S ? field.samples[i].position : s.heldOut[i - S].position;
   if (budget > kMaxProbes)
     throw ParameterError("budget: at most 65535 probes, got " + std::to_string(budget));
 
   // Reference irradiance of every sample for the fixed normals, and the field's RMS scale.
-  std::vector<IrrVec> ref(S);
-  tbb::parallel_for(size_t(0), S,
-                    [&](size_t i) { ref[i] = greedyErrorNormalsIrradiance(field.samples[i].sh); });
+  std::vector<IrrVec> ref(N);
+  tbb::parallel_for(size_t(0), N,
+                    [&](size_t i) { ref[i] = greedyErrorNormalsIrradiance(shOf(i)); });
   // The variance of each sample's irradiance from its capture noise (the coefficients' standard
   // errors, taken as independent, through E(n) = sum A_l c_lm Y_lm(n)), averaged over the
   // normals: a sample's squared error less this estimates its true squared error, so that
@@ -89,14 +101,13 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   // interpolation, is not subtracted: next to a light it is so large that it would hide the
   // harm a bright probe does to its whole fan of tetrahedra.)
   static const std::array<Vec3, kNormals> normals = errorNormals();
-  std::vector<double> noiseVar(S, 0.0);
-  tbb::parallel_for(size_t(0), S, [&](size_t i) {
+  std::vector<double> noiseVar(N, 0.0);
+  tbb::parallel_for(size_t(0), N, [&](size_t i) {
     double v = 0;
     for (const Vec3& nrm : normals) {
       const auto y = shBasis(nrm);
       for (int c = 0; c < kShCoeffCount; ++c) {
-        const double t =
-            shCosineLobe(c) * y[size_t(c)] * luminance(field.samples[i].shStdError.c[size_t(c)]);
+        const double t = shCosineLobe(c) * y[size_t(c)] * luminance(shStdErrorOf(i).c[size_t(c)]);
         v += t * t;
       }
     }
@@ -105,7 +116,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   double refSq = 0;
   for (const IrrVec& r : ref)
     for (double x : r) refSq += x * x;
-  const double refScale = std::sqrt(refSq / double(S * kNormals));  // RMS sample irradiance
+  const double refScale = std::sqrt(refSq / double(N * kNormals));  // RMS sample irradiance
   if (!(refScale > 0))
     throw ParameterError("greedy: the dense field is black everywhere (no light reaches it)");
 
@@ -118,20 +129,48 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     vals.push_back(greedyErrorNormalsIrradiance(k.sh));
   }
   GreedyResult result;
-  std::vector<char> isProbe(S, 0);
+  std::vector<char> isProbe(N, 0);
   // Samples inside the light clearance: weight 0 below, and never a candidate (as if already a
   // probe, but not one).
-  std::vector<char> avoided(S, 0);
+  std::vector<char> avoided(N, 0);
   if (s.avoidRadius > 0)
-    for (size_t i = 0; i < S; ++i)
+    for (size_t i = 0; i < N; ++i)
       for (const Vec3& a : s.avoid) {
-        const Vec3 d = field.samples[i].position - a;
+        const Vec3 d = point[i] - a;
         if (dot(d, d) < s.avoidRadius * s.avoidRadius) avoided[i] = 1;
       }
+  // A sample's value as a probe: its field capture, or its own capture (captureProbeValues),
+  // made for a batch of samples before they are first tried.
+  std::vector<IrrVec> probeVal;
+  std::vector<char> haveProbeVal;
+  if (s.captureProbeValues) {
+    probeVal.resize(S);
+    haveProbeVal.assign(S, 0);
+  }
+  auto captureValues = [&](std::span<const size_t> samples) {
+    if (!s.captureProbeValues) return;
+    std::vector<size_t> missing;
+    for (size_t i : samples)
+      if (!haveProbeVal[i] && std::find(missing.begin(), missing.end(), i) == missing.end())
+        missing.push_back(i);
+    if (missing.empty()) return;
+    std::vector<Vec3> at;
+    for (size_t i : missing) at.push_back(point[i]);
+    const std::vector<ShRgb> sh = s.captureProbeValues(at);
+    PS_CHECK_EQ(sh.size(), missing.size());
+    for (size_t k = 0; k < missing.size(); ++k) {
+      probeVal[missing[k]] = greedyErrorNormalsIrradiance(sh[k]);
+      haveProbeVal[missing[k]] = 1;
+    }
+  };
+  auto valueAsProbe = [&](size_t i) -> const IrrVec& {
+    return s.captureProbeValues ? probeVal[i] : ref[i];
+  };
   auto addSample = [&](size_t i, double score) {
+    captureValues(std::span<const size_t>(&i, 1));
     isProbe[i] = 1;
     pos.push_back(field.samples[i].position);
-    vals.push_back(ref[i]);
+    vals.push_back(valueAsProbe(i));
     result.positions.push_back(field.samples[i].position);
     result.sampleIndex.push_back(i);
     result.scores.push_back(score);
@@ -173,16 +212,16 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   // Interpolation state of every sample. Weights: a sample stands for its octree cell's volume
   // (0 for a split cell, whose children cover it), so that the field error is a volume average
   // like eval's; uniform weights when the field does not record cell sizes.
-  std::vector<double> weight(S, 1.0);
+  std::vector<double> weight(N, 1.0);
   bool sized = true;
   for (const FieldSample& f : field.samples) sized = sized && f.cellSize > 0;
   if (sized)
     for (size_t i = 0; i < S; ++i) weight[i] = greedySampleWeight(field.samples[i]);
   auto sumWeightedRefSq = [&] {
-    for (size_t i = 0; i < S; ++i)
+    for (size_t i = 0; i < N; ++i)
       if (avoided[i]) weight[i] = 0;
     double sum = 0;
-    for (size_t i = 0; i < S; ++i)
+    for (size_t i = 0; i < N; ++i)
       for (double x : ref[i]) sum += weight[i] * x * x / kNormals;
     return sum;
   };
@@ -194,6 +233,18 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   if (!(weightedRefSq > 0))
     throw ParameterError(
         "greedy: every lit sample of the dense field is within the light clearance");
+  if (N > S) {
+    // Held-out points measure the error alone, with their weights: the field's samples stay the
+    // candidates.
+    std::vector<double> heldOutWeight(weight);
+    for (size_t i = 0; i < N; ++i) heldOutWeight[i] = i < S ? 0.0 : s.heldOut[i - S].weight;
+    std::swap(weight, heldOutWeight);
+    const double heldOutRefSq = sumWeightedRefSq();
+    if (heldOutRefSq > 0)
+      weightedRefSq = heldOutRefSq;
+    else  // the held-out points are all black (or in the light clearance): the field's samples
+      std::swap(weight, heldOutWeight);
+  }
   double weightSum = 0;
   for (double w : weight) weightSum += w;
   const double refRms = std::sqrt(weightedRefSq / weightSum);  // of the samples' irradiance
@@ -209,7 +260,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     uint64_t tet = 0;     // tetKey of the sample's tet
     bool outside = true;  // outside the hull (clamped), or never evaluated
   };
-  std::vector<SampleState> state(S);
+  std::vector<SampleState> state(N);
 
   /// The mesh of a probe set and the samples whose interpolation it changes.
   struct Trial {
@@ -251,8 +302,8 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     }
     std::sort(trial.hull.begin(), trial.hull.end());
     if (first) {
-      trial.changed.resize(S);
-      for (size_t i = 0; i < S; ++i) trial.changed[i] = i;
+      trial.changed.resize(N);
+      for (size_t i = 0; i < N; ++i) trial.changed[i] = i;
     } else {
       std::unordered_set<uint64_t> tets;
       tets.reserve(volume.tets.size() * 2);
@@ -264,14 +315,14 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       // change its faces: coplanar probes on the hull (boundary samples along a floor) have more
       // than one triangulation.
       const bool hullUnchanged = trial.hull == committedHull;
-      for (size_t i = 0; i < S; ++i)
+      for (size_t i = 0; i < N; ++i)
         if ((state[i].outside && !hullUnchanged) || !tets.count(state[i].tet) || i == extraProbe)
           trial.changed.push_back(i);
     }
     trial.changedState.resize(trial.changed.size());
     tbb::parallel_for(size_t(0), trial.changed.size(), [&](size_t q) {
       const size_t i = trial.changed[q];
-      const VolumeLocation loc = locate(volume, field.samples[i].position, -1, &hullClamp);
+      const VolumeLocation loc = locate(volume, point[i], -1, &hullClamp);
       PS_CHECK_LE(0, loc.tet);
       const auto& tv = volume.tets[size_t(loc.tet)];
       // Barycentric blend of the probes' irradiance (linear in SH, so equal to the irradiance of
@@ -305,7 +356,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       state[trial.changed[q]] = trial.changedState[q];
     committedHull = trial.hull;
     double sum = 0;  // recomputed in full so that no rounding accumulates
-    for (size_t i = 0; i < S; ++i) sum += weight[i] * state[i].errSq;
+    for (size_t i = 0; i < N; ++i) sum += weight[i] * state[i].errSq;
     currentWeightedErrSq = sum;
     first = false;
     result.fieldError = std::sqrt(sum / weightedRefSq);
@@ -329,23 +380,23 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       size_t first = 0;
     };
     std::unordered_map<uint64_t, TetGroup> groups;
-    for (size_t i = 0; i < S; ++i) {
+    for (size_t i = 0; i < N; ++i) {
       if (isProbe[i] || avoided[i]) continue;
-      auto [it, inserted] = groups.try_emplace(state[i].tet);
-      TetGroup& g = it->second;
-      if (inserted) {
+      TetGroup& g = groups[state[i].tet];
+      g.weightedErrSq += weight[i] * state[i].errSq;
+      if (i >= S) continue;  // a held-out point: its error counts, it is no candidate
+      if (g.count == 0) {
         g.worst = i;
         g.first = i;
       }
-      g.weightedErrSq += weight[i] * state[i].errSq;
       g.positionSum = g.positionSum + field.samples[i].position;
       ++g.count;
       if (state[i].errSq > state[g.worst].errSq) g.worst = i;
     }
     std::vector<std::pair<uint64_t, const TetGroup*>> ranked;
     for (const auto& [key, g] : groups)
-      if (g.weightedErrSq > 0) ranked.emplace_back(key, &g);
-    if (ranked.empty()) break;  // every sample is reproduced exactly
+      if (g.weightedErrSq > 0 && g.count > 0) ranked.emplace_back(key, &g);
+    if (ranked.empty()) break;  // no error left, or none in a tetrahedron with a candidate
     std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
       return x.second->weightedErrSq > y.second->weightedErrSq ||
              (x.second->weightedErrSq == y.second->weightedErrSq &&
@@ -385,9 +436,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         }
         addCandidate(central);
       }
+      captureValues(candidates);
       for (size_t c : candidates) {
         pos.push_back(field.samples[c].position);
-        vals.push_back(ref[c]);
+        vals.push_back(valueAsProbe(c));
         Trial trial = evaluate(c);
         pos.pop_back();
         vals.pop_back();

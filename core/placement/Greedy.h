@@ -5,6 +5,7 @@
 // target is reached. Answers "with N probes, how wrong is the lighting, and where?".
 #include <array>
 #include <cstddef>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -13,6 +14,15 @@
 #include "core/placement/DenseField.h"
 
 namespace ps {
+
+/// A point greedy measures its error at but never places a probe on: drawn uniformly in the
+/// domain of interest like eval's queries, captured like the field's samples.
+struct HeldOutSample {
+  Vec3 position;
+  ShRgb sh;
+  ShRgb shStdError;
+  double weight = 1;  ///< the volume it stands for (any unit, the same for all)
+};
 
 struct GreedySettings {
   /// Total probes in the result, kept probes included; 0 = no budget (maxError must be set).
@@ -29,6 +39,18 @@ struct GreedySettings {
   /// and spreads it over its whole fan of tetrahedra.
   std::vector<Vec3> avoid;
   double avoidRadius = 0;
+  /// Held-out points: when given, the error is measured at them alone (with their weights) and
+  /// the field's samples are only the candidates. A field sample that becomes a
+  /// probe has error 0 from then on, and few samples lie between probes, so the error on the
+  /// field's own samples falls faster than the error between the probes does. Cornell at 512
+  /// probes, field seed 1: greedy's error 0.144 on the field where eval measures 0.219; with
+  /// 65,536 held-out points, 0.249 where eval measures 0.196.
+  std::vector<HeldOutSample> heldOut;
+  /// When set, a candidate's value as a probe is its capture by this function (the bake's
+  /// samples per probe) rather than its field sample's cheap capture, whose noise the
+  /// interpolation would carry to every point around it. Called once per sample, with batches
+  /// of positions; returns one SH each.
+  std::function<std::vector<ShRgb>(std::span<const Vec3>)> captureProbeValues;
 };
 
 /// A probe that placement keeps where it is (locked by the artist), with its captured SH.
@@ -82,6 +104,8 @@ void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 /// (from shStdError), floored at 0 and capped by errorCapRelative when set. Samples are
 /// weighted by greedySampleWeight (uniform weights when the field records no cell sizes), and
 /// fieldError = sqrt(sum w err^2 / sum w |E|^2): eval's rel_rmse on the field, as a volume average.
+/// With held-out points (GreedySettings::heldOut) the same sums run over them instead, with their
+/// weights: eval's rel_rmse on points that are never probes.
 /// The initial probes: the kept ones, plus the field samples nearest to the 8 corners of the
 /// field's bounding box (only the 4 alternate corners when the budget is smaller than
 /// kept + 8). Each addition tries candidates from the tetrahedra holding the most weighted

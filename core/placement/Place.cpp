@@ -1,5 +1,7 @@
 #include "core/placement/Place.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -7,6 +9,8 @@
 
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
+#include "core/eval/DomainPoints.h"
+#include "core/math/Random.h"
 #include "core/placement/Ascent.h"
 #include "core/placement/Chajdas.h"
 #include "core/placement/Greedy.h"
@@ -76,6 +80,98 @@ PlaceOutcome placeWithUniform(const Context& c) {
   return out;
 }
 
+}  // namespace
+
+std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const LightingRig& rig,
+                                             const PlaceRequest& r,
+                                             std::span<const ImportanceVolume> importanceVolumes,
+                                             const DenseField& field, const ProgressFn& progress) {
+  std::vector<Bounds3> boxes;
+  for (const ImportanceVolume& v : importanceVolumes) boxes.push_back({v.lo, v.hi});
+  const DomainPoints domain(tracer, rig, boxes, kDefaultLightClearanceRelative);
+  const Bounds3 box = domain.bounds();
+  const Vec3 ext = box.extent();
+  const double wanted = double(greedyHeldOutPoints(r));
+  const double volume = ext.x * ext.y * ext.z;
+  if (!(volume > 0) || !(wanted > 0)) return {};
+  // Cells about cubic, about wanted / 8 of them.
+  const double side = std::cbrt(volume / std::max(1.0, wanted / 8));
+  const int nx = std::max(1, int(std::lround(ext.x / side)));
+  const int ny = std::max(1, int(std::lround(ext.y / side)));
+  const int nz = std::max(1, int(std::lround(ext.z / side)));
+  const size_t cells = size_t(nx) * size_t(ny) * size_t(nz);
+  const Vec3 cellExt(ext.x / nx, ext.y / ny, ext.z / nz);
+  auto cellRange = [&](double lo, double hi, double origin, double size, int n) {
+    return std::pair<int, int>(std::clamp(int(std::floor((lo - origin) / size)), 0, n - 1),
+                               std::clamp(int(std::floor((hi - origin) / size)), 0, n - 1));
+  };
+  std::vector<double> bright(cells, 0.0);
+  for (const FieldSample& f : field.samples) {
+    // A split cell's children are there; inside the light clearance no point is kept.
+    if (f.refined || !domain.clearOfLights(f.position)) continue;
+    const auto irr = greedyErrorNormalsIrradiance(f.sh);
+    double sq = 0;
+    for (double e : irr) sq += e * e / double(irr.size());
+    const double half = f.boundary ? 0.0 : 0.5 * f.cellSize;
+    const auto [x0, x1] =
+        cellRange(f.position.x - half, f.position.x + half, box.lo.x, cellExt.x, nx);
+    const auto [y0, y1] =
+        cellRange(f.position.y - half, f.position.y + half, box.lo.y, cellExt.y, ny);
+    const auto [z0, z1] =
+        cellRange(f.position.z - half, f.position.z + half, box.lo.z, cellExt.z, nz);
+    for (int z = z0; z <= z1; ++z)
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+          double& b = bright[(size_t(z) * size_t(ny) + size_t(y)) * size_t(nx) + size_t(x)];
+          b = std::max(b, sq);
+        }
+  }
+  double brightSum = 0;
+  for (double b : bright) brightSum += b;
+  const double uniformShare = brightSum > 0 ? std::clamp(r.heldOutUniformShare, 0.0, 1.0) : 1.0;
+  const uint64_t seed = r.seed ^ 0x4E1D0C7ull;
+  std::vector<std::vector<std::pair<Vec3, double>>> perCell(cells);
+  tbb::parallel_for(size_t(0), cells, [&](size_t k) {
+    uint64_t rng = streamSeed(seed, k);
+    const double expected =
+        wanted * (uniformShare / double(cells) +
+                  (brightSum > 0 ? (1 - uniformShare) * bright[k] / brightSum : 0.0));
+    // The count: expected, its fraction drawn; at least 1 so that no cell goes unmeasured.
+    const double whole = std::floor(expected);
+    const int count = std::max(1, int(whole) + (uniform01(rng) < expected - whole ? 1 : 0));
+    const size_t x = k % size_t(nx), y = (k / size_t(nx)) % size_t(ny),
+                 z = k / (size_t(nx) * size_t(ny));
+    const Vec3 lo =
+        box.lo + Vec3(cellExt.x * double(x), cellExt.y * double(y), cellExt.z * double(z));
+    const double w = cellExt.x * cellExt.y * cellExt.z / count;
+    for (int i = 0; i < count; ++i) {
+      const Vec3 p = lo + Vec3(cellExt.x * uniform01(rng), cellExt.y * uniform01(rng),
+                               cellExt.z * uniform01(rng));
+      if (domain.valid(p, splitMix64(rng))) perCell[k].push_back({p, w});
+    }
+  });
+  std::vector<Vec3> points;
+  std::vector<double> weights;
+  for (const auto& cell : perCell)
+    for (const auto& [p, w] : cell) {
+      points.push_back(p);
+      weights.push_back(w);
+    }
+  const DenseFieldSettings fs = greedyFieldSettings(r);
+  CaptureSettings cs;
+  cs.samplesPerProbe = fs.samplesPerProbe;
+  cs.seed = seed ^ 0xCA97u;  // not the draws' streams
+  cs.mode = fs.mode;
+  const auto caps = captureProbes(tracer, rig, points, cs, progress);
+  std::vector<HeldOutSample> out;
+  out.reserve(points.size());
+  for (size_t i = 0; i < points.size(); ++i)
+    out.push_back({points[i], caps[i].sh, caps[i].shStdError, weights[i]});
+  return out;
+}
+
+namespace {
+
 /// `greedy`: the dense field, then error-driven additions (core/placement/Greedy.h).
 PlaceOutcome placeWithGreedy(const Context& c) {
   const PlaceRequest& r = c.request;
@@ -87,6 +183,7 @@ PlaceOutcome placeWithGreedy(const Context& c) {
   gs.budget = r.budget;
   gs.maxError = r.maxError;
   checkGreedySettings(gs, c.kept.size());  // before the dense field is built
+  checkGreedyRequest(r);
   DenseFieldSettings fs = greedyFieldSettings(r);
   fs.importanceVolumes.assign(c.importanceVolumes.begin(), c.importanceVolumes.end());
   const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
@@ -97,31 +194,51 @@ PlaceOutcome placeWithGreedy(const Context& c) {
              field.samples.size(), field.baseSpacingMeters, int(field.cellsPerLevel.size()),
              field.refinementTruncated ? ", refinement truncated at --field-max-samples" : "",
              field.seconds));
-  // The kept probes take part with their SH captured like the field's samples.
+  // A probe's value: its own capture at probeSpp (as the bake will capture it) when that has
+  // more samples than the field's; each batch of candidates from another stream.
+  const int probeSpp = r.probeSpp > fs.samplesPerProbe ? r.probeSpp : 0;
+  uint64_t batch = 0;
+  auto captureAt = [&](std::span<const Vec3> at, int spp) {
+    CaptureSettings cs;
+    cs.samplesPerProbe = spp;
+    cs.seed = (r.seed ^ 0x9B0BE5ull) + 0x100000000ull * batch++;
+    cs.mode = fs.mode;
+    const auto caps = captureProbes(c.tracer, c.rig, at, cs);
+    std::vector<ShRgb> sh;
+    for (const ProbeCapture& cap : caps) sh.push_back(cap.sh);
+    return sh;
+  };
+  if (probeSpp > 0)
+    gs.captureProbeValues = [&](std::span<const Vec3> at) { return captureAt(at, probeSpp); };
+  // The kept probes take part with their SH captured like the candidates'.
   std::vector<KeptProbe> kept;
   if (!c.kept.empty()) {
     std::vector<Vec3> points;
     for (const Probe& k : c.kept) points.push_back(k.position);
-    CaptureSettings cs;
-    cs.samplesPerProbe = fs.samplesPerProbe;
-    cs.seed = r.seed;
-    const auto caps = captureProbes(c.tracer, c.rig, points, cs);
-    for (size_t i = 0; i < points.size(); ++i) kept.push_back({points[i], caps[i].sh});
+    const auto sh = captureAt(points, probeSpp > 0 ? probeSpp : fs.samplesPerProbe);
+    for (size_t i = 0; i < points.size(); ++i) kept.push_back({points[i], sh[i]});
   }
   // The light clearance eval keeps its queries out of (kDefaultLightClearanceRelative).
   gs.avoid = punctualLightPositions(c.tracer.scene(), c.rig);
   gs.avoidRadius = kDefaultLightClearanceRelative * field.domain.diagonal();
+  if (r.heldOutPerProbe > 0)
+    gs.heldOut =
+        drawGreedyHeldOut(c.tracer, c.rig, r, c.importanceVolumes, field, c.stage("held-out"));
   const GreedyResult g = placeGreedy(field, kept, gs, c.stage("greedy"));
-  out.notes.push_back(format("greedy: field error %.4f with %zu probes", g.fieldError,
-                             g.positions.size() + kept.size()));
+  out.notes.push_back(gs.heldOut.empty()
+                          ? format("greedy: error %.4f on the field's samples with %zu probes",
+                                   g.fieldError, g.positions.size() + kept.size())
+                          : format("greedy: error %.4f at %zu held-out points with %zu probes",
+                                   g.fieldError, gs.heldOut.size(),
+                                   g.positions.size() + kept.size()));
   if (g.noImprovement) {
-    // Additions that raised the field error: those where no candidate lowered it and the least
+    // Additions that raised the error: those where no candidate lowered it and the least
     // harmful one went in. Greedy goes on lowering it with the others.
     size_t raised = 0;
     for (size_t k = 1; k < g.errorHistory.size(); ++k)
       raised += g.errorHistory[k] > g.errorHistory[k - 1] ? 1 : 0;
     out.notes.push_back(format(
-        "greedy: at %zu probes no candidate lowered the field error for the first time; %zu of "
+        "greedy: at %zu probes no candidate lowered the error for the first time; %zu of "
         "the %zu additions found none and added the least harmful one (eval measures what they "
         "bring)",
         g.probesAtNoImprovement, raised, g.errorHistory.size() - 1));
@@ -278,6 +395,25 @@ DenseFieldSettings greedyFieldSettings(const PlaceRequest& r) {
   if (fs.maxSurfaceDepth < 0)
     fs.maxSurfaceDepth = std::clamp(fs.maxDepth, 0, kGreedyFieldSurfaceDepth);
   return fs;
+}
+
+size_t greedyHeldOutPoints(const PlaceRequest& r) {
+  return size_t(std::max(r.heldOutPerProbe, 0)) * size_t(std::max(r.budget, 64));
+}
+
+void checkGreedyRequest(const PlaceRequest& r) {
+  if (r.heldOutPerProbe < 0)
+    throw ParameterError("--held-out: expected 0 or more points per probe, got " +
+                         std::to_string(r.heldOutPerProbe));
+  if (greedyHeldOutPoints(r) > kMaxGreedyHeldOutPoints)
+    throw ParameterError("--held-out: " + std::to_string(r.heldOutPerProbe) +
+                         " points per probe of the budget make " +
+                         std::to_string(greedyHeldOutPoints(r)) + " points, above the limit of " +
+                         std::to_string(kMaxGreedyHeldOutPoints) +
+                         "; lower --held-out or the budget");
+  if (r.probeSpp < 0)
+    throw ParameterError("--probe-spp: expected 0 or more samples per probe, got " +
+                         std::to_string(r.probeSpp));
 }
 
 std::vector<std::string> placementMethods() {

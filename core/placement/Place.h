@@ -13,10 +13,20 @@
 #include "core/io/ProbeSet.h"
 #include "core/math/Vec3.h"
 #include "core/placement/DenseField.h"
+#include "core/placement/Greedy.h"
 #include "core/scene/LightingRig.h"
 #include "core/trace/Tracer.h"
 
 namespace ps {
+
+/// Greedy's held-out points per probe and its candidates' capture (PlaceRequest). On the bundled
+/// scenes at 32 to 512 probes, they took the rows where greedy's rel_rmse (the mean of field
+/// seeds 1 to 4) is at most half of uniform's from 6 to 11 of 15, at 1.8 to 2.7 times the
+/// place time at 256 and 512 probes (BENCHMARKS.md, "Greedy measured at held-out points").
+inline constexpr int kGreedyHeldOutPerProbe = 128;
+inline constexpr int kGreedyProbeSpp = 1024;  ///< the bake's default (BakeSettings::capture)
+/// Held-out points at most (each keeps its position, SH and its error state).
+inline constexpr size_t kMaxGreedyHeldOutPoints = 4000000;
 
 struct PlaceRequest {
   std::string method = "uniform";  ///< one of placementMethods()
@@ -35,6 +45,17 @@ struct PlaceRequest {
   /// with surfaces splitting cells down to kGreedyFieldSurfaceDepth only (unless
   /// field.maxSurfaceDepth says otherwise) and boundary samples; chajdas keeps field.maxDepth.
   int fieldDepth = -1;
+  /// greedy: held-out points per probe of the budget (of 64 without one), drawn in the domain
+  /// of interest (drawGreedyHeldOut) and captured like the field's samples; the error greedy
+  /// lowers is measured at them (GreedySettings::heldOut). 0: on the field's own samples.
+  int heldOutPerProbe = kGreedyHeldOutPerProbe;
+  /// greedy: the share of the held-out points spread by volume; the rest go where the field is
+  /// bright (greedyHeldOut in Place.cpp). 1: all by volume.
+  double heldOutUniformShare = 0.5;
+  /// greedy: samples per probe of each candidate's own capture (GreedySettings::
+  /// captureProbeValues), the bake's default; at most field.samplesPerProbe (or 0): the field
+  /// sample's capture.
+  int probeSpp = kGreedyProbeSpp;
   int ascentIterations = 8;     ///< ascent: steps per probe at most
   double ascentStepMeters = 0;  ///< ascent: first step; 0 = half the start grid's spacing
   bool ascentDirect = false;    ///< ascent: follow the full light, not the indirect only
@@ -62,6 +83,31 @@ struct PlaceOutcome {
 /// The dense field settings greedy uses for `request` (its field, seed and fieldDepth; the
 /// importance volumes are left to the caller).
 DenseFieldSettings greedyFieldSettings(const PlaceRequest& request);
+
+/// How many held-out points greedy draws for `request` (PlaceRequest::heldOutPerProbe).
+size_t greedyHeldOutPoints(const PlaceRequest& request);
+
+/// Throws ps::ParameterError naming the option when greedy's held-out points or probe spp are
+/// out of range.
+void checkGreedyRequest(const PlaceRequest& request);
+
+/// Greedy's held-out points (GreedySettings::heldOut) for `request` and its dense field: about
+/// greedyHeldOutPoints(request) points of the domain of interest, outside geometry and the light
+/// clearance as eval's queries are, captured like the field's samples. Stratified: the domain's
+/// bounding box is cut into equal cells (about 8 points each on average); a cell gets
+/// heldOutUniformShare of its points by its volume and the rest by the field's squared
+/// irradiance there (the largest mean over the 14 normals of the samples whose octree cells
+/// overlap it), at least one; each point weighs its cell's volume over the cell's count. The
+/// weighted sums estimate eval's uniform sums without bias, with more points where the light
+/// is bright: rel_rmse sums absolute errors, and there they are largest (two-rooms, greedy at
+/// 32 probes: the 1 % of eval's queries with the largest errors hold 69 % of the squared
+/// error, half of them within 1 m of the point light). Deterministic for request.seed; throws
+/// ps::ParameterError for importance volumes without volume.
+std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const LightingRig& rig,
+                                             const PlaceRequest& request,
+                                             std::span<const ImportanceVolume> importanceVolumes,
+                                             const DenseField& field,
+                                             const ProgressFn& progress = {});
 
 /// The method names, sorted.
 std::vector<std::string> placementMethods();

@@ -6,11 +6,15 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <span>
+#include <tuple>
 
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
+#include "core/eval/DomainPoints.h"
 #include "core/eval/Evaluate.h"
+#include "core/math/Random.h"
 #include "core/placement/Ascent.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
@@ -329,27 +333,43 @@ const DenseField& twoRoomsField() {
   return f;
 }
 
-/// The field error of `probes` (field samples) recomputed from scratch: the oracle for the
-/// incremental bookkeeping of placeGreedy.
-double fieldErrorFromScratch(const DenseField& f, const std::vector<size_t>& probes) {
+/// The relative RMS error over the 14 normals of the probes' interpolation at `points` against
+/// their SH, weighted by `weights`: the oracle for the incremental bookkeeping of placeGreedy.
+double errorFromScratch(const ProbeVolume& v, std::span<const Vec3> points,
+                        std::span<const ShRgb> sh, std::span<const double> weights) {
+  double num = 0, den = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const auto ref = greedyErrorNormalsIrradiance(sh[i]);
+    const auto got = greedyErrorNormalsIrradiance(interpolate(v, locate(v, points[i])));
+    for (size_t k = 0; k < ref.size(); ++k) {
+      num += weights[i] * (got[k] - ref[k]) * (got[k] - ref[k]);
+      den += weights[i] * ref[k] * ref[k];
+    }
+  }
+  return std::sqrt(num / den);
+}
+
+ProbeVolume volumeOfSamples(const DenseField& f, const std::vector<size_t>& probes) {
   std::vector<Vec3> pos;
   std::vector<ShRgb> sh;
   for (size_t i : probes) {
     pos.push_back(f.samples[i].position);
     sh.push_back(f.samples[i].sh);
   }
-  const ProbeVolume v = volumeFromProbes(pos, sh);
-  double num = 0, den = 0;
+  return volumeFromProbes(pos, sh);
+}
+
+/// The field error of `probes` (field samples) recomputed from scratch.
+double fieldErrorFromScratch(const DenseField& f, const std::vector<size_t>& probes) {
+  std::vector<Vec3> points;
+  std::vector<ShRgb> sh;
+  std::vector<double> weights;
   for (const FieldSample& s : f.samples) {
-    const double w = greedySampleWeight(s);
-    const auto ref = greedyErrorNormalsIrradiance(s.sh);
-    const auto got = greedyErrorNormalsIrradiance(interpolate(v, locate(v, s.position)));
-    for (size_t k = 0; k < ref.size(); ++k) {
-      num += w * (got[k] - ref[k]) * (got[k] - ref[k]);
-      den += w * ref[k] * ref[k];
-    }
+    points.push_back(s.position);
+    sh.push_back(s.sh);
+    weights.push_back(greedySampleWeight(s));
   }
-  return std::sqrt(num / den);
+  return errorFromScratch(volumeOfSamples(f, probes), points, sh, weights);
 }
 
 }  // namespace
@@ -374,6 +394,124 @@ TEST(Greedy, ErrorDoesNotIncreaseAsProbesAreAdded) {
   EXPECT_LT(r.reevaluations, f.samples.size() * r.trials / 2);  // only changed tets
   // Scores: the error each sample had when it was added.
   for (size_t i = r.initialCount; i < r.scores.size(); ++i) EXPECT_GT(r.scores[i], 0);
+}
+
+TEST(Greedy, HeldOutPointsMeasureTheErrorBetweenTheProbes) {
+  DenseField f = twoRoomsField();
+  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  // Held-out points as place draws them: uniform in the domain, outside geometry, captured.
+  const Tracer& tracer = *loaded("two-rooms.gltf").tracer;
+  const std::vector<Vec3> points = DomainPoints(tracer, {}, {}, 0).drawMany(1500, 5);
+  ASSERT_GT(points.size(), 1000u);
+  CaptureSettings cs;
+  cs.samplesPerProbe = kFieldSpp;
+  const std::vector<ProbeCapture> caps = captureProbes(tracer, {}, points, cs);
+  GreedySettings s;
+  s.budget = 40;
+  std::vector<ShRgb> sh;
+  for (size_t i = 0; i < points.size(); ++i) {
+    s.heldOut.push_back({points[i], caps[i].sh, ShRgb{}});  // no noise: plain relative RMS
+    sh.push_back(caps[i].sh);
+  }
+  const GreedyResult r = placeGreedy(f, {}, s);
+  ASSERT_EQ(r.positions.size(), 40u);
+  // The probes are field samples, never held-out points.
+  for (size_t k = 0; k < r.positions.size(); ++k)
+    EXPECT_EQ(r.positions[k], f.samples[r.sampleIndex[k]].position);
+  // The error is the held-out points' alone, with equal weights.
+  const std::vector<double> ones(points.size(), 1.0);
+  const double heldOut = errorFromScratch(volumeOfSamples(f, r.sampleIndex), points, sh, ones);
+  EXPECT_NEAR(r.fieldError, heldOut, 1e-4 * heldOut);
+  // The field's own samples, some of them probes, see less error than the points between.
+  const double onField = fieldErrorFromScratch(f, r.sampleIndex);
+  EXPECT_LT(onField, heldOut);
+  std::printf("two-rooms, 40 probes: error %.4f on the field's samples, %.4f held out\n", onField,
+              heldOut);
+}
+
+TEST(Greedy, HeldOutPointsGoWhereItIsBrightAndWeighTheirVolume) {
+  const Loaded& l = loaded("two-rooms.gltf");
+  const DenseField& f = twoRoomsField();
+  PlaceRequest r;
+  r.budget = 64;  // 128 points per probe: 8192
+  r.field.samplesPerProbe = kFieldSpp;
+  const std::vector<HeldOutSample> bright = drawGreedyHeldOut(*l.tracer, {}, r, {}, f);
+  r.heldOutUniformShare = 1;
+  const std::vector<HeldOutSample> even = drawGreedyHeldOut(*l.tracer, {}, r, {}, f);
+  // The volume outside geometry, from a plain uniform draw.
+  const DomainPoints domain(*l.tracer, {}, {}, kDefaultLightClearanceRelative);
+  const Bounds3 box = domain.bounds();
+  uint64_t rng = 99;
+  int valid = 0;
+  const int draws = 20000;
+  for (int i = 0; i < draws; ++i) {
+    const Vec3 e = box.extent();
+    const Vec3 p = box.lo + Vec3(e.x * uniform01(rng), e.y * uniform01(rng), e.z * uniform01(rng));
+    valid += domain.valid(p, splitMix64(rng)) ? 1 : 0;
+  }
+  const double validVolume = box.extent().x * box.extent().y * box.extent().z * valid / draws;
+  // 8192 points drawn, those inside walls or the light clearance dropped.
+  const double validFraction = double(valid) / draws;
+  EXPECT_NEAR(double(even.size()), 8192 * validFraction, 0.03 * 8192 * validFraction);
+  // Near the point light: more points, the same volume.
+  const Vec3 light = punctualLightPositions(l.tracer->scene(), {}).at(0);
+  struct Sums {
+    double weight = 0, weightNear = 0;
+    size_t near = 0;
+  };
+  auto sums = [&](const std::vector<HeldOutSample>& points) {
+    Sums s;
+    for (const HeldOutSample& h : points) {
+      s.weight += h.weight;
+      if (length(h.position - light) < 1.0) {
+        s.weightNear += h.weight;
+        ++s.near;
+      }
+    }
+    return s;
+  };
+  const Sums b = sums(bright), u = sums(even);
+  EXPECT_NEAR(b.weight, validVolume, 0.03 * validVolume);
+  EXPECT_NEAR(u.weight, validVolume, 0.03 * validVolume);
+  EXPECT_GT(double(b.near), 3.0 * double(u.near));
+  EXPECT_NEAR(b.weightNear, u.weightNear, 0.15 * u.weightNear);
+  std::printf("held-out points within 1 m of the light: %zu of %zu (by volume: %zu of %zu)\n",
+              b.near, bright.size(), u.near, even.size());
+}
+
+TEST(Greedy, ProbeValuesFromTheirOwnCapture) {
+  // A capture that returns each sample's own field SH changes nothing; each sample is captured
+  // once at most.
+  const DenseField& f = twoRoomsField();
+  GreedySettings s;
+  s.budget = 30;
+  const GreedyResult plain = placeGreedy(f, {}, s);
+  std::vector<Vec3> captured;
+  s.captureProbeValues = [&](std::span<const Vec3> at) {
+    std::vector<ShRgb> sh;
+    for (const Vec3& p : at) {
+      captured.push_back(p);
+      for (const FieldSample& fs : f.samples)
+        if (fs.position == p) {
+          sh.push_back(fs.sh);
+          break;
+        }
+    }
+    return sh;
+  };
+  const GreedyResult own = placeGreedy(f, {}, s);
+  EXPECT_EQ(own.positions, plain.positions);
+  EXPECT_DOUBLE_EQ(own.fieldError, plain.fieldError);
+  EXPECT_GE(captured.size(), own.positions.size());
+  std::vector<Vec3> sorted = captured;
+  std::sort(sorted.begin(), sorted.end(),
+            [](Vec3 a, Vec3 b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); });
+  EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end());
+  // Values that differ from the field's move the probes.
+  s.captureProbeValues = [&](std::span<const Vec3> at) {
+    return std::vector<ShRgb>(at.size(), ShRgb{});
+  };
+  EXPECT_NE(placeGreedy(f, {}, s).positions, plain.positions);
 }
 
 TEST(Greedy, StopsAtTheMaxErrorAndIsDeterministic) {
