@@ -66,9 +66,9 @@ void registerPlace(CLI::App& app) {
                   "Dense field sample limit: a base grid above it is an error, a refinement level "
                   "above it is skipped");
   cmd->add_option("--held-out", o->request.heldOutPerProbe,
-                  "greedy: points per probe of the budget, uniform in the domain and captured at "
-                  "--field-spp, where the error is measured (default 128; 0: on the dense "
-                  "field's own samples)");
+                  "greedy: points per probe of the budget (at least 64 probes' worth) in the "
+                  "domain, captured at --field-spp, where the error is measured (default 128; 0: "
+                  "on the dense field's own samples)");
   cmd->add_option("--held-out-uniform", o->request.heldOutUniformShare,
                   "greedy: the share of the held-out points spread by volume, 0 to 1 (default "
                   "0.5); the rest go where the dense field is bright, weighted accordingly");

@@ -36,6 +36,8 @@ uint64_t tetKey(std::array<int32_t, 4> v) {
 }
 
 constexpr size_t kMaxProbes = 65535;  ///< tetKey packs vertex indices in 16 bits
+/// No sample (held-out points follow the field's samples, so the count S is an index too).
+constexpr size_t kNone = std::numeric_limits<size_t>::max();
 
 }  // namespace
 
@@ -187,7 +189,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     const int bits = cornerOrder[c];
     const Vec3 corner((bits & 1) ? box.hi.x : box.lo.x, (bits & 2) ? box.hi.y : box.lo.y,
                       (bits & 4) ? box.hi.z : box.lo.z);
-    size_t best = S;
+    size_t best = kNone;
     double bestD = std::numeric_limits<double>::infinity();
     for (size_t i = 0; i < S; ++i) {
       if (isProbe[i] || avoided[i]) continue;
@@ -198,7 +200,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         best = i;
       }
     }
-    if (best == S) break;
+    if (best == kNone) break;
     bool atKept = false;
     for (const KeptProbe& k : kept) atKept = atKept || k.position == field.samples[best].position;
     if (atKept) {
@@ -212,7 +214,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   // Interpolation state of every sample. Weights: a sample stands for its octree cell's volume
   // (0 for a split cell, whose children cover it), so that the field error is a volume average
   // like eval's; uniform weights when the field does not record cell sizes.
+  // The held-out points take no part in this first weighting (below, they replace the field's
+  // samples).
   std::vector<double> weight(N, 1.0);
+  std::fill(weight.begin() + std::ptrdiff_t(S), weight.end(), 0.0);
   bool sized = true;
   for (const FieldSample& f : field.samples) sized = sized && f.cellSize > 0;
   if (sized)
@@ -227,7 +232,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   };
   double weightedRefSq = sumWeightedRefSq();
   if (!(weightedRefSq > 0)) {
-    std::fill(weight.begin(), weight.end(), 1.0);
+    std::fill(weight.begin(), weight.begin() + std::ptrdiff_t(S), 1.0);
     weightedRefSq = sumWeightedRefSq();
   }
   if (!(weightedRefSq > 0))
@@ -275,8 +280,8 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
 
   // Tetrahedralizes the probes `pos` (Delaunay, Sukys 3.2.1) and interpolates the samples whose
   // tetrahedron disappeared or that were outside the hull (whose clamping face may now be covered
-  // by a new tetrahedron); every sample on the first call. `extraProbe` (a sample index or S) is
-  // counted as a probe (error 0).
+  // by a new tetrahedron); every sample on the first call. `extraProbe` (a sample index or kNone)
+  // is counted as a probe (error 0).
   auto evaluate = [&](size_t extraProbe) {
     Tetrahedralization t;
     try {
@@ -363,7 +368,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     result.errorHistory.push_back(result.fieldError);
   };
 
-  commit(evaluate(S));
+  commit(evaluate(kNone));
   constexpr size_t kCandidateTets = 8;  // tetrahedra whose candidates are tried per addition
   constexpr size_t kMaxCandidateTets = 32;
   while (pos.size() < budget && !(s.maxError > 0 && result.fieldError <= s.maxError)) {
@@ -396,7 +401,12 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     std::vector<std::pair<uint64_t, const TetGroup*>> ranked;
     for (const auto& [key, g] : groups)
       if (g.weightedErrSq > 0 && g.count > 0) ranked.emplace_back(key, &g);
-    if (ranked.empty()) break;  // no error left, or none in a tetrahedron with a candidate
+    // No error left where a candidate is: with a budget, every tetrahedron with a candidate
+    // (the least harmful one goes in, as past the noise floor); without one, done.
+    if (ranked.empty() && s.budget != 0)
+      for (const auto& [key, g] : groups)
+        if (g.count > 0) ranked.emplace_back(key, &g);
+    if (ranked.empty()) break;  // no candidate left, or no error and no budget
     std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
       return x.second->weightedErrSq > y.second->weightedErrSq ||
              (x.second->weightedErrSq == y.second->weightedErrSq &&
@@ -407,7 +417,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     // makes the field worse (a new vertex can raise the error of its neighbours). When no
     // candidate of the worst kCandidateTets tetrahedra helps, the next ones are tried, up to
     // kMaxCandidateTets (once only: afterwards the first kCandidateTets).
-    size_t best = S;
+    size_t best = kNone;
     Trial bestTrial;
     std::vector<size_t> tried;
     // Past the noise floor the wider search is not repeated at every addition.
@@ -445,14 +455,14 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         vals.pop_back();
         result.reevaluations += trial.changed.size();
         ++result.trials;
-        if (best == S || trial.weightedErrSq < bestTrial.weightedErrSq) {
+        if (best == kNone || trial.weightedErrSq < bestTrial.weightedErrSq) {
           best = c;
           bestTrial = std::move(trial);
         }
       }
-      if (best != S && bestTrial.weightedErrSq <= currentWeightedErrSq) break;
+      if (best != kNone && bestTrial.weightedErrSq <= currentWeightedErrSq) break;
     }
-    if (best == S) break;
+    if (best == kNone) break;
     if (bestTrial.weightedErrSq > currentWeightedErrSq) {
       // The field's noise floor: no candidate lowers the error any more. Without a budget there
       // is nothing more to gain; with one, the least harmful candidate is added so that methods

@@ -15,8 +15,8 @@
 
 namespace ps {
 
-/// A point greedy measures its error at but never places a probe on: drawn uniformly in the
-/// domain of interest like eval's queries, captured like the field's samples.
+/// A point greedy measures its error at but never places a probe on: drawn in the domain of
+/// interest (drawGreedyHeldOut in Place.h), its weight making the sums eval's uniform ones.
 struct HeldOutSample {
   Vec3 position;
   ShRgb sh;

@@ -3,11 +3,13 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
 
 #include "core/capture/Capture.h"
+#include "core/common/Check.h"
 #include "core/common/Error.h"
 #include "core/eval/DomainPoints.h"
 #include "core/math/Random.h"
@@ -86,6 +88,7 @@ std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const Lightin
                                              const PlaceRequest& r,
                                              std::span<const ImportanceVolume> importanceVolumes,
                                              const DenseField& field, const ProgressFn& progress) {
+  checkGreedyRequest(r);
   std::vector<Bounds3> boxes;
   for (const ImportanceVolume& v : importanceVolumes) boxes.push_back({v.lo, v.hi});
   const DomainPoints domain(tracer, rig, boxes, kDefaultLightClearanceRelative);
@@ -94,12 +97,37 @@ std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const Lightin
   const double wanted = double(greedyHeldOutPoints(r));
   const double volume = ext.x * ext.y * ext.z;
   if (!(volume > 0) || !(wanted > 0)) return {};
-  // Cells about cubic, about wanted / 8 of them.
-  const double side = std::cbrt(volume / std::max(1.0, wanted / 8));
-  const int nx = std::max(1, int(std::lround(ext.x / side)));
-  const int ny = std::max(1, int(std::lround(ext.y / side)));
-  const int nz = std::max(1, int(std::lround(ext.z / side)));
+  // Cells about cubic, about wanted / 8 of them: an axis shorter than the cell side gets one
+  // cell, and the side is found again over the other axes (a thin domain).
+  const double target = std::max(1.0, wanted / 8);
+  std::array<double, 3> axisExt = {ext.x, ext.y, ext.z};
+  std::array<int, 3> perAxis = {1, 1, 1};
+  for (int round = 0; round < 3; ++round) {
+    double span = 1;
+    int axes = 0;
+    for (int a = 0; a < 3; ++a)
+      if (perAxis[size_t(a)] != 0) {
+        span *= axisExt[size_t(a)];
+        ++axes;
+      }
+    const double side = std::pow(span / target, 1.0 / std::max(axes, 1));
+    bool collapsed = false;
+    for (int a = 0; a < 3; ++a)
+      if (perAxis[size_t(a)] != 0 && axisExt[size_t(a)] < side) {
+        perAxis[size_t(a)] = 0;  // one cell, taken out of the side's span
+        collapsed = true;
+      }
+    if (!collapsed) {
+      for (int a = 0; a < 3; ++a)
+        if (perAxis[size_t(a)] != 0)
+          perAxis[size_t(a)] = int(std::clamp(std::round(axisExt[size_t(a)] / side), 1.0, target));
+      break;
+    }
+  }
+  for (int& k : perAxis) k = std::max(k, 1);
+  const int nx = perAxis[0], ny = perAxis[1], nz = perAxis[2];
   const size_t cells = size_t(nx) * size_t(ny) * size_t(nz);
+  PS_CHECK_LE(double(cells), 8 * target);
   const Vec3 cellExt(ext.x / nx, ext.y / ny, ext.z / nz);
   auto cellRange = [&](double lo, double hi, double origin, double size, int n) {
     return std::pair<int, int>(std::clamp(int(std::floor((lo - origin) / size)), 0, n - 1),
@@ -128,7 +156,7 @@ std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const Lightin
   }
   double brightSum = 0;
   for (double b : bright) brightSum += b;
-  const double uniformShare = brightSum > 0 ? std::clamp(r.heldOutUniformShare, 0.0, 1.0) : 1.0;
+  const double uniformShare = brightSum > 0 ? r.heldOutUniformShare : 1.0;
   const uint64_t seed = r.seed ^ 0x4E1D0C7ull;
   std::vector<std::vector<std::pair<Vec3, double>>> perCell(cells);
   tbb::parallel_for(size_t(0), cells, [&](size_t k) {
@@ -402,6 +430,9 @@ size_t greedyHeldOutPoints(const PlaceRequest& r) {
 }
 
 void checkGreedyRequest(const PlaceRequest& r) {
+  if (!(r.heldOutUniformShare >= 0 && r.heldOutUniformShare <= 1))
+    throw ParameterError("--held-out-uniform: expected a share from 0 to 1, got " +
+                         std::to_string(r.heldOutUniformShare));
   if (r.heldOutPerProbe < 0)
     throw ParameterError("--held-out: expected 0 or more points per probe, got " +
                          std::to_string(r.heldOutPerProbe));

@@ -45,12 +45,13 @@ struct PlaceRequest {
   /// with surfaces splitting cells down to kGreedyFieldSurfaceDepth only (unless
   /// field.maxSurfaceDepth says otherwise) and boundary samples; chajdas keeps field.maxDepth.
   int fieldDepth = -1;
-  /// greedy: held-out points per probe of the budget (of 64 without one), drawn in the domain
-  /// of interest (drawGreedyHeldOut) and captured like the field's samples; the error greedy
+  /// greedy: held-out points per probe of the budget (a budget below 64, or none, counts as 64),
+  /// drawn in the domain of interest (drawGreedyHeldOut) and captured at the field's samples per
+  /// probe; the error greedy
   /// lowers is measured at them (GreedySettings::heldOut). 0: on the field's own samples.
   int heldOutPerProbe = kGreedyHeldOutPerProbe;
   /// greedy: the share of the held-out points spread by volume; the rest go where the field is
-  /// bright (greedyHeldOut in Place.cpp). 1: all by volume.
+  /// bright (drawGreedyHeldOut). 1: all by volume.
   double heldOutUniformShare = 0.5;
   /// greedy: samples per probe of each candidate's own capture (GreedySettings::
   /// captureProbeValues), the bake's default; at most field.samplesPerProbe (or 0): the field
@@ -93,7 +94,8 @@ void checkGreedyRequest(const PlaceRequest& request);
 
 /// Greedy's held-out points (GreedySettings::heldOut) for `request` and its dense field: about
 /// greedyHeldOutPoints(request) points of the domain of interest, outside geometry and the light
-/// clearance as eval's queries are, captured like the field's samples. Stratified: the domain's
+/// clearance as eval's queries are, each captured at a point at the field's samples per probe
+/// (also when the field is pre-filtered). Stratified: the domain's
 /// bounding box is cut into equal cells (about 8 points each on average); a cell gets
 /// heldOutUniformShare of its points by its volume and the rest by the field's squared
 /// irradiance there (the largest mean over the 14 normals of the samples whose octree cells

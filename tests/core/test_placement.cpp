@@ -479,6 +479,27 @@ TEST(Greedy, HeldOutPointsGoWhereItIsBrightAndWeighTheirVolume) {
               b.near, bright.size(), u.near, even.size());
 }
 
+TEST(Greedy, HeldOutPointsInAThinImportanceVolume) {
+  // A 1 mm slab of room A: its cells are one deep, and the count stays what was asked for
+  // (cubic cells of the slab's volume would be 25,600, each with a point at least).
+  const Loaded& l = loaded("two-rooms.gltf");
+  PlaceRequest r;
+  r.budget = 64;  // 8192 points
+  r.field.samplesPerProbe = kFieldSpp;
+  const std::vector<ImportanceVolume> slab = {{"slab", Vec3(-5, 1, -2), Vec3(-1, 1.001, 2), 1}};
+  const std::vector<HeldOutSample> points =
+      drawGreedyHeldOut(*l.tracer, {}, r, slab, twoRoomsField());
+  EXPECT_NEAR(double(points.size()), 8192, 0.05 * 8192);
+  double weight = 0;
+  for (const HeldOutSample& h : points) {
+    EXPECT_TRUE(inBox(h.position, Vec3(-5, 1, -2), Vec3(-1, 1.001, 2))) << h.position;
+    weight += h.weight;
+  }
+  EXPECT_NEAR(weight, 4 * 4 * 0.001, 1e-3 * 0.016);  // all of it is outside geometry
+  r.heldOutUniformShare = 2;
+  EXPECT_THROW(drawGreedyHeldOut(*l.tracer, {}, r, slab, twoRoomsField()), ParameterError);
+}
+
 TEST(Greedy, ProbeValuesFromTheirOwnCapture) {
   // A capture that returns each sample's own field SH changes nothing; each sample is captured
   // once at most.
