@@ -105,15 +105,6 @@ bool DomainPoints::valid(Vec3 p, uint64_t seed, int validityRays,
          backfaceFraction(tracer_, p, validityRays, seed) <= invalidBackfaceFraction;
 }
 
-Bounds3 DomainPoints::bounds() const {
-  Bounds3 all;
-  for (const Bounds3& b : boxes_) {
-    all.extend(b.lo);
-    all.extend(b.hi);
-  }
-  return all;
-}
-
 bool DomainPoints::clearOfLights(Vec3 p) const {
   for (const Vec3& l : punctual_)
     if (dot(p - l, p - l) < clearance_ * clearance_) return false;

@@ -49,9 +49,6 @@ class DomainPoints {
   bool valid(Vec3 p, uint64_t seed, int validityRays = 32,
              double invalidBackfaceFraction = 0.25) const;
 
-  /// The bounding box of the boxes.
-  Bounds3 bounds() const;
-
   /// True when p keeps the clearance from every point and spot light.
   bool clearOfLights(Vec3 p) const;
 

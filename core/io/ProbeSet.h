@@ -2,6 +2,7 @@
 // The probe set: what the artist edits and keeps in version control (format: docs/formats.md).
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -32,7 +33,7 @@ struct ImportanceVolume {
 };
 
 /// The volumes' boxes, in order.
-inline std::vector<Bounds3> importanceBoxes(const std::vector<ImportanceVolume>& volumes) {
+inline std::vector<Bounds3> importanceBoxes(std::span<const ImportanceVolume> volumes) {
   std::vector<Bounds3> boxes;
   for (const ImportanceVolume& v : volumes) boxes.push_back({v.lo, v.hi});
   return boxes;

@@ -241,8 +241,8 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   if (N > S) {
     // Held-out points measure the error alone, with their weights: the field's samples stay the
     // candidates.
-    std::vector<double> heldOutWeight(weight);
-    for (size_t i = 0; i < N; ++i) heldOutWeight[i] = i < S ? 0.0 : s.heldOut[i - S].weight;
+    std::vector<double> heldOutWeight(N, 0.0);
+    for (size_t i = S; i < N; ++i) heldOutWeight[i] = s.heldOut[i - S].weight;
     std::swap(weight, heldOutWeight);
     const double heldOutRefSq = sumWeightedRefSq();
     if (heldOutRefSq > 0)

@@ -89,10 +89,9 @@ std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const Lightin
                                              std::span<const ImportanceVolume> importanceVolumes,
                                              const DenseField& field, const ProgressFn& progress) {
   checkGreedyRequest(r);
-  std::vector<Bounds3> boxes;
-  for (const ImportanceVolume& v : importanceVolumes) boxes.push_back({v.lo, v.hi});
+  const std::vector<Bounds3> boxes = importanceBoxes(importanceVolumes);
   const DomainPoints domain(tracer, rig, boxes, kDefaultLightClearanceRelative);
-  const Bounds3 box = domain.bounds();
+  const Bounds3 box = domainBounds(tracer, boxes);
   const Vec3 ext = box.extent();
   const double wanted = double(greedyHeldOutPoints(r));
   const double volume = ext.x * ext.y * ext.z;

@@ -440,7 +440,7 @@ TEST(Greedy, HeldOutPointsGoWhereItIsBrightAndWeighTheirVolume) {
   const std::vector<HeldOutSample> even = drawGreedyHeldOut(*l.tracer, {}, r, {}, f);
   // The volume outside geometry, from a plain uniform draw.
   const DomainPoints domain(*l.tracer, {}, {}, kDefaultLightClearanceRelative);
-  const Bounds3 box = domain.bounds();
+  const Bounds3 box = domainBounds(*l.tracer, {});
   uint64_t rng = 99;
   int valid = 0;
   const int draws = 20000;
