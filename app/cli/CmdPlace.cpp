@@ -75,6 +75,10 @@ void registerPlace(CLI::App& app) {
   cmd->add_option("--probe-spp", o->request.probeSpp,
                   "greedy: samples per probe of each candidate's own capture (default 1024, the "
                   "bake's; at most --field-spp: the field sample's capture)");
+  cmd->add_option("--swap-passes", o->request.swapPasses,
+                  "greedy: passes of swaps after the additions, at most (default 4; 0: none): "
+                  "each probe in turn goes to the candidate, where the error is then largest, "
+                  "that lowers the error most; a pass that gains less than 1 % ends them");
   cmd->add_option("--ascent-iterations", o->request.ascentIterations,
                   "ascent: steps per probe at most");
   cmd->add_option("--ascent-step", o->request.ascentStepMeters,

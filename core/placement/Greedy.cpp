@@ -29,15 +29,17 @@ std::array<Vec3, kNormals> errorNormals() {
           Vec3(-d, d, d), Vec3(-d, d, -d), Vec3(-d, -d, d), Vec3(-d, -d, -d)};
 }
 
-/// A tetrahedron's vertex set as one key (vertex indices sorted, 16 bits each).
+/// A tetrahedron's probe set as one key (the probes' slots sorted, 16 bits each).
 uint64_t tetKey(std::array<int32_t, 4> v) {
   std::sort(v.begin(), v.end());
   return (uint64_t(v[0]) << 48) | (uint64_t(v[1]) << 32) | (uint64_t(v[2]) << 16) | uint64_t(v[3]);
 }
 
-constexpr size_t kMaxProbes = 65535;  ///< tetKey packs vertex indices in 16 bits
+constexpr size_t kMaxProbes = 65535;  ///< tetKey packs probe slots in 16 bits
 /// No sample (held-out points follow the field's samples, so the count S is an index too).
 constexpr size_t kNone = std::numeric_limits<size_t>::max();
+/// Thrown when the probes span less than 3D (no tetrahedralization).
+struct FlatProbes {};
 
 }  // namespace
 
@@ -272,7 +274,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     std::vector<size_t> changed;
     std::vector<SampleState> changedState;
     double weightedErrSq = 0;    // sum of weight * errSq over all samples after the change
-    std::vector<uint64_t> hull;  // the mesh's hull faces (tetKey of their vertices), sorted
+    std::vector<uint64_t> hull;  // the mesh's hull faces (tetKey of their probes), sorted
+    /// Points of weight 0 (the candidates, with held-out points) were left as they were: the
+    /// error is right, the state is not one to commit.
+    bool partial = false;
   };
   std::vector<uint64_t> committedHull;
   double currentWeightedErrSq = 0;
@@ -281,20 +286,35 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   // Tetrahedralizes the probes `pos` (Delaunay, Sukys 3.2.1) and interpolates the samples whose
   // tetrahedron disappeared or that were outside the hull (whose clamping face may now be covered
   // by a new tetrahedron); every sample on the first call. `extraProbe` (a sample index or kNone)
-  // is counted as a probe (error 0).
-  auto evaluate = [&](size_t extraProbe) {
+  // is counted as a probe (error 0). `weightedOnly`: points of weight 0, which do not change the
+  // error, are left as they were (Trial::partial), a trial's cost when candidates outnumber the
+  // held-out points.
+  auto evaluate = [&](size_t extraProbe, bool weightedOnly = false, size_t absent = kNone) {
+    // The probes' input to the tetrahedralization: pos, less the one at `absent` (a swap's
+    // probe taken out; pos keeps its slot so that every other probe keeps its index).
+    std::vector<Vec3> input;
+    if (absent != kNone) {
+      input = pos;
+      input.erase(input.begin() + std::ptrdiff_t(absent));
+    }
     Tetrahedralization t;
     try {
-      t = tetrahedralize(pos);
+      t = tetrahedralize(absent != kNone ? input : pos);
     } catch (const ParameterError&) {
-      throw ParameterError(
-          "greedy: the initial probes span less than 3D (the domain of interest "
-          "or the dense field is flat); use a smaller field spacing");
+      throw FlatProbes{};
     }
+    // Tetrahedra are keyed by the slots in pos of their probes, which additions and swaps never
+    // renumber (the mesh's own vertex numbers can change with the input).
     std::vector<int32_t> probeOfVertex(t.vertices.size(), -1);
-    for (size_t p = 0; p < pos.size(); ++p)
-      if (probeOfVertex[size_t(t.vertexOfInput[p])] < 0)
-        probeOfVertex[size_t(t.vertexOfInput[p])] = int32_t(p);
+    for (size_t q = 0; q < t.vertexOfInput.size(); ++q) {
+      const size_t p = absent != kNone && q >= absent ? q + 1 : q;
+      if (probeOfVertex[size_t(t.vertexOfInput[q])] < 0)
+        probeOfVertex[size_t(t.vertexOfInput[q])] = int32_t(p);
+    }
+    auto keyOf = [&](const std::array<int32_t, 4>& v) {
+      return tetKey({probeOfVertex[size_t(v[0])], probeOfVertex[size_t(v[1])],
+                     probeOfVertex[size_t(v[2])], probeOfVertex[size_t(v[3])]});
+    };
     zeroSh.assign(t.vertices.size(), ShRgb{});
     const ProbeVolume volume = buildProbeVolume(t, zeroSh);
     const HullClamp hullClamp(volume);
@@ -303,7 +323,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     for (const auto& [tet, opp] : volume.hullFaces) {
       std::array<int32_t, 4> face = volume.tets[size_t(tet)];
       face[size_t(opp)] = face[size_t((opp + 1) & 3)];  // the three face vertices, one repeated
-      trial.hull.push_back(tetKey(face));
+      trial.hull.push_back(keyOf(face));
     }
     std::sort(trial.hull.begin(), trial.hull.end());
     if (first) {
@@ -312,7 +332,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     } else {
       std::unordered_set<uint64_t> tets;
       tets.reserve(volume.tets.size() * 2);
-      for (const auto& v : volume.tets) tets.insert(tetKey(v));
+      for (const auto& v : volume.tets) tets.insert(keyOf(v));
       // When the hull's faces are those of the committed mesh, so is the clamp of every sample
       // outside: those are re-interpolated only when their clamping tetrahedron went (for its
       // key; the value stays). Samples outside the hull are most of a boundary-sampled field's
@@ -321,8 +341,12 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       // than one triangulation.
       const bool hullUnchanged = trial.hull == committedHull;
       for (size_t i = 0; i < N; ++i)
-        if ((state[i].outside && !hullUnchanged) || !tets.count(state[i].tet) || i == extraProbe)
-          trial.changed.push_back(i);
+        if ((state[i].outside && !hullUnchanged) || !tets.count(state[i].tet) || i == extraProbe) {
+          if (weightedOnly && weight[i] == 0 && i != extraProbe)
+            trial.partial = true;
+          else
+            trial.changed.push_back(i);
+        }
     }
     trial.changedState.resize(trial.changed.size());
     tbb::parallel_for(size_t(0), trial.changed.size(), [&](size_t q) {
@@ -344,7 +368,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       st.errSq = (isProbe[i] || i == extraProbe)
                      ? 0.0
                      : std::clamp(e / kNormals - noiseVar[i], 0.0, errSqCap);
-      st.tet = tetKey(tv);
+      st.tet = keyOf(tv);
       st.outside = loc.outside;
     });
     double sum = first ? 0.0 : currentWeightedErrSq;
@@ -356,7 +380,9 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     trial.weightedErrSq = std::max(0.0, sum);
     return trial;
   };
-  auto commit = [&](const Trial& trial) {
+  // Makes `trial` the current mesh; `record`: an addition, whose error goes into errorHistory.
+  auto commit = [&](const Trial& trial, bool record = true) {
+    PS_CHECK(!trial.partial);
     for (size_t q = 0; q < trial.changed.size(); ++q)
       state[trial.changed[q]] = trial.changedState[q];
     committedHull = trial.hull;
@@ -365,29 +391,34 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     currentWeightedErrSq = sum;
     first = false;
     result.fieldError = std::sqrt(sum / weightedRefSq);
-    result.errorHistory.push_back(result.fieldError);
+    if (record) result.errorHistory.push_back(result.fieldError);
   };
 
-  commit(evaluate(kNone));
-  constexpr size_t kCandidateTets = 8;  // tetrahedra whose candidates are tried per addition
-  constexpr size_t kMaxCandidateTets = 32;
-  while (pos.size() < budget && !(s.maxError > 0 && result.fieldError <= s.maxError)) {
-    if (progress && !progress(s.budget != 0 ? double(pos.size()) / double(budget) : 0.0))
-      throw Cancelled();
-    // Candidates, from the tetrahedra holding the most weighted error: in each, the sample worst
-    // interpolated, and the sample nearest to the centroid of its samples (a bright or dark spot
-    // is the worst sample but spreads its value over the whole fan of tetrahedra around it; the
-    // central sample splits the tetrahedron's region instead). Ties go to the lower index.
-    struct TetGroup {
-      double weightedErrSq = 0;
-      Vec3 positionSum;
-      size_t count = 0, worst = 0;
-      size_t first = 0;
-    };
+  try {
+    commit(evaluate(kNone));
+  } catch (const FlatProbes&) {
+    throw ParameterError(
+        "greedy: the initial probes span less than 3D (the domain of interest "
+        "or the dense field is flat); use a smaller field spacing");
+  }
+  // Candidates, from the tetrahedra holding the most weighted error: in each, the sample worst
+  // interpolated, and the sample nearest to the centroid of its samples (a bright or dark spot
+  // is the worst sample but spreads its value over the whole fan of tetrahedra around it; the
+  // central sample splits the tetrahedron's region instead). Ties go to the lower index.
+  struct TetGroup {
+    uint64_t key = 0;
+    double weightedErrSq = 0;
+    Vec3 positionSum;
+    size_t count = 0, worst = 0;
+    size_t first = 0;
+  };
+  // The tetrahedra with a candidate, the most weighted error first.
+  auto rankTets = [&] {
     std::unordered_map<uint64_t, TetGroup> groups;
     for (size_t i = 0; i < N; ++i) {
       if (isProbe[i] || avoided[i]) continue;
       TetGroup& g = groups[state[i].tet];
+      g.key = state[i].tet;
       g.weightedErrSq += weight[i] * state[i].errSq;
       if (i >= S) continue;  // a held-out point: its error counts, it is no candidate
       if (g.count == 0) {
@@ -398,68 +429,109 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       ++g.count;
       if (state[i].errSq > state[g.worst].errSq) g.worst = i;
     }
-    std::vector<std::pair<uint64_t, const TetGroup*>> ranked;
+    std::vector<TetGroup> ranked;
     for (const auto& [key, g] : groups)
-      if (g.weightedErrSq > 0 && g.count > 0) ranked.emplace_back(key, &g);
+      if (g.weightedErrSq > 0 && g.count > 0) ranked.push_back(g);
     // No error left where a candidate is: with a budget, every tetrahedron with a candidate
-    // (the least harmful one goes in, as past the noise floor); without one, done.
+    // (the least harmful one goes in, as past the noise floor); without one, none.
     if (ranked.empty() && s.budget != 0)
       for (const auto& [key, g] : groups)
-        if (g.count > 0) ranked.emplace_back(key, &g);
-    if (ranked.empty()) break;  // no candidate left, or no error and no budget
-    std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
-      return x.second->weightedErrSq > y.second->weightedErrSq ||
-             (x.second->weightedErrSq == y.second->weightedErrSq &&
-              x.second->first < y.second->first);
+        if (g.count > 0) ranked.push_back(g);
+    std::sort(ranked.begin(), ranked.end(), [](const TetGroup& x, const TetGroup& y) {
+      return x.weightedErrSq > y.weightedErrSq ||
+             (x.weightedErrSq == y.weightedErrSq && x.first < y.first);
     });
+    return ranked;
+  };
+  // The candidates of ranked[from, to), those in `tried` left out (and added to it).
+  auto candidatesOf = [&](const std::vector<TetGroup>& ranked, size_t from, size_t to,
+                          std::vector<size_t>& tried) {
+    std::vector<size_t> candidates;
+    auto addCandidate = [&](size_t c) {
+      if (std::find(tried.begin(), tried.end(), c) != tried.end()) return;
+      tried.push_back(c);
+      candidates.push_back(c);
+    };
+    for (size_t r = from; r < std::min(ranked.size(), to); ++r) {
+      const TetGroup& g = ranked[r];
+      addCandidate(g.worst);
+      const Vec3 centroid = g.positionSum * (1.0 / double(g.count));
+      size_t central = g.first;
+      double bestD = std::numeric_limits<double>::infinity();
+      for (size_t i = g.first; i < S; ++i) {
+        if (isProbe[i] || avoided[i] || state[i].tet != g.key) continue;
+        const Vec3 d = field.samples[i].position - centroid;
+        if (dot(d, d) < bestD) {
+          bestD = dot(d, d);
+          central = i;
+        }
+      }
+      addCandidate(central);
+    }
+    captureValues(candidates);
+    return candidates;
+  };
+  // Tries each candidate as the probe at `slot` of pos (the Delaunay mesh rebuilt with it) and
+  // returns the one leaving the lowest error (kNone for none), its trial in `bestTrial`.
+  auto tryCandidates = [&](std::span<const size_t> candidates, size_t slot, size_t& best,
+                           Trial& bestTrial) {
+    const bool append = slot == pos.size();
+    if (append) {
+      pos.emplace_back();
+      vals.emplace_back();
+    }
+    const Vec3 keptPos = pos[slot];
+    const IrrVec keptVal = vals[slot];
+    for (size_t c : candidates) {
+      pos[slot] = field.samples[c].position;
+      vals[slot] = valueAsProbe(c);
+      Trial trial;
+      try {
+        trial = evaluate(c, true);
+      } catch (const FlatProbes&) {  // a swap's candidate in the plane of the other probes
+        continue;
+      }
+      result.reevaluations += trial.changed.size();
+      ++result.trials;
+      if (best == kNone || trial.weightedErrSq < bestTrial.weightedErrSq) {
+        best = c;
+        bestTrial = std::move(trial);
+      }
+    }
+    if (append) {
+      pos.pop_back();
+      vals.pop_back();
+    } else {
+      pos[slot] = keptPos;
+      vals[slot] = keptVal;
+    }
+  };
+
+  constexpr size_t kCandidateTets = 8;  // tetrahedra whose candidates are tried per addition
+  constexpr size_t kMaxCandidateTets = 32;
+  // Progress: an addition and a swap count as one step each (with a budget; else 0).
+  const double steps = double(budget) + double(s.swapPasses) * double(budget - kept.size());
+  auto reportProgress = [&](double step) {
+    if (progress && !progress(s.budget != 0 ? std::min(1.0, step / steps) : 0.0)) throw Cancelled();
+  };
+  while (pos.size() < budget && !(s.maxError > 0 && result.fieldError <= s.maxError)) {
+    reportProgress(double(pos.size()));
     // Each candidate is tried (the Delaunay mesh rebuilt with it); the one leaving the smallest
     // field error is added, provided that error is not larger than before: an addition never
     // makes the field worse (a new vertex can raise the error of its neighbours). When no
     // candidate of the worst kCandidateTets tetrahedra helps, the next ones are tried, up to
     // kMaxCandidateTets (once only: afterwards the first kCandidateTets).
+    const std::vector<TetGroup> ranked = rankTets();
+    if (ranked.empty()) break;  // no candidate left, or no error and no budget
     size_t best = kNone;
     Trial bestTrial;
     std::vector<size_t> tried;
     // Past the noise floor the wider search is not repeated at every addition.
     const size_t searchTets = result.noImprovement ? kCandidateTets : kMaxCandidateTets;
     for (size_t from = 0; from < std::min(ranked.size(), searchTets); from += kCandidateTets) {
-      std::vector<size_t> candidates;
-      auto addCandidate = [&](size_t c) {
-        if (std::find(tried.begin(), tried.end(), c) != tried.end()) return;
-        tried.push_back(c);
-        candidates.push_back(c);
-      };
-      for (size_t r = from; r < std::min(ranked.size(), from + kCandidateTets); ++r) {
-        const uint64_t key = ranked[r].first;
-        const TetGroup& g = *ranked[r].second;
-        addCandidate(g.worst);
-        const Vec3 centroid = g.positionSum * (1.0 / double(g.count));
-        size_t central = g.first;
-        double bestD = std::numeric_limits<double>::infinity();
-        for (size_t i = g.first; i < S; ++i) {
-          if (isProbe[i] || avoided[i] || state[i].tet != key) continue;
-          const Vec3 d = field.samples[i].position - centroid;
-          if (dot(d, d) < bestD) {
-            bestD = dot(d, d);
-            central = i;
-          }
-        }
-        addCandidate(central);
-      }
-      captureValues(candidates);
-      for (size_t c : candidates) {
-        pos.push_back(field.samples[c].position);
-        vals.push_back(valueAsProbe(c));
-        Trial trial = evaluate(c);
-        pos.pop_back();
-        vals.pop_back();
-        result.reevaluations += trial.changed.size();
-        ++result.trials;
-        if (best == kNone || trial.weightedErrSq < bestTrial.weightedErrSq) {
-          best = c;
-          bestTrial = std::move(trial);
-        }
-      }
+      const std::vector<size_t> candidates =
+          candidatesOf(ranked, from, from + kCandidateTets, tried);
+      tryCandidates(candidates, pos.size(), best, bestTrial);
       if (best != kNone && bestTrial.weightedErrSq <= currentWeightedErrSq) break;
     }
     if (best == kNone) break;
@@ -472,7 +544,59 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       if (s.budget == 0) break;
     }
     addSample(best, std::sqrt(state[best].errSq) / refRms);
-    commit(bestTrial);
+    commit(bestTrial.partial ? evaluate(kNone) : bestTrial);
+  }
+
+  // Swaps, a local search after the additions: each added probe in turn is taken out, and the
+  // best of itself and the candidates of the tetrahedra then holding the most error goes back in
+  // its place. An addition chose the best probe for the probes before it, not for those that
+  // came after; past the noise floor, additions were the least harmful candidate. A swap never
+  // raises the error (the probe itself is one of the candidates).
+  const size_t keptCount = kept.size();
+  for (int pass = 0; pass < s.swapPasses; ++pass) {
+    size_t swapped = 0;
+    for (size_t j = 0; j < result.positions.size(); ++j) {
+      reportProgress(double(budget) + double(pass) * double(budget - keptCount) + double(j));
+      const size_t slot = keptCount + j;
+      const size_t old = result.sampleIndex[j];
+      isProbe[old] = 0;
+      try {
+        commit(evaluate(kNone, false, slot), false);
+      } catch (const FlatProbes&) {  // the others span less than 3D: this probe stays
+        isProbe[old] = 1;
+        continue;
+      }
+      std::vector<size_t> tried{old};
+      size_t keep = kNone;
+      Trial keepTrial;
+      tryCandidates(tried, slot, keep, keepTrial);
+      PS_CHECK_EQ(keep, old);  // the set it was in spans 3D
+      size_t best = kNone;
+      Trial bestTrial;
+      tryCandidates(candidatesOf(rankTets(), 0, kCandidateTets, tried), slot, best, bestTrial);
+      // Only a clear gain moves a probe (the same probe set can mesh differently, its error
+      // differing by rounding).
+      if (best == kNone || !(bestTrial.weightedErrSq < keepTrial.weightedErrSq * (1 - 1e-9))) {
+        best = old;
+        bestTrial = std::move(keepTrial);
+      }
+      pos[slot] = field.samples[best].position;
+      vals[slot] = valueAsProbe(best);
+      isProbe[best] = 1;
+      if (best != old) {
+        ++swapped;
+        result.positions[j] = field.samples[best].position;
+        result.sampleIndex[j] = best;
+        result.scores[j] = std::sqrt(state[best].errSq) / refRms;
+      }
+      commit(bestTrial.partial ? evaluate(kNone) : bestTrial, false);
+    }
+    result.swaps += swapped;
+    ++result.swapPasses;
+    const double before = result.swapErrorHistory.empty() ? result.errorHistory.back()
+                                                          : result.swapErrorHistory.back();
+    result.swapErrorHistory.push_back(result.fieldError);
+    if (swapped == 0 || !(result.fieldError < before * (1 - s.swapMinGain))) break;
   }
   return result;
 }

@@ -51,6 +51,10 @@ struct GreedySettings {
   /// interpolation would carry to every point around it. Called once per sample, with batches
   /// of positions; returns one SH each.
   std::function<std::vector<ShRgb>(std::span<const Vec3>)> captureProbeValues;
+  /// Passes of swaps after the additions (placeGreedy), at most; a pass without a swap ends
+  /// them, as does one that lowers the error by less than swapMinGain of it. 0: none.
+  int swapPasses = 0;
+  double swapMinGain = 0.01;
 };
 
 /// A probe that placement keeps where it is (locked by the artist), with its captured SH.
@@ -60,12 +64,13 @@ struct KeptProbe {
 };
 
 struct GreedyResult {
-  /// The new probes (field samples), in the order they were added; the first ones are the
-  /// initial samples spanning the domain.
+  /// The new probes (field samples), in the order they were added (a swapped-in probe takes
+  /// the slot of the one it replaced); the first ones are the initial samples spanning the
+  /// domain, or those swapped in for them.
   std::vector<Vec3> positions;
   std::vector<size_t> sampleIndex;  ///< index into DenseField::samples of each new probe
-  /// Per new probe: its error (as in fieldError, for that one sample) when it was added; 0 for
-  /// the initial samples, added before any interpolation existed.
+  /// Per new probe: its error (as in fieldError, for that one sample) when it was added (or
+  /// swapped in); 0 for the initial samples that stayed, added before any interpolation existed.
   std::vector<double> scores;
   size_t initialCount = 0;  ///< how many of `positions` are initial samples
   /// fieldError after the initial set (index 0) and after each greedy addition (index i).
@@ -83,6 +88,9 @@ struct GreedyResult {
   size_t probesAtNoImprovement = 0;  ///< probe count (kept included) when that first happened
   size_t trials = 0;                 ///< meshes tried (candidates evaluated)
   size_t reevaluations = 0;          ///< samples re-interpolated after additions (locality measure)
+  size_t swapPasses = 0;             ///< swap passes run
+  size_t swaps = 0;                  ///< probes the swaps moved (a probe moved twice counts twice)
+  std::vector<double> swapErrorHistory;  ///< fieldError after each swap pass
 };
 
 /// The irradiance luminance of `sh` for the 14 fixed normals the error is measured with (the 6
@@ -113,6 +121,11 @@ void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 /// re-tetrahedralizing with each, and keeps the one leaving the lowest field error; only the
 /// samples whose tetrahedron disappeared, or that were outside the hull, are re-interpolated.
 /// An addition never raises the field error until none can lower it (noImprovement).
+/// Then, with swapPasses, swaps: each new probe in turn (the initial ones too) is taken out, and
+/// the best of it and the candidates of the 8 tetrahedra then holding the most error
+/// goes in its place; a pass that moves no probe, or gains less than swapMinGain, ends them.
+/// A swap never raises the error, and
+/// errorHistory stays that of the additions (fieldError is after the swaps).
 /// Throws ps::ParameterError when neither budget nor maxError is set, a budget is below 4 or
 /// below kept + 4, the field has fewer than 4 samples or is black, or the initial probes span
 /// less than 3D; ps::Cancelled through `progress`.

@@ -209,6 +209,7 @@ PlaceOutcome placeWithGreedy(const Context& c) {
   GreedySettings gs;
   gs.budget = r.budget;
   gs.maxError = r.maxError;
+  gs.swapPasses = r.swapPasses;
   checkGreedySettings(gs, c.kept.size());  // before the dense field is built
   checkGreedyRequest(r);
   DenseFieldSettings fs = greedyFieldSettings(r);
@@ -258,6 +259,15 @@ PlaceOutcome placeWithGreedy(const Context& c) {
                           : format("greedy: error %.4f at %zu held-out points with %zu probes",
                                    g.fieldError, gs.heldOut.size(),
                                    g.positions.size() + kept.size()));
+  if (g.swapPasses > 0) {
+    std::string errors;
+    for (double e : g.swapErrorHistory) errors += format(" %.4f", e);
+    out.notes.push_back(
+        format("greedy: %zu swap pass%s moved %zu probes; error %.4f after the "
+               "additions, then%s",
+               g.swapPasses, g.swapPasses == 1 ? "" : "es", g.swaps, g.errorHistory.back(),
+               errors.c_str()));
+  }
   if (g.noImprovement) {
     // Additions that raised the error: those where no candidate lowered it and the least
     // harmful one went in. Greedy goes on lowering it with the others.
@@ -444,6 +454,9 @@ void checkGreedyRequest(const PlaceRequest& r) {
   if (r.probeSpp < 0)
     throw ParameterError("--probe-spp: expected 0 or more samples per probe, got " +
                          std::to_string(r.probeSpp));
+  if (r.swapPasses < 0)
+    throw ParameterError("--swap-passes: expected 0 or more passes, got " +
+                         std::to_string(r.swapPasses));
 }
 
 std::vector<std::string> placementMethods() {

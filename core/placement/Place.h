@@ -25,6 +25,8 @@ namespace ps {
 /// place time at 256 and 512 probes (BENCHMARKS.md, "Greedy measured at held-out points").
 inline constexpr int kGreedyHeldOutPerProbe = 128;
 inline constexpr int kGreedyProbeSpp = 1024;  ///< the bake's default (BakeSettings::capture)
+/// Greedy's swap passes at most by default (GreedySettings::swapPasses).
+inline constexpr int kGreedySwapPasses = 4;
 /// Held-out points at most (each keeps its position, SH and its error state).
 inline constexpr size_t kMaxGreedyHeldOutPoints = 4000000;
 
@@ -57,6 +59,8 @@ struct PlaceRequest {
   /// captureProbeValues), the bake's default; at most field.samplesPerProbe (or 0): the field
   /// sample's capture.
   int probeSpp = kGreedyProbeSpp;
+  /// greedy: passes of swaps after the additions (GreedySettings::swapPasses); 0: none.
+  int swapPasses = kGreedySwapPasses;
   int ascentIterations = 8;     ///< ascent: steps per probe at most
   double ascentStepMeters = 0;  ///< ascent: first step; 0 = half the start grid's spacing
   bool ascentDirect = false;    ///< ascent: follow the full light, not the indirect only

@@ -82,6 +82,7 @@ expect_error "--held-out: expected 0 or more points per probe, got -1" "$cli" pl
 expect_error "above the limit of 4000000" "$cli" place "$scene" --method greedy --budget 40000 --held-out 128 -o "$tmp/x.json"
 expect_error "--held-out-uniform: expected a share from 0 to 1, got 2" "$cli" place "$scene" --method greedy --budget 8 --held-out-uniform 2 -o "$tmp/x.json"
 expect_error "--probe-spp: expected 0 or more samples per probe, got -2" "$cli" place "$scene" --method greedy --budget 8 --probe-spp -2 -o "$tmp/x.json"
+expect_error "--swap-passes: expected 0 or more passes, got -1" "$cli" place "$scene" --method greedy --budget 8 --swap-passes -1 -o "$tmp/x.json"
 expect_error "field depth: expected 0 to 8" "$cli" place "$scene" --method greedy --budget 8 --field-depth 9 -o "$tmp/x.json"
 expect_error "available: ascent, chajdas, greedy, spawn-merge, uniform" "$cli" place "$scene" --method magic -o "$tmp/x.json"
 expect_error "spawn-merge needs at least 8 new probes" "$cli" place "$scene" --method spawn-merge --budget 6 -o "$tmp/x.json"

@@ -396,23 +396,40 @@ TEST(Greedy, ErrorDoesNotIncreaseAsProbesAreAdded) {
   for (size_t i = r.initialCount; i < r.scores.size(); ++i) EXPECT_GT(r.scores[i], 0);
 }
 
+/// Held-out points of two-rooms as place draws them (uniform in the domain, outside geometry),
+/// captured without noise (plain relative RMS), equal weights.
+struct TwoRoomsHeldOut {
+  std::vector<Vec3> points;
+  std::vector<ShRgb> sh;
+  std::vector<HeldOutSample> samples;
+};
+const TwoRoomsHeldOut& twoRoomsHeldOut() {
+  static const TwoRoomsHeldOut h = [] {
+    TwoRoomsHeldOut r;
+    const Tracer& tracer = *loaded("two-rooms.gltf").tracer;
+    r.points = DomainPoints(tracer, {}, {}, 0).drawMany(1500, 5);
+    CaptureSettings cs;
+    cs.samplesPerProbe = kFieldSpp;
+    const std::vector<ProbeCapture> caps = captureProbes(tracer, {}, r.points, cs);
+    for (size_t i = 0; i < r.points.size(); ++i) {
+      r.samples.push_back({r.points[i], caps[i].sh, ShRgb{}});
+      r.sh.push_back(caps[i].sh);
+    }
+    return r;
+  }();
+  return h;
+}
+
 TEST(Greedy, HeldOutPointsMeasureTheErrorBetweenTheProbes) {
   DenseField f = twoRoomsField();
   for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
-  // Held-out points as place draws them: uniform in the domain, outside geometry, captured.
-  const Tracer& tracer = *loaded("two-rooms.gltf").tracer;
-  const std::vector<Vec3> points = DomainPoints(tracer, {}, {}, 0).drawMany(1500, 5);
+  const TwoRoomsHeldOut& h = twoRoomsHeldOut();
+  const std::vector<Vec3>& points = h.points;
   ASSERT_GT(points.size(), 1000u);
-  CaptureSettings cs;
-  cs.samplesPerProbe = kFieldSpp;
-  const std::vector<ProbeCapture> caps = captureProbes(tracer, {}, points, cs);
   GreedySettings s;
   s.budget = 40;
-  std::vector<ShRgb> sh;
-  for (size_t i = 0; i < points.size(); ++i) {
-    s.heldOut.push_back({points[i], caps[i].sh, ShRgb{}});  // no noise: plain relative RMS
-    sh.push_back(caps[i].sh);
-  }
+  s.heldOut = h.samples;
+  const std::vector<ShRgb>& sh = h.sh;
   const GreedyResult r = placeGreedy(f, {}, s);
   ASSERT_EQ(r.positions.size(), 40u);
   // The probes are field samples, never held-out points.
@@ -427,6 +444,38 @@ TEST(Greedy, HeldOutPointsMeasureTheErrorBetweenTheProbes) {
   EXPECT_LT(onField, heldOut);
   std::printf("two-rooms, 40 probes: error %.4f on the field's samples, %.4f held out\n", onField,
               heldOut);
+}
+
+TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
+  DenseField f = twoRoomsField();
+  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  const TwoRoomsHeldOut& h = twoRoomsHeldOut();
+  GreedySettings s;
+  s.budget = 16;
+  s.heldOut = h.samples;
+  const GreedyResult plain = placeGreedy(f, {}, s);
+  s.swapPasses = 3;
+  const GreedyResult swapped = placeGreedy(f, {}, s);
+  EXPECT_EQ(plain.swapPasses, 0u);
+  EXPECT_GE(swapped.swapPasses, 1u);
+  EXPECT_LE(swapped.swapPasses, 3u);
+  EXPECT_GT(swapped.swaps, 0u);
+  // The additions are the same; the swaps then lower the error, never raise it.
+  EXPECT_EQ(swapped.errorHistory, plain.errorHistory);
+  EXPECT_LT(swapped.fieldError, plain.fieldError);
+  // Swaps take probes out and put others in: the incremental sums still equal a recompute.
+  ASSERT_EQ(swapped.positions.size(), 16u);
+  const std::vector<double> ones(h.points.size(), 1.0);
+  const double fromScratch =
+      errorFromScratch(volumeOfSamples(f, swapped.sampleIndex), h.points, h.sh, ones);
+  EXPECT_NEAR(swapped.fieldError, fromScratch, 1e-4 * fromScratch);
+  std::vector<size_t> sorted = swapped.sampleIndex;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end());  // no probe twice
+  for (size_t k = 0; k < swapped.positions.size(); ++k)
+    EXPECT_EQ(swapped.positions[k], f.samples[swapped.sampleIndex[k]].position);
+  std::printf("two-rooms, 16 probes: error %.4f after the additions, %.4f after %zu swaps\n",
+              plain.fieldError, swapped.fieldError, swapped.swaps);
 }
 
 TEST(Greedy, HeldOutPointsGoWhereItIsBrightAndWeighTheirVolume) {
@@ -595,10 +644,13 @@ TEST(Greedy, KeepsLockedProbesAndBuildsAroundThem) {
                                  {Vec3(-3, 1.5, 0), f.samples[0].sh}};
   GreedySettings s;
   s.budget = 20;
-  const GreedyResult r = placeGreedy(f, kept, s);
-  EXPECT_EQ(r.positions.size(), 18u);
-  for (const Vec3& p : r.positions)
-    for (const KeptProbe& k : kept) EXPECT_NE(p, k.position);
+  for (int passes : {0, 2}) {
+    s.swapPasses = passes;  // swaps move the new probes only
+    const GreedyResult r = placeGreedy(f, kept, s);
+    EXPECT_EQ(r.positions.size(), 18u);
+    for (const Vec3& p : r.positions)
+      for (const KeptProbe& k : kept) EXPECT_NE(p, k.position);
+  }
 }
 
 TEST(Greedy, RejectsBadParameters) {
