@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -66,6 +67,11 @@ void checkGreedySettings(const GreedySettings& s, size_t keptCount) {
                          " kept probes; expected at least " + std::to_string(keptCount + 4));
   if (!(s.maxError >= 0) || !std::isfinite(s.maxError))
     throw ParameterError("max-error: expected a non-negative relative error");
+  if (s.swapPasses < 0)
+    throw ParameterError("swap-passes: expected 0 or more passes, got " +
+                         std::to_string(s.swapPasses));
+  if (!(s.swapMinGain >= 0 && s.swapMinGain < 1))
+    throw ParameterError("greedy: swapMinGain must be in [0, 1)");
   if (s.budget > int(kMaxProbes))
     throw ParameterError("budget: at most 65535 probes for greedy, got " +
                          std::to_string(s.budget));
@@ -134,6 +140,18 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   }
   GreedyResult result;
   std::vector<char> isProbe(N, 0);
+  {
+    // A sample at a kept probe's position is that probe: never a candidate, error 0.
+    auto less = [](const Vec3& a, const Vec3& b) {
+      return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z);
+    };
+    std::vector<Vec3> keptAt;
+    for (const KeptProbe& k : kept) keptAt.push_back(k.position);
+    std::sort(keptAt.begin(), keptAt.end(), less);
+    if (!keptAt.empty())
+      for (size_t i = 0; i < S; ++i)
+        isProbe[i] = std::binary_search(keptAt.begin(), keptAt.end(), point[i], less) ? 1 : 0;
+  }
   // Samples inside the light clearance: weight 0 below, and never a candidate (as if already a
   // probe, but not one).
   std::vector<char> avoided(N, 0);
@@ -203,12 +221,6 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       }
     }
     if (best == kNone) break;
-    bool atKept = false;
-    for (const KeptProbe& k : kept) atKept = atKept || k.position == field.samples[best].position;
-    if (atKept) {
-      isProbe[best] = 1;
-      continue;
-    }
     addSample(best, 0.0);
   }
   result.initialCount = result.positions.size();
@@ -278,7 +290,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     /// Points of weight 0 (the candidates, with held-out points) were left as they were: the
     /// error is right, the state is not one to commit.
     bool partial = false;
+    std::vector<uint64_t> tets;  // the mesh's tetrahedra (tetKey), sorted; on the first call only
+    size_t absent = kNone;       // the slot of pos left out of the mesh (evaluate)
   };
+  size_t committedAbsent = kNone;
   std::vector<uint64_t> committedHull;
   double currentWeightedErrSq = 0;
   bool first = true;
@@ -319,6 +334,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     const ProbeVolume volume = buildProbeVolume(t, zeroSh);
     const HullClamp hullClamp(volume);
     Trial trial;
+    trial.absent = absent;
     trial.hull.reserve(volume.hullFaces.size());
     for (const auto& [tet, opp] : volume.hullFaces) {
       std::array<int32_t, 4> face = volume.tets[size_t(tet)];
@@ -327,6 +343,8 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     }
     std::sort(trial.hull.begin(), trial.hull.end());
     if (first) {
+      for (const auto& v : volume.tets) trial.tets.push_back(keyOf(v));
+      std::sort(trial.tets.begin(), trial.tets.end());
       trial.changed.resize(N);
       for (size_t i = 0; i < N; ++i) trial.changed[i] = i;
     } else {
@@ -380,18 +398,46 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     trial.weightedErrSq = std::max(0.0, sum);
     return trial;
   };
+  // GreedySettings::verifyState: the committed state against every point interpolated afresh.
+  auto verify = [&] {
+    first = true;
+    const Trial full = evaluate(kNone, false, committedAbsent);
+    first = false;
+    for (size_t q = 0; q < full.changed.size(); ++q) {
+      const SampleState& want = full.changedState[q];
+      const SampleState& have = state[full.changed[q]];
+      // A point on a face shared by two tetrahedra can be found in either, with the same
+      // interpolation (to float rounding of the barycentric weights): its tetrahedron need only
+      // be one of the mesh's.
+      const bool same =
+          (have.tet == want.tet ||
+           std::binary_search(full.tets.begin(), full.tets.end(), have.tet)) &&
+          have.outside == want.outside &&
+          std::abs(have.errSq - want.errSq) <= 1e-5 * want.errSq + 1e-12 * refRms * refRms;
+      result.stateMismatches += same ? 0 : 1;
+    }
+  };
+  // A trial to commit, the current probes' (pos): a partial one interpolated again in full.
+  auto complete = [&](Trial trial) {
+    if (!trial.partial) return trial;
+    Trial full = evaluate(kNone);
+    result.reevaluations += full.changed.size();
+    return full;
+  };
   // Makes `trial` the current mesh; `record`: an addition, whose error goes into errorHistory.
   auto commit = [&](const Trial& trial, bool record = true) {
     PS_CHECK(!trial.partial);
     for (size_t q = 0; q < trial.changed.size(); ++q)
       state[trial.changed[q]] = trial.changedState[q];
     committedHull = trial.hull;
+    committedAbsent = trial.absent;
     double sum = 0;  // recomputed in full so that no rounding accumulates
     for (size_t i = 0; i < N; ++i) sum += weight[i] * state[i].errSq;
     currentWeightedErrSq = sum;
     first = false;
     result.fieldError = std::sqrt(sum / weightedRefSq);
     if (record) result.errorHistory.push_back(result.fieldError);
+    if (s.verifyState) verify();
   };
 
   try {
@@ -544,7 +590,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       if (s.budget == 0) break;
     }
     addSample(best, std::sqrt(state[best].errSq) / refRms);
-    commit(bestTrial.partial ? evaluate(kNone) : bestTrial);
+    commit(complete(std::move(bestTrial)));
   }
 
   // Swaps, a local search after the additions: each added probe in turn is taken out, and the
@@ -561,7 +607,9 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       const size_t old = result.sampleIndex[j];
       isProbe[old] = 0;
       try {
-        commit(evaluate(kNone, false, slot), false);
+        const Trial out = evaluate(kNone, false, slot);
+        result.reevaluations += out.changed.size();
+        commit(out, false);
       } catch (const FlatProbes&) {  // the others span less than 3D: this probe stays
         isProbe[old] = 1;
         continue;
@@ -589,7 +637,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         result.sampleIndex[j] = best;
         result.scores[j] = std::sqrt(state[best].errSq) / refRms;
       }
-      commit(bestTrial.partial ? evaluate(kNone) : bestTrial, false);
+      commit(complete(std::move(bestTrial)), false);
     }
     result.swaps += swapped;
     ++result.swapPasses;

@@ -55,6 +55,9 @@ struct GreedySettings {
   /// them, as does one that lowers the error by less than swapMinGain of it. 0: none.
   int swapPasses = 0;
   double swapMinGain = 0.01;
+  /// Tests: after every change, interpolate every point afresh and count those whose kept state
+  /// differs (GreedyResult::stateMismatches). Slow.
+  bool verifyState = false;
 };
 
 /// A probe that placement keeps where it is (locked by the artist), with its captured SH.
@@ -72,7 +75,8 @@ struct GreedyResult {
   /// Per new probe: its error (as in fieldError, for that one sample) when it was added (or
   /// swapped in); 0 for the initial samples that stayed, added before any interpolation existed.
   std::vector<double> scores;
-  size_t initialCount = 0;  ///< how many of `positions` are initial samples
+  /// How many of `positions` are initial samples (or were, before a swap replaced them).
+  size_t initialCount = 0;
   /// fieldError after the initial set (index 0) and after each greedy addition (index i).
   std::vector<double> errorHistory;
   double fieldError = 0;  ///< at the end
@@ -87,10 +91,13 @@ struct GreedyResult {
   bool noImprovement = false;
   size_t probesAtNoImprovement = 0;  ///< probe count (kept included) when that first happened
   size_t trials = 0;                 ///< meshes tried (candidates evaluated)
-  size_t reevaluations = 0;          ///< samples re-interpolated after additions (locality measure)
-  size_t swapPasses = 0;             ///< swap passes run
-  size_t swaps = 0;                  ///< probes the swaps moved (a probe moved twice counts twice)
+  size_t reevaluations = 0;  ///< points re-interpolated after the first mesh (locality measure)
+  size_t swapPasses = 0;     ///< swap passes run
+  size_t swaps = 0;          ///< moves the swaps made (a slot moved twice counts twice)
   std::vector<double> swapErrorHistory;  ///< fieldError after each swap pass
+  /// With GreedySettings::verifyState: points whose kept state differed from a fresh
+  /// interpolation, summed over the changes.
+  size_t stateMismatches = 0;
 };
 
 /// The irradiance luminance of `sh` for the 14 fixed normals the error is measured with (the 6

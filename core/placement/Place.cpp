@@ -263,7 +263,7 @@ PlaceOutcome placeWithGreedy(const Context& c) {
     std::string errors;
     for (double e : g.swapErrorHistory) errors += format(" %.4f", e);
     out.notes.push_back(
-        format("greedy: %zu swap pass%s moved %zu probes; error %.4f after the "
+        format("greedy: %zu swap pass%s made %zu moves; error %.4f after the "
                "additions, then%s",
                g.swapPasses, g.swapPasses == 1 ? "" : "es", g.swaps, g.errorHistory.back(),
                errors.c_str()));

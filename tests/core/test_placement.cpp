@@ -455,7 +455,10 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
   s.heldOut = h.samples;
   const GreedyResult plain = placeGreedy(f, {}, s);
   s.swapPasses = 3;
+  s.verifyState = true;
   const GreedyResult swapped = placeGreedy(f, {}, s);
+  // After every addition and every swap, the kept state is that of a fresh interpolation.
+  EXPECT_EQ(swapped.stateMismatches, 0u);
   EXPECT_EQ(plain.swapPasses, 0u);
   EXPECT_GE(swapped.swapPasses, 1u);
   EXPECT_LE(swapped.swapPasses, 3u);
@@ -463,6 +466,13 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
   // The additions are the same; the swaps then lower the error, never raise it.
   EXPECT_EQ(swapped.errorHistory, plain.errorHistory);
   EXPECT_LT(swapped.fieldError, plain.fieldError);
+  ASSERT_EQ(swapped.swapErrorHistory.size(), swapped.swapPasses);
+  double before = swapped.errorHistory.back();
+  for (double e : swapped.swapErrorHistory) {
+    EXPECT_LE(e, before * (1 + 1e-9));
+    before = e;
+  }
+  EXPECT_EQ(swapped.fieldError, swapped.swapErrorHistory.back());
   // Swaps take probes out and put others in: the incremental sums still equal a recompute.
   ASSERT_EQ(swapped.positions.size(), 16u);
   const std::vector<double> ones(h.points.size(), 1.0);
@@ -476,6 +486,30 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
     EXPECT_EQ(swapped.positions[k], f.samples[swapped.sampleIndex[k]].position);
   std::printf("two-rooms, 16 probes: error %.4f after the additions, %.4f after %zu swaps\n",
               plain.fieldError, swapped.fieldError, swapped.swaps);
+}
+
+TEST(Greedy, SwapsOnTheFieldsOwnSamplesAndWithoutABudget) {
+  // No held-out points: the field's samples carry the weights (some of them 0, split cells).
+  DenseField f = twoRoomsField();
+  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  auto place = [&](GreedySettings s) {
+    s.verifyState = true;
+    const GreedyResult r = placeGreedy(f, {}, s);
+    EXPECT_EQ(r.stateMismatches, 0u);
+    EXPECT_GT(r.swaps, 0u);
+    EXPECT_LT(r.fieldError, r.errorHistory.back());
+    EXPECT_NEAR(r.fieldError, fieldErrorFromScratch(f, r.sampleIndex), 1e-4 * r.fieldError);
+    return r;
+  };
+  GreedySettings s;
+  s.budget = 16;
+  s.swapPasses = 3;
+  place(s);
+  // An error target and no budget: the swaps run once the target is met.
+  GreedySettings t;
+  t.maxError = 0.5;
+  t.swapPasses = 2;
+  EXPECT_LE(place(t).errorHistory.back(), 0.5);
 }
 
 TEST(Greedy, HeldOutPointsGoWhereItIsBrightAndWeighTheirVolume) {
@@ -639,17 +673,29 @@ TEST(Greedy, EveryRoomAndBothSidesOfThePillarGetProbes) {
 }
 
 TEST(Greedy, KeepsLockedProbesAndBuildsAroundThem) {
-  const DenseField& f = twoRoomsField();
+  DenseField f = twoRoomsField();
+  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  // Two kept probes at field samples, with their SH, so that the error can be recomputed.
+  const size_t far = f.samples.size() / 2;
   std::vector<KeptProbe> kept = {{f.samples[7].position, f.samples[7].sh},
-                                 {Vec3(-3, 1.5, 0), f.samples[0].sh}};
+                                 {f.samples[far].position, f.samples[far].sh}};
   GreedySettings s;
   s.budget = 20;
+  s.verifyState = true;
   for (int passes : {0, 2}) {
     s.swapPasses = passes;  // swaps move the new probes only
     const GreedyResult r = placeGreedy(f, kept, s);
+    EXPECT_EQ(r.stateMismatches, 0u);
     EXPECT_EQ(r.positions.size(), 18u);
     for (const Vec3& p : r.positions)
       for (const KeptProbe& k : kept) EXPECT_NE(p, k.position);
+    if (passes > 0) {
+      EXPECT_GT(r.swaps, 0u);
+    }
+    std::vector<size_t> all = {7, far};
+    all.insert(all.end(), r.sampleIndex.begin(), r.sampleIndex.end());
+    EXPECT_NEAR(r.fieldError, fieldErrorFromScratch(f, all), 1e-4 * r.fieldError)
+        << passes << " swap passes";
   }
 }
 
@@ -665,6 +711,12 @@ TEST(Greedy, RejectsBadParameters) {
   DenseField tiny;
   tiny.samples.resize(3);
   EXPECT_THROW(placeGreedy(tiny, {}, s), ParameterError);
+  s.budget = 8;
+  s.swapPasses = -1;
+  EXPECT_THROW(placeGreedy(f, {}, s), ParameterError);
+  s.swapPasses = 1;
+  s.swapMinGain = 1;
+  EXPECT_THROW(placeGreedy(f, {}, s), ParameterError);
 }
 
 TEST(Uniform, BudgetGivesTheProbeCountWithinTenPercent) {
