@@ -210,8 +210,8 @@ PlaceOutcome placeWithGreedy(const Context& c) {
   gs.budget = r.budget;
   gs.maxError = r.maxError;
   gs.swapPasses = r.swapPasses;
+  checkGreedyRequest(r);                   // the options by their names first
   checkGreedySettings(gs, c.kept.size());  // before the dense field is built
-  checkGreedyRequest(r);
   DenseFieldSettings fs = greedyFieldSettings(r);
   fs.importanceVolumes.assign(c.importanceVolumes.begin(), c.importanceVolumes.end());
   const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
