@@ -600,6 +600,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   // raises the error (the probe itself is one of the candidates).
   const size_t keptCount = kept.size();
   for (int pass = 0; pass < s.swapPasses; ++pass) {
+    const double before = result.fieldError;
     size_t swapped = 0;
     for (size_t j = 0; j < result.positions.size(); ++j) {
       reportProgress(double(budget) + double(pass) * double(budget - keptCount) + double(j));
@@ -641,8 +642,6 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     }
     result.swaps += swapped;
     ++result.swapPasses;
-    const double before = result.swapErrorHistory.empty() ? result.errorHistory.back()
-                                                          : result.swapErrorHistory.back();
     result.swapErrorHistory.push_back(result.fieldError);
     if (swapped == 0 || !(result.fieldError < before * (1 - s.swapMinGain))) break;
   }
