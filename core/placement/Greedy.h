@@ -94,6 +94,8 @@ struct GreedyResult {
   size_t reevaluations = 0;  ///< points re-interpolated after the first mesh (locality measure)
   size_t swapPasses = 0;     ///< swap passes run
   size_t swaps = 0;          ///< moves the swaps made (a slot moved twice counts twice)
+  size_t swapTries = 0;      ///< probes taken out and tried elsewhere (moved or not)
+  size_t swapTrials = 0;     ///< of trials, those the swaps made
   std::vector<double> swapErrorHistory;  ///< fieldError after each swap pass
   /// With GreedySettings::verifyState: points whose kept state differed from a fresh
   /// interpolation, summed over the changes.
@@ -131,6 +133,8 @@ void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 /// Then, with swapPasses, swaps: each new probe in turn (the initial ones too) is taken out, and
 /// the best of it and the candidates of the 8 tetrahedra then holding the most error
 /// goes in its place; a pass that moves no probe, or gains less than swapMinGain, ends them.
+/// After the first pass, only the probes a move touched (the moved ones and those sharing a
+/// tetrahedron with them, before or after the move) are taken out again.
 /// A swap never raises the error, and
 /// errorHistory stays that of the additions (fieldError is after the swaps).
 /// Throws ps::ParameterError when neither budget nor maxError is set, a budget is below 4 or

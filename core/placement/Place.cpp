@@ -263,10 +263,10 @@ PlaceOutcome placeWithGreedy(const Context& c) {
     std::string errors;
     for (double e : g.swapErrorHistory) errors += format(" %.4f", e);
     out.notes.push_back(
-        format("greedy: %zu swap pass%s made %zu moves; error %.4f after the "
-               "additions, then%s",
-               g.swapPasses, g.swapPasses == 1 ? "" : "es", g.swaps, g.errorHistory.back(),
-               errors.c_str()));
+        format("greedy: %zu swap pass%s took out %zu probes and made %zu moves (%zu trials, "
+               "against %zu for the additions); error %.4f after the additions, then%s",
+               g.swapPasses, g.swapPasses == 1 ? "" : "es", g.swapTries, g.swaps, g.swapTrials,
+               g.trials - g.swapTrials, g.errorHistory.back(), errors.c_str()));
   }
   if (g.noImprovement) {
     // Additions that raised the error: those where no candidate lowered it and the least

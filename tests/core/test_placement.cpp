@@ -463,6 +463,11 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
   EXPECT_GE(swapped.swapPasses, 1u);
   EXPECT_LE(swapped.swapPasses, 3u);
   EXPECT_GT(swapped.swaps, 0u);
+  // Every probe is taken out in the first pass; later passes only those a move touched.
+  EXPECT_GE(swapped.swapTries, 16u);
+  EXPECT_LE(swapped.swapTries, swapped.swapPasses * 16u);
+  EXPECT_GT(swapped.swapTrials, 0u);
+  EXPECT_LT(swapped.swapTrials, swapped.trials);
   // The additions are the same; the swaps then lower the error, never raise it.
   EXPECT_EQ(swapped.errorHistory, plain.errorHistory);
   EXPECT_LT(swapped.fieldError, plain.fieldError);
