@@ -480,6 +480,10 @@ bool Document::runPlacement(const PlacementRequest& request) {
     throw ParameterError("budget: expected at least 4 probes (or 0 for no budget)");
   if (request.budget <= 0 && !fieldMethod) place.spacingMeters = request.spacingMeters;
   place.aggressiveness = request.aggressiveness;
+  if (request.swapPasses < 0)
+    throw ParameterError("swap passes: expected 0 or more passes, got " +
+                         std::to_string(request.swapPasses));
+  place.swapPasses = request.swapPasses;
   place.field.samplesPerProbe = request.samplesPerProbe;
   place.probeSpp = request.samplesPerProbe;  // greedy's candidates as the preview captures them
   // The probes that stay (accepted, locked, and the candidates when they are not replaced) are

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/io/ProbeSet.h"
+#include "core/placement/Place.h"
 #include "core/scene/Scene.h"
 
 namespace ps {
@@ -40,6 +41,8 @@ struct PlacementRequest {
   int samplesPerProbe = 64;       ///< quick capture of the candidates, so they show their light
   bool replaceCandidates = true;  ///< false: keep the unlocked candidates too, only add
   double aggressiveness = 1.0;    ///< chajdas: merging strength (without a budget)
+  /// greedy: passes of swaps after the additions, at most (PlaceRequest::swapPasses; 0: none).
+  int swapPasses = kGreedySwapPasses;
 };
 
 /// The bake's settings: the accepted probes captured at final quality.

@@ -69,6 +69,15 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
       tr("chajdas without a budget: how readily clusters of similar lighting merge (higher: "
          "fewer probes)"));
   form->addRow(tr("Aggressiveness"), aggressiveness_);
+  swapPasses_ = new QSpinBox;
+  swapPasses_->setRange(0, 64);
+  swapPasses_->setValue(kGreedySwapPasses);
+  swapPasses_->setSpecialValueText(tr("none"));
+  swapPasses_->setToolTip(
+      tr("greedy: after the additions, passes that move each probe to where it lowers the error "
+         "most; they stop early once a pass gains less than 1 %. Each pass can take as long as "
+         "the additions (none: the additions alone)"));
+  form->addRow(tr("Swap passes"), swapPasses_);
   form->addRow(tr("Preview samples"), captureSpp_);
   replace_ = new QCheckBox(tr("Replace unlocked candidates"));
   replace_->setChecked(true);
@@ -187,6 +196,7 @@ PlacementRequest PlacementPanel::placementRequest() const {
   r.samplesPerProbe = captureSpp_->value();
   r.replaceCandidates = replace_->isChecked();
   r.aggressiveness = aggressiveness_->value();
+  r.swapPasses = swapPasses_->value();
   return r;
 }
 

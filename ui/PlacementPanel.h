@@ -58,6 +58,7 @@ class PlacementPanel : public QWidget {
   QDoubleSpinBox* spacingBox() const { return spacing_; }
   QSpinBox* budgetBox() const { return budget_; }
   QDoubleSpinBox* aggressivenessBox() const { return aggressiveness_; }
+  QSpinBox* swapPassesBox() const { return swapPasses_; }
   QSpinBox* captureSamplesBox() const { return captureSpp_; }
   QCheckBox* replaceBox() const { return replace_; }
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
@@ -82,6 +83,7 @@ class PlacementPanel : public QWidget {
   QDoubleSpinBox* spacing_;
   QSpinBox* budget_;
   QDoubleSpinBox* aggressiveness_ = nullptr;
+  QSpinBox* swapPasses_ = nullptr;
   QSpinBox* captureSpp_;
   QCheckBox* replace_;
   QCheckBox* leakRefine_ = nullptr;

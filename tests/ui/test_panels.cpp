@@ -184,6 +184,22 @@ class TestPanels : public QObject {
     QCOMPARE(doc->probe(lockedId)->position, locked.position);
     QVERIFY(!doc->lastJobNotes().isEmpty());  // "dense field: ...", "greedy: field error ..."
     QCOMPARE(doc->probeSet().placement.method, std::string("greedy"));
+    // The swap passes (on by default) say what they did; with none, there is no such note.
+    auto swapNote = [&] {
+      for (const QString& n : doc->lastJobNotes())
+        if (n.contains(QStringLiteral("swap pass"))) return true;
+      return false;
+    };
+    QCOMPARE(panel->swapPassesBox()->value(), kGreedySwapPasses);
+    QVERIFY(swapNote());
+    panel->swapPassesBox()->setValue(0);
+    QVERIFY(panel->run());
+    QCOMPARE(waitForJob(doc), QString());
+    QVERIFY(!swapNote());
+    size_t unswapped = 0;
+    for (const Probe& p : doc->probes()) unswapped += p.method == "greedy";
+    QVERIFY2(unswapped >= 8 && unswapped <= 11, qPrintable(QString::number(unswapped)));
+    panel->swapPassesBox()->setValue(kGreedySwapPasses);
 
     // chajdas without a budget: the aggressiveness decides the count (more merges, fewer).
     panel->methodBox()->setCurrentText(QStringLiteral("chajdas"));
