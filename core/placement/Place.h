@@ -27,8 +27,9 @@ inline constexpr int kGreedyHeldOutPerProbe = 128;
 inline constexpr int kGreedyProbeSpp = 1024;  ///< the bake's default (BakeSettings::capture)
 /// Greedy's swap passes at most by default (GreedySettings::swapPasses). On the bundled scenes
 /// (means of field seeds 1 to 4) they took the rows where greedy's rel_rmse is at most half of
-/// uniform's from 11 to 14 of 15, at 3 to 10 times the place time (BENCHMARKS.md, "Swaps after
-/// greedy's additions").
+/// uniform's from 11 to 14 of 15 (BENCHMARKS.md, "Swaps after greedy's additions"). At 512
+/// probes, place takes 5 to 7 times as long as without them (field seed 1: two-rooms 21 s
+/// and 129 s, dream-apartment 29 s and 214 s; "Cheaper swaps").
 inline constexpr int kGreedySwapPasses = 4;
 /// Held-out points at most (each keeps its position, SH and its error state).
 inline constexpr size_t kMaxGreedyHeldOutPoints = 4000000;
