@@ -302,10 +302,16 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   std::vector<uint64_t> committedTets;  // sorted
   double currentWeightedErrSq = 0;
   bool first = true;
+  // A clamp's distance is rebuilt from float barycentric weights: its rounding grows with the
+  // coordinates (a scene far from the origin) as well as with the field's size.
+  const double clampMargin =
+      1e-5 *
+      (box.diagonal() + std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z),
+                                  std::abs(box.hi.x), std::abs(box.hi.y), std::abs(box.hi.z)}));
 
   // Tetrahedralizes the probes `pos` (Delaunay, Sukys 3.2.1) and interpolates the samples whose
-  // tetrahedron disappeared or that were outside the hull (whose clamping face may now be covered
-  // by a new tetrahedron); every sample on the first call. `extraProbe` (a sample index or kNone)
+  // tetrahedron disappeared, and those outside the hull near a change of its faces (below);
+  // every sample on the first call. `extraProbe` (a sample index or kNone)
   // is counted as a probe (error 0). `weightedOnly`: points of weight 0, which do not change the
   // error, are left as they were (Trial::partial), a trial's cost when candidates outnumber the
   // held-out points.
@@ -340,13 +346,14 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     const HullClamp hullClamp(volume);
     Trial trial;
     trial.absent = absent;
-    // A hull face's key: its three probes, the lowest repeated (the same key whichever tet holds
-    // the face and however its row is ordered).
+    // A hull face's key: the slots of its three probes, the lowest repeated (the same key
+    // whichever tet holds the face and however its row is ordered).
     auto faceKey = [&](int32_t tet, int opp) {
-      std::array<int32_t, 4> face = volume.tets[size_t(tet)];
-      face[size_t(opp)] = std::min(
-          {face[size_t((opp + 1) & 3)], face[size_t((opp + 2) & 3)], face[size_t((opp + 3) & 3)]});
-      return keyOf(face);
+      const auto& tv = volume.tets[size_t(tet)];
+      const int32_t a = probeOfVertex[size_t(tv[size_t((opp + 1) & 3)])];
+      const int32_t b = probeOfVertex[size_t(tv[size_t((opp + 2) & 3)])];
+      const int32_t c = probeOfVertex[size_t(tv[size_t((opp + 3) & 3)])];
+      return tetKey({a, b, c, std::min({a, b, c})});
     };
     std::vector<uint64_t> hullKeys;  // in the order of volume.hullFaces
     hullKeys.reserve(volume.hullFaces.size());
@@ -398,13 +405,14 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         const Vec3 d = max(max(b.lo - p, p - b.hi), Vec3(0, 0, 0));
         return dot(d, d);
       };
-      // The clamp's distance comes from float weights: a margin of 1e-5 of the field's size.
-      const double margin = 1e-5 * box.diagonal();
+      // The boxes are widened by the margin: the walk counts a point within its barycentric
+      // slack of a tetrahedron as inside it.
+      const double margin = clampMargin;
       auto clampMayChange = [&](const SampleState& st, Vec3 p) {
         if (!std::binary_search(trial.hull.begin(), trial.hull.end(), st.face)) return true;
-        if (newTetsBox.contains(p))
+        if (boxDist2(newTetsBox, p) <= margin * margin)
           for (const Bounds3& b : newTets)
-            if (b.contains(p)) return true;
+            if (boxDist2(b, p) <= margin * margin) return true;
         const double reach = (std::sqrt(st.clampD2) + margin) * (std::sqrt(st.clampD2) + margin);
         if (boxDist2(newFacesBox, p) <= reach)
           for (const Bounds3& b : newFaces)
@@ -478,12 +486,18 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       // interpolation to float rounding of the barycentric weights: its tetrahedron need only
       // be one of the mesh's. The error is the square of a difference that can be far smaller
       // than the values, so that rounding moves it by more, relatively (up to 1.3e-4 on the
-      // bundled scenes); a stale point's tetrahedron is gone from the mesh.
+      // bundled scenes). A point outside the hull must also keep a face of the hull, at the
+      // distance of the nearest (a stale clamp can keep a face and tetrahedron that still
+      // exist, with an error close to the right one).
       const bool sameTet = have.tet == want.tet;
       const double tolerance = sameTet ? 1e-5 : 1e-3;
+      const bool clampRight =
+          !want.outside ||
+          (std::binary_search(full.hull.begin(), full.hull.end(), have.face) &&
+           std::abs(std::sqrt(have.clampD2) - std::sqrt(want.clampD2)) <= clampMargin);
       const bool same =
           (sameTet || std::binary_search(full.tets.begin(), full.tets.end(), have.tet)) &&
-          have.outside == want.outside &&
+          have.outside == want.outside && clampRight &&
           std::abs(have.errSq - want.errSq) <= tolerance * want.errSq + 1e-12 * refRms * refRms;
       result.stateMismatches += same ? 0 : 1;
     }
@@ -673,9 +687,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   // raises the error (the probe staying where it was is one of the outcomes).
   // After the first pass, a probe is taken out again only when a move touched it: it moved, or
   // shared a tetrahedron with a moved probe at the old place or the new one ("don't look bits"
-  // of local search). A probe's removal cost depends on its neighbours alone, and moves
-  // elsewhere lower the error where the candidates are, so a failed swap away from every move
-  // stays failed; the passes after the first cost only where something changed.
+  // of local search). A heuristic: a probe's removal cost depends on its neighbours alone, but
+  // its candidates come from the whole field, and a move elsewhere also raises the error where
+  // the moved probe left, so a probe not taken out again may have missed a gain there. It
+  // makes the passes after the first cost where something changed.
   const size_t keptCount = kept.size();
   const size_t swappable = result.positions.size();
   // The other swappable probes (indices into result.positions) sharing a tetrahedron of the
@@ -709,6 +724,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       savedState = state;
       const std::vector<uint64_t> savedHull = committedHull, savedTets = committedTets;
       const double savedErrSq = currentWeightedErrSq, savedError = result.fieldError;
+      const size_t savedAbsent = committedAbsent;
       isProbe[old] = 0;
       try {
         const Trial out = evaluate(kNone, false, slot);
@@ -730,7 +746,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         std::swap(state, savedState);
         committedHull = savedHull;
         committedTets = savedTets;
-        committedAbsent = kNone;
+        committedAbsent = savedAbsent;
         currentWeightedErrSq = savedErrSq;
         result.fieldError = savedError;
         if (s.verifyState) verify();

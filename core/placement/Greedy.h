@@ -128,13 +128,15 @@ void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 /// kept + 8). Each addition tries candidates from the tetrahedra holding the most weighted
 /// error (in each, the worst sample and the sample nearest the centroid of its samples),
 /// re-tetrahedralizing with each, and keeps the one leaving the lowest field error; only the
-/// samples whose tetrahedron disappeared, or that were outside the hull, are re-interpolated.
+/// samples whose tetrahedron disappeared, or that are outside the hull near a change of its
+/// faces, are re-interpolated.
 /// An addition never raises the field error until none can lower it (noImprovement).
 /// Then, with swapPasses, swaps: each new probe in turn (the initial ones too) is taken out, and
 /// the best of it and the candidates of the 8 tetrahedra then holding the most error
 /// goes in its place; a pass that moves no probe, or gains less than swapMinGain, ends them.
 /// After the first pass, only the probes a move touched (the moved ones and those sharing a
-/// tetrahedron with them, before or after the move) are taken out again.
+/// tetrahedron with them, before or after the move) are taken out again (a heuristic: a
+/// probe left alone may have missed a gain elsewhere).
 /// A swap never raises the error, and
 /// errorHistory stays that of the additions (fieldError is after the swaps).
 /// Throws ps::ParameterError when neither budget nor maxError is set, a budget is below 4 or
