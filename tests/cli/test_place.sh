@@ -8,9 +8,13 @@ tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 scene="$root/resources/scenes/pillar-room.gltf"
 field=(--field-depth 1 --field-spp 32 --no-leak-refine)
 
-"$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g.json"
+"$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g.json" | tee "$tmp/g.txt"
 "$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g2.json"
 cmp "$tmp/g.json" "$tmp/g2.json"  # deterministic for a seed
+# The swaps (on by default) say what they did; --swap-passes 0 runs the additions alone.
+grep -Eq "greedy: [0-9]+ swap pass(es)? took out [0-9]+ probes and made [0-9]+ moves \([0-9]+ trials, against [0-9]+ for the additions\)" "$tmp/g.txt"
+"$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 --swap-passes 0 -o "$tmp/g0.json" | tee "$tmp/g0.txt"
+if grep -q "swap pass" "$tmp/g0.txt"; then echo "swaps with --swap-passes 0" >&2; exit 1; fi
 "$cli" place "$scene" --method greedy --max-error 0.3 "${field[@]}" -o "$tmp/e.json"
 "$cli" place "$scene" --method ascent --budget 32 --field-spp 32 --no-leak-refine -o "$tmp/a.json"
 "$cli" place "$scene" --method spawn-merge --budget 40 --field-spp 32 --no-leak-refine -o "$tmp/sm.json"
