@@ -294,8 +294,9 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     /// Points of weight 0 (the candidates, with held-out points) were left as they were: the
     /// error is right, the state is not one to commit.
     bool partial = false;
-    std::vector<uint64_t> tets;  // the mesh's tetrahedra (tetKey), sorted on the first call
-    size_t absent = kNone;       // the slot of pos left out of the mesh (evaluate)
+    // The mesh's tetrahedra (tetKey): in the order of the volume's, sorted on the first call.
+    std::vector<uint64_t> tets;
+    size_t absent = kNone;  // the slot of pos left out of the mesh (evaluate)
   };
   size_t committedAbsent = kNone;
   std::vector<uint64_t> committedHull;
@@ -382,10 +383,11 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       Bounds3 newTetsBox, newFacesBox;
       const bool hullChanged = trial.hull != committedHull;
       if (hullChanged) {
-        for (const auto& tv : volume.tets) {
-          if (std::binary_search(committedTets.begin(), committedTets.end(), keyOf(tv))) continue;
+        for (size_t k = 0; k < volume.tets.size(); ++k) {  // trial.tets is in this order
+          if (std::binary_search(committedTets.begin(), committedTets.end(), trial.tets[k]))
+            continue;
           Bounds3 b;
-          for (int32_t v : tv) b.extend(volume.position(v));
+          for (int32_t v : volume.tets[k]) b.extend(volume.position(v));
           newTets.push_back(b);
           newTetsBox.extend(b.lo);
           newTetsBox.extend(b.hi);
@@ -405,15 +407,16 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         const Vec3 d = max(max(b.lo - p, p - b.hi), Vec3(0, 0, 0));
         return dot(d, d);
       };
-      // The boxes are widened by the margin: the walk counts a point within its barycentric
-      // slack of a tetrahedron as inside it.
-      const double margin = clampMargin;
+      // The boxes are widened by the clamp margin: the walk counts a point within its
+      // barycentric slack of a tetrahedron as inside it.
+      const double margin2 = clampMargin * clampMargin;
       auto clampMayChange = [&](const SampleState& st, Vec3 p) {
         if (!std::binary_search(trial.hull.begin(), trial.hull.end(), st.face)) return true;
-        if (boxDist2(newTetsBox, p) <= margin * margin)
+        if (boxDist2(newTetsBox, p) <= margin2)
           for (const Bounds3& b : newTets)
-            if (boxDist2(b, p) <= margin * margin) return true;
-        const double reach = (std::sqrt(st.clampD2) + margin) * (std::sqrt(st.clampD2) + margin);
+            if (boxDist2(b, p) <= margin2) return true;
+        const double reach =
+            (std::sqrt(st.clampD2) + clampMargin) * (std::sqrt(st.clampD2) + clampMargin);
         if (boxDist2(newFacesBox, p) <= reach)
           for (const Bounds3& b : newFaces)
             if (boxDist2(b, p) <= reach) return true;
