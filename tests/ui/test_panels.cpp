@@ -18,6 +18,7 @@
 #include <QTemporaryDir>
 #include <QtTest>
 
+#include "core/common/Error.h"
 #include "core/io/VolumeFile.h"
 #include "core/placement/Place.h"
 #include "core/traversal/ProbeVolume.h"
@@ -200,6 +201,19 @@ class TestPanels : public QObject {
     for (const Probe& p : doc->probes()) unswapped += p.method == "greedy";
     QVERIFY2(unswapped >= 8 && unswapped <= 11, qPrintable(QString::number(unswapped)));
     panel->swapPassesBox()->setValue(kGreedySwapPasses);
+    // A negative count from a library caller: a clear error, nothing started or changed.
+    PlacementRequest negative = panel->placementRequest();
+    negative.swapPasses = -1;
+    const size_t before = doc->probes().size();
+    try {
+      doc->runPlacement(negative);
+      QFAIL("swap passes -1 was accepted");
+    } catch (const ParameterError& e) {
+      QVERIFY2(QString(e.what()).contains(QStringLiteral("swap passes: expected 0 or more")),
+               e.what());
+    }
+    QVERIFY(!doc->isBusy());
+    QCOMPARE(doc->probes().size(), before);
 
     // chajdas without a budget: the aggressiveness decides the count (more merges, fewer).
     panel->methodBox()->setCurrentText(QStringLiteral("chajdas"));
