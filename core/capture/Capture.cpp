@@ -493,12 +493,26 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
   PS_CHECK_EQ(scene.triangleMaterial.size(), scene.triangleCount());
   uint64_t rng = streamState(seed, 0);
   const double offset[2] = {uniform01(rng), uniform01(rng)};
+  // Two coincident triangles (solids sharing a face) are reported either way round: a front
+  // face counts as the back face beside it. Beside: within a few float roundings of the hit's
+  // distance, which Embree computes in float from float coordinates.
+  const double scale = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  const double coincident = 1e-3 * tracer.rayEpsilon() + 1e-6 * scale;
   double inside = 0;
   for (int j = 0; j < rays; ++j) {
     double u, v;
     r2Point(static_cast<uint64_t>(j), offset, u, v);
-    const auto hit = tracer.intersect(Ray{p, uniformSphere(u, v)});
-    if (hit) inside += insideWeight(scene, *hit);
+    const Ray ray{p, uniformSphere(u, v)};
+    const auto hit = tracer.intersect(ray);
+    if (!hit) continue;
+    Hit back = *hit;
+    if (hit->frontFace) {
+      const auto other = tracer.backFaceNear(ray, hit->t, coincident + 1e-6 * hit->t);
+      if (!other) continue;
+      back.triangle = *other;
+      back.frontFace = false;
+    }
+    inside += insideWeight(scene, back);
   }
   return inside / rays;
 }

@@ -94,7 +94,11 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
 /// all rays see back faces.
 /// Every asset of the shared real scenes is double-sided: counting those back faces as nothing
 /// left 14 % of dream-apartment's eval queries inside walls and furniture, at zero irradiance
-/// (BENCHMARKS.md). Deterministic for a given seed.
+/// (BENCHMARKS.md). Where two solids share a face (a wall standing on a floor slab, two slabs
+/// meeting), a ray that reaches the shared face counts its back face: Embree reports either of
+/// the two coincident triangles, and counting the front one let points inside the solids there
+/// through (BENCHMARKS.md, "Probes inside geometry at shared faces"). The capture's own
+/// ProbeCapture::backfaceFraction takes the first hit as it is. Deterministic for a given seed.
 double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed);
 
 /// Radiance path-traced along a ray leaving point `origin` in unit direction `dir`; exposed for

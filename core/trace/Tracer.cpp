@@ -3,6 +3,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -73,6 +74,30 @@ void alphaMaskFilter(const RTCFilterFunctionNArguments* args) {
   }
 }
 
+/// backFaceNear(): the context Embree hands its filter (the Embree context first, so that the
+/// filter's context pointer is this), and what the filter found.
+struct BackFaceContext {
+  RTCIntersectContext context;
+  const std::vector<Vec3>* faceNormals = nullptr;
+  Vec3 direction;
+  uint32_t found = RTC_INVALID_GEOMETRY_ID;
+};
+
+/// Context filter of backFaceNear(): notes the first candidate facing away from the ray and
+/// rejects every candidate, so that the traversal sees all of them in the ray's short range.
+/// Embree calls it after the geometry's own (alpha mask) filter, so cut-out points are not seen.
+void backFaceFilter(const RTCFilterFunctionNArguments* args) {
+  auto* c = reinterpret_cast<BackFaceContext*>(args->context);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    if (c->found == RTC_INVALID_GEOMETRY_ID && prim < c->faceNormals->size() &&
+        dot((*c->faceNormals)[prim], c->direction) > 0)
+      c->found = prim;
+    args->valid[i] = 0;
+  }
+}
+
 }  // namespace
 
 struct Tracer::Impl {
@@ -104,7 +129,8 @@ Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>
                 errorName(rtcGetDeviceError(nullptr)));
   impl_->scene = rtcNewScene(impl_->device);
   impl_->throwIfError("rtcNewScene");
-  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  // The context filter serves backFaceNear() only; other rays pass no filter.
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
 
   const size_t vertexCount = scene.vertexCount();
@@ -183,6 +209,23 @@ std::optional<Hit> Tracer::intersect(double ox, double oy, double oz, double dx,
   hit.geometricNormal = n == Vec3{} ? normalize(-direction) : n;
   hit.frontFace = dot(direction, hit.geometricNormal) < 0;
   return hit;
+}
+
+std::optional<uint32_t> Tracer::backFaceNear(const Ray& ray, double t, double halfWidth) const {
+  BackFaceContext c;
+  rtcInitIntersectContext(&c.context);
+  c.context.filter = &backFaceFilter;
+  c.faceNormals = &impl_->faceNormals;
+  c.direction = ray.direction;
+  RTCRayHit rh;
+  fillRay(ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y,
+          ray.direction.z, std::max(0.0, t - halfWidth), t + halfWidth, rh.ray);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &c.context, &rh);
+  if (c.found == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+  return c.found;
 }
 
 bool Tracer::occluded(double ox, double oy, double oz, double dx, double dy, double dz, double tMin,

@@ -348,6 +348,42 @@ TEST(CaptureConvergence, ErrorFallsAsOneOverSqrtSpp) {
 
 // ---- Domain of interest --------------------------------------------------------------------
 
+// Two solids sharing a face: two slabs side by side (their faces at x = 0 coincide) and a wall
+// standing on them (its bottom at y = 0 on the slabs' tops), as two-rooms' floor, ceiling and
+// shared wall are built. Embree reports either of two coincident triangles; a ray from inside
+// that reaches the shared face must count the back face, not the other solid's front face.
+TEST(CaptureValidity, APointInsideSolidsThatShareAFaceIsInside) {
+  Scene s;
+  const uint32_t m = addMaterial(s, {0.5, 0.5, 0.5});
+  addBox(s, {-2, -0.1, -2}, {0, 0, 2}, m, /*inward=*/false);
+  addBox(s, {0, -0.1, -2}, {2, 0, 2}, m, false);
+  addBox(s, {-0.05, 0, -2}, {0.05, 3, 2}, m, false);
+  const Tracer tracer(s);
+  // In the slab seam (x = 0.003, 2 mm below the wall's bottom), in the wall just above it, and
+  // in the slab away from any shared face.
+  for (const Vec3 p : {Vec3{0.003, -0.002, 0.3}, Vec3{-0.004, 0.003, -0.7}, Vec3{0.02, -0.05, 1.1},
+                       Vec3{1, -0.05, 0}}) {
+    const double f = backfaceFraction(tracer, p, 256, 3);
+    EXPECT_EQ(f, 1.0) << p.x << " " << p.y << " " << p.z;
+  }
+  // Outside, beside the seam, nothing changes: front faces only.
+  EXPECT_EQ(backfaceFraction(tracer, {0.2, 0.01, 0.3}, 256, 3), 0.0);
+  EXPECT_EQ(backfaceFraction(tracer, {0.0, 3.5, 0.0}, 256, 3), 0.0);
+  // backFaceNear: down from inside the wall, the wall's bottom (back) and the slab's top (front)
+  // coincide at t = 0.003; up from below the slabs, only front faces lie there.
+  const Ray down{{-0.004, 0.003, -0.7}, {0, -1, 0}};
+  const auto hit = tracer.intersect(down);
+  ASSERT_TRUE(hit);
+  EXPECT_NEAR(hit->t, 0.003, 1e-6);
+  const auto back = tracer.backFaceNear(down, hit->t, 1e-6);
+  ASSERT_TRUE(back);
+  const uint32_t* tri = &tracer.scene().indices[3 * size_t(*back)];
+  const Vec3 a = tracer.scene().vertex(tri[0]), b = tracer.scene().vertex(tri[1]),
+             c = tracer.scene().vertex(tri[2]);
+  EXPECT_GT(dot(cross(b - a, c - a), down.direction), 0);  // it faces away from the ray
+  EXPECT_FALSE(tracer.backFaceNear(Ray{{0.5, -1, 0}, {0, 1, 0}}, 0.9, 1e-6));
+}
+
 TEST(CaptureValidity, BackfaceFractionIsOneInsideASolidAndZeroOutside) {
   Scene s;
   addBox(s, {-1, -1, -1}, {1, 1, 1}, addMaterial(s, {0.5, 0.5, 0.5}), /*inward=*/false);

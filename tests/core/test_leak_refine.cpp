@@ -2,6 +2,7 @@
 // on each side of them.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include <unistd.h>
@@ -386,4 +387,39 @@ TEST(LeakCuts, BadSettingsThrowParameterError) {
   s = {};
   s.hullPoints = -1;
   EXPECT_THROW(coverDomain(tracer, {}, probes, {}, s), ParameterError);
+}
+
+// The probes added for the cuts are outside geometry. Two-rooms' floor and ceiling are one slab
+// per room, meeting under the shared wall, whose top is the ceiling's underside: there a ray
+// may hit either of two coincident faces, and when the front one counted, points inside the
+// slabs showed back-face fractions of 0.3 to 0.4 and the cuts' 16 validity rays passed them.
+// Seeing none of their tetrahedron's probes, they were just what refineForLeakCuts looks for,
+// and became probes (backfaceFraction now counts the back face beside a front one).
+TEST(LeakCuts, ProbesAddedForTheCutsAreOutsideGeometry) {
+  const Tracer& tracer = twoRooms().tracer;
+  const std::vector<Vec3> probes = coarseSet(tracer);
+  const LeakCutSettings s;
+  std::vector<Vec3> added = coverDomain(tracer, {}, probes, {}, s);
+  std::vector<Vec3> all = probes;
+  all.insert(all.end(), added.begin(), added.end());
+  const LeakCutRefineResult r = refineForLeakCuts(tracer, {}, all, {}, s);
+  added.insert(added.end(), r.added.begin(), r.added.end());
+  ASSERT_GT(r.added.size(), 0u);
+  size_t inside = 0;
+  for (size_t i = 0; i < added.size(); ++i) {
+    const Vec3 p = added[i];
+    // The slabs: floor y < 0, ceiling y > 3, outer walls, the shared wall but its doorway.
+    const bool inSlab = p.y < 0 || p.y > 3 || p.z < -3 || p.z > 3 || p.x < -6.05 ||
+                        (p.x > 6.05 && !(p.z > -0.8 && p.z < 0.8 && p.y > 1 && p.y < 2.2)) ||
+                        (std::abs(p.x) < 0.05 && !(std::abs(p.z) < 0.5 && p.y < 2.1));
+    const double backface = backfaceFraction(tracer, p, 1024, 7 + i);
+    if (inSlab || backface > 0.25) {
+      ++inside;
+      std::printf("inside geometry: (%.4f, %.4f, %.4f), back-face fraction %.3f\n", p.x, p.y, p.z,
+                  backface);
+    }
+  }
+  std::printf("%zu probes added for the cuts (%zu at the hull), %zu inside geometry\n",
+              added.size(), added.size() - r.added.size(), inside);
+  EXPECT_EQ(inside, 0u);
 }
