@@ -657,6 +657,9 @@ bool Document::evaluate(const EvalRequest& request) {
     e.maxRelError = r.maxRelError;
     e.relRmseStdError = r.relRmseStdError;
     e.referenceRelNoise = r.referenceRelNoise;
+    e.leakingFraction = r.leakingFraction;
+    e.leakingOutsideHullFraction = r.leakingOutsideHullFraction;
+    e.outsideHullFraction = r.outsideHullFraction;
     e.source = evaluated;
     e.referenceCached = r.referenceCached;
     e.seconds = r.seconds;

@@ -75,6 +75,9 @@ struct EvaluationPoint {
   /// How far another draw of as many queries would move relRmse, and the reference's own noise
   /// on relRmse's scale (EvalResult::relRmseStdError, referenceRelNoise).
   double relRmseStdError = 0, referenceRelNoise = 0;
+  /// Queries that interpolate a probe they cannot see, those of them outside the probes' hull,
+  /// and the queries outside the hull (EvalResult).
+  double leakingFraction = 0, leakingOutsideHullFraction = 0, outsideHullFraction = 0;
   QString source;                ///< "baked volume" or "preview (accepted probes[, leak cuts])"
   bool referenceCached = false;  ///< the reference came from the eval reference cache
   double seconds = 0;            ///< wall time of the evaluation

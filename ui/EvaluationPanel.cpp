@@ -73,9 +73,9 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   view_->setMinimumHeight(220);
   layout->addWidget(view_, 1);
 
-  table_ = new QTableWidget(0, 5);
+  table_ = new QTableWidget(0, 6);
   table_->setHorizontalHeaderLabels(
-      {tr("probes"), tr("rel. RMS"), tr("p95"), tr("reference"), tr("source")});
+      {tr("probes"), tr("rel. RMS"), tr("p95"), tr("leaking"), tr("reference"), tr("source")});
   table_->verticalHeader()->hide();
   table_->horizontalHeader()->setStretchLastSection(true);
   table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
@@ -140,11 +140,24 @@ void EvaluationPanel::refresh() {
             .arg(100 * e.referenceRelNoise, 0, 'f', 2));
     table_->setItem(int(i), 1, rmseItem);
     table_->setItem(int(i), 2, new QTableWidgetItem(QString::number(b, 'f', 2) + " %"));
+    // Light leaking through walls, and where: outside the probes' hull a probe placed near the
+    // leaking queries ends it; inside, a tetrahedron spans a wall.
+    auto* leakItem = new QTableWidgetItem(QString::number(100 * e.leakingFraction, 'f', 2) + " %");
+    leakItem->setToolTip(
+        tr("Queries that interpolate a probe they cannot see (light through a wall): %1 %.\n"
+           "Outside the probes' hull: %2 % (%3 % of all queries are outside it, where the "
+           "volume extrapolates; probes near them end those leaks).\n"
+           "Inside: %4 % (tetrahedra across walls that the leak cuts did not split).")
+            .arg(100 * e.leakingFraction, 0, 'f', 2)
+            .arg(100 * e.leakingOutsideHullFraction, 0, 'f', 2)
+            .arg(100 * e.outsideHullFraction, 0, 'f', 2)
+            .arg(100 * (e.leakingFraction - e.leakingOutsideHullFraction), 0, 'f', 2));
+    table_->setItem(int(i), 3, leakItem);
     table_->setItem(
-        int(i), 3,
+        int(i), 4,
         new QTableWidgetItem((e.referenceCached ? tr("cached, %1 s") : tr("traced, %1 s"))
                                  .arg(e.seconds, 0, 'f', 2)));
-    table_->setItem(int(i), 4, new QTableWidgetItem(e.source));
+    table_->setItem(int(i), 5, new QTableWidgetItem(e.source));
   }
   for (const auto& [n, errs] : best) {
     rmseLine_->append(double(n), errs.first);

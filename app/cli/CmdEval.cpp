@@ -56,8 +56,9 @@ void registerEval(CLI::App& app) {
                   "Queries keep this fraction of the domain's diagonal from point and spot lights "
                   "(default 0.02; 0: none)");
   cmd->add_option("--per-query", o->perQuery,
-                  "Write every query to this CSV: x,y,z,nx,ny,nz,reference,interpolated,"
-                  "rel_error,leaking (luminance of the irradiance; rel_error as for p95)");
+                  "Write every query to this CSV: x,y,z,nx,ny,nz,reference,reference_std,"
+                  "interpolated,rel_error,leaking,outside (luminance of the irradiance; "
+                  "rel_error as for p95; outside: clamped to the probes' hull)");
   cmd->callback([o] {
     // Absurd requests get a message before anything is allocated or traced.
     if (o->queries > 10'000'000)
@@ -114,12 +115,14 @@ void registerEval(CLI::App& app) {
     }
     const EvalResult r = evaluateVolume(tracer, rig, volume, es, terminalProgress("eval"));
     if (!o->perQuery.empty()) {
-      std::string csv = "x,y,z,nx,ny,nz,reference,reference_std,interpolated,rel_error,leaking\n";
+      std::string csv =
+          "x,y,z,nx,ny,nz,reference,reference_std,interpolated,rel_error,leaking,outside\n";
       char line[512];
       for (const EvalQuery& q : r.perQuery) {
-        std::snprintf(line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d\n",
-                      q.point.x, q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z,
-                      q.reference, q.referenceStd, q.interpolated, q.relError, q.leaking ? 1 : 0);
+        std::snprintf(
+            line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d,%d\n",
+            q.point.x, q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z, q.reference,
+            q.referenceStd, q.interpolated, q.relError, q.leaking ? 1 : 0, q.outside ? 1 : 0);
         csv += line;
       }
       writeFileAtomic(o->perQuery, csv);
@@ -136,6 +139,8 @@ void registerEval(CLI::App& app) {
       j["p95_rel_error"] = r.p95RelError;
       j["max_rel_error"] = r.maxRelError;
       j["leaking_fraction"] = r.leakingFraction;
+      j["leaking_outside_hull_fraction"] = r.leakingOutsideHullFraction;
+      j["outside_hull_fraction"] = r.outsideHullFraction;
       j["over_cut_fraction"] = r.overCutFraction;
       j["seconds"] = r.seconds;
       j["reference_cached"] = r.referenceCached;
@@ -146,10 +151,13 @@ void registerEval(CLI::App& app) {
           "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
           "leaking %.4f, over-cut %.4f (%.2f s%s)\n"
           "rel_rmse's standard error from the queries drawn %.4f; reference noise %.4f (the "
-          "relative RMS error of a perfect volume against this reference)\n",
+          "relative RMS error of a perfect volume against this reference)\n"
+          "outside the probes' hull (clamped to it) %.4f of the queries; leaking there %.4f, "
+          "inside %.4f\n",
           r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
           r.overCutFraction, r.seconds, r.referenceCached ? ", reference from the cache" : "",
-          r.relRmseStdError, r.referenceRelNoise);
+          r.relRmseStdError, r.referenceRelNoise, r.outsideHullFraction,
+          r.leakingOutsideHullFraction, r.leakingFraction - r.leakingOutsideHullFraction);
     }
   });
 }

@@ -166,7 +166,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     uncut->cutPlanes.clear();
   }
   std::vector<double> ref(M), got(M);
-  std::vector<char> leaking(M, 0), overCut(M, 0);
+  std::vector<char> leaking(M, 0), overCut(M, 0), outside(M, 0);
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     ref[q] = luminance(reference->irradiance[q]);
     // locate() is the uncut location with the cuts applied: the same tet for both.
@@ -174,6 +174,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     VolumeLocation loc = before;
     if (uncut && loc.tet >= 0) applyCuts(volume, points[q], loc);
     got[q] = luminance(interpolate(volume, loc).irradiance(normals[q]));
+    outside[q] = loc.outside ? 1 : 0;
     if (loc.tet < 0) return;
     // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
     // weight 0 (cut off by a leak cut, or opposite the face a query outside the hull is
@@ -241,11 +242,16 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     e.interpolated = got[q];
     e.relError = rel[q];
     e.leaking = leaking[q] != 0;
+    e.outside = outside[q] != 0;
   }
   std::sort(rel.begin(), rel.end());
   r.maxRelError = rel.back();
   r.leakingFraction = double(std::count(leaking.begin(), leaking.end(), 1)) / double(M);
   r.overCutFraction = double(std::count(overCut.begin(), overCut.end(), 1)) / double(M);
+  r.outsideHullFraction = double(std::count(outside.begin(), outside.end(), 1)) / double(M);
+  size_t leakingOutside = 0;
+  for (size_t q = 0; q < M; ++q) leakingOutside += leaking[q] && outside[q] ? 1 : 0;
+  r.leakingOutsideHullFraction = double(leakingOutside) / double(M);
   r.p95RelError = rel[std::min(M - 1, size_t(std::ceil(0.95 * M)) - 1)];
   r.lightClearanceMeters =
       hasPunctualLights ? lightClearanceMeters(tracer, s.domain, s.lightClearanceRelative) : 0.0;

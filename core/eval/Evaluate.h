@@ -59,6 +59,7 @@ struct EvalQuery {
   double interpolated = 0;  ///< luminance of the volume's irradiance
   double relError = 0;      ///< as for p95RelError (the denominator floored at 0.1 x the mean)
   bool leaking = false;     ///< its tetrahedron has a probe the query cannot see
+  bool outside = false;     ///< outside the probes' hull, clamped to it (VolumeLocation::outside)
 };
 
 struct EvalResult {
@@ -85,6 +86,14 @@ struct EvalResult {
   /// outside) has a probe not visible from the query point: light leaks through geometry
   /// there (Sukys 3.2.2).
   double leakingFraction = 0;
+  /// Fraction of the queries outside the probes' convex hull, where the volume clamps them to
+  /// the nearest hull face and extrapolates, and of the queries that are outside and leak (a
+  /// part of leakingFraction). Leaks outside the hull come from too few probes near the
+  /// domain's edge, where a probe placed there ends them; leaks inside, from tetrahedra across
+  /// walls that the cuts could not split (two-rooms, greedy at 64 probes: 510 of 514 leaking
+  /// queries are outside, at 256 probes none of 9; BENCHMARKS.md, "Where the leaks are").
+  double outsideHullFraction = 0;
+  double leakingOutsideHullFraction = 0;
   /// Fraction of the queries that see every probe their tetrahedron would interpolate without
   /// the leak cuts, but whose weights the cuts move by more than kOverCutWeightChange (half the
   /// sum of |change|): a cut is a plane, and can take weight from probes in plain view. 0 for a

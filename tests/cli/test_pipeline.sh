@@ -58,11 +58,16 @@ import csv
 rows = list(csv.DictReader(open(f"{tmp}/eval.csv")))
 assert len(rows) == 32 and list(rows[0]) == ["x", "y", "z", "nx", "ny", "nz", "reference",
                                              "reference_std", "interpolated", "rel_error",
-                                             "leaking"], rows[0]
+                                             "leaking", "outside"], rows[0]
 num = sum((float(r["interpolated"]) - float(r["reference"])) ** 2 for r in rows)
 den = sum(float(r["reference"]) ** 2 for r in rows)
 assert abs(math.sqrt(num / den) - e["rel_rmse"]) < 1e-6 * e["rel_rmse"] + 1e-9, (num, den, e)
 assert sum(int(r["leaking"]) for r in rows) / 32 == e["leaking_fraction"], e
+# And which queries are outside the probes' hull, and of them which leak.
+assert sum(int(r["outside"]) for r in rows) / 32 == e["outside_hull_fraction"], e
+assert sum(int(r["leaking"]) * int(r["outside"]) for r in rows) / 32 == \
+    e["leaking_outside_hull_fraction"], e
+assert 0 <= e["leaking_outside_hull_fraction"] <= e["leaking_fraction"], e
 # The reference's noise: the standard errors sum to the JSON's reference_rel_noise.
 noise = math.sqrt(sum(float(r["reference_std"]) ** 2 for r in rows) / den)
 assert abs(noise - e["reference_rel_noise"]) < 1e-4 * e["reference_rel_noise"] + 1e-9, (noise, e)

@@ -4,6 +4,7 @@
 // recomputed to the same numbers and replaced.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -469,4 +470,49 @@ TEST(EvalReferenceCache, UnwritableEntryIsANoteAndTheNumbersStandNotAnError) {
   std::printf("%s\n%s\n", r.notes[0].c_str(), r.notes[1].c_str());
   // No temporary file is left behind.
   EXPECT_EQ(filesIn(*es.cacheDir).size(), 1u);
+}
+
+// Where the leaks are: a volume whose eight probes span the cube [-1, 1]^3, in the domain
+// [-2, 2]^3, with a wall (x in [1.2, 1.3], spanning the domain) beyond its x = 1 face. The
+// queries outside the cube are clamped to it (7/8 of the volume outside the wall); those beyond
+// the wall see none of the probes they are clamped to, and nothing leaks inside the cube.
+TEST(Eval, SaysWhichQueriesAreOutsideTheHullAndLeakThere) {
+  Scene s;
+  ps::testing::addBox(s, {1.2, -3, -3}, {1.3, 3, 3}, ps::testing::addMaterial(s, {0.5, 0.5, 0.5}),
+                      /*inward=*/false);
+  const Tracer tracer(s);
+  LightingRig rig;
+  rig.skyRadiance = {1, 1, 1};
+  std::vector<Vec3> corners;
+  for (int i = 0; i < 8; ++i)
+    corners.push_back({i & 1 ? 1.0 : -1.0, i & 2 ? 1.0 : -1.0, i & 4 ? 1.0 : -1.0});
+  const ProbeVolume v = volumeFromProbes(corners, std::vector<ShRgb>(8));
+  EvalSettings es;
+  es.queries = 4096;
+  es.referenceSpp = 1;
+  Bounds3 domain;
+  domain.extend({-2, -2, -2});
+  domain.extend({2, 2, 2});
+  es.domain = {domain};
+  const EvalResult r = evaluateVolume(tracer, rig, v, es);
+  // Of the valid volume (64 - 1.6 m^3 of wall), the cube holds 8 m^3 and 11.2 m^3 lie beyond the
+  // wall. 5 standard deviations of the draw.
+  const double valid = 64 - 1.6, n = es.queries;
+  const double outside = 1 - 8 / valid, beyond = 11.2 / valid;
+  EXPECT_NEAR(r.outsideHullFraction, outside, 5 * std::sqrt(outside * (1 - outside) / n));
+  EXPECT_NEAR(r.leakingOutsideHullFraction, beyond, 5 * std::sqrt(beyond * (1 - beyond) / n));
+  EXPECT_EQ(r.leakingFraction, r.leakingOutsideHullFraction);
+  // Per query: outside is where the point is outside the cube, and a leak outside is beyond the
+  // wall.
+  size_t out = 0, leakOut = 0;
+  for (const EvalQuery& q : r.perQuery) {
+    const bool inCube =
+        std::abs(q.point.x) <= 1 && std::abs(q.point.y) <= 1 && std::abs(q.point.z) <= 1;
+    EXPECT_EQ(q.outside, !inCube) << q.point;
+    EXPECT_EQ(q.leaking, q.point.x > 1.3) << q.point;
+    out += q.outside ? 1 : 0;
+    leakOut += q.outside && q.leaking ? 1 : 0;
+  }
+  EXPECT_EQ(double(out) / n, r.outsideHullFraction);
+  EXPECT_EQ(double(leakOut) / n, r.leakingOutsideHullFraction);
 }

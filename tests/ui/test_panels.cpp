@@ -486,6 +486,17 @@ class TestPanels : public QObject {
                                  " %");
       QVERIFY(item->toolTip().contains(
           QString::number(100 * evals[size_t(i)].referenceRelNoise, 'f', 2) + " %"));
+      // The leaking queries, and on hover how many of them are outside the probes' hull.
+      const EvaluationPoint& e = evals[size_t(i)];
+      QVERIFY(e.leakingOutsideHullFraction <= e.leakingFraction);
+      QVERIFY(e.leakingOutsideHullFraction <= e.outsideHullFraction);
+      QVERIFY(e.outsideHullFraction > 0 && e.outsideHullFraction < 1);
+      const QTableWidgetItem* leak = panel->table()->item(i, 3);
+      QCOMPARE(leak->text(), QString::number(100 * e.leakingFraction, 'f', 2) + " %");
+      QVERIFY(leak->toolTip().contains(
+          QStringLiteral("Outside the probes' hull: %1 % (%2 % of all queries")
+              .arg(100 * e.leakingOutsideHullFraction, 0, 'f', 2)
+              .arg(100 * e.outsideHullFraction, 0, 'f', 2)));
     }
     QCOMPARE(panel->table()->rowCount(), 2);
     // The second evaluation read the reference the first one traced (the CLI's cache, beside
@@ -493,8 +504,8 @@ class TestPanels : public QObject {
     QVERIFY(!evals[0].referenceCached);
     QVERIFY(evals[1].referenceCached);
     QVERIFY(QFileInfo(dir.filePath("eval-reference-cache")).isDir());
-    QVERIFY(panel->table()->item(0, 3)->text().startsWith("traced"));
-    QVERIFY(panel->table()->item(1, 3)->text().startsWith("cached"));
+    QVERIFY(panel->table()->item(0, 4)->text().startsWith("traced"));
+    QVERIFY(panel->table()->item(1, 4)->text().startsWith("cached"));
     // The preview is evaluated as it is drawn: with the leak cuts, unless View turns them off.
     QCOMPARE(evals[1].source, QStringLiteral("preview (accepted probes, leak cuts)"));
     QAction* cuts = win.w.findChild<QAction*>("leakCutsAction");
