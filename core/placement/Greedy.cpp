@@ -645,10 +645,16 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
 
   constexpr size_t kCandidateTets = 8;  // tetrahedra whose candidates are tried per addition
   constexpr size_t kMaxCandidateTets = 32;
-  // Progress: an addition and a swap count as one step each (with a budget; else 0).
-  const double steps = double(budget) + double(s.swapPasses) * double(budget - kept.size());
+  // Progress: an addition and a probe taken out in a swap pass count as one step each (with a
+  // budget; else 0). Before the passes, each is counted as taking out every probe; once they
+  // run, a pass counts the probes it takes out (the don't-look bits below skip the others, at
+  // no cost), and each pass still allowed is counted as taking out as many again. Passes
+  // that stop early still end in a jump, but a smaller one. The fraction never goes back.
+  double steps = double(budget) + double(s.swapPasses) * double(budget - kept.size());
+  double reported = 0;
   auto reportProgress = [&](double step) {
-    if (progress && !progress(s.budget != 0 ? std::min(1.0, step / steps) : 0.0)) throw Cancelled();
+    reported = std::max(reported, s.budget != 0 ? std::min(1.0, step / steps) : 0.0);
+    if (progress && !progress(reported)) throw Cancelled();
   };
   while (pos.size() < budget && !(s.maxError > 0 && result.fieldError <= s.maxError)) {
     reportProgress(double(pos.size()));
@@ -710,13 +716,17 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   std::vector<uint8_t> look(swappable, 1), lookNext(swappable, 0);
   const size_t additionTrials = result.trials;
   std::vector<SampleState> savedState;
+  double stepsDone = double(budget);  // the additions, then each probe taken out
   for (int pass = 0; pass < s.swapPasses; ++pass) {
     const double before = result.fieldError;
     size_t swapped = 0;
     std::fill(lookNext.begin(), lookNext.end(), uint8_t(0));
+    const double looked = double(std::count(look.begin(), look.end(), uint8_t(1)));
+    steps = stepsDone + double(s.swapPasses - pass) * looked;
     for (size_t j = 0; j < swappable; ++j) {
-      reportProgress(double(budget) + double(pass) * double(budget - keptCount) + double(j));
       if (!look[j]) continue;
+      reportProgress(stepsDone);
+      stepsDone += 1;
       const size_t slot = keptCount + j;
       const size_t old = result.sampleIndex[j];
       std::vector<size_t> touched;  // neighbours at the old place (and later the new one)

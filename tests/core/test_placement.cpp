@@ -456,7 +456,22 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
   const GreedyResult plain = placeGreedy(f, {}, s);
   s.swapPasses = 3;
   s.verifyState = true;
-  const GreedyResult swapped = placeGreedy(f, {}, s);
+  std::vector<double> reported;
+  const GreedyResult swapped = placeGreedy(f, {}, s, [&](double p) {
+    reported.push_back(p);
+    return true;
+  });
+  // Progress: once per addition (after the start's probes) and per probe taken out, never
+  // going back, below 1 (the caller reports the end).
+  EXPECT_GT(reported.size(), swapped.swapTries);
+  for (size_t k = 0; k < reported.size(); ++k) {
+    EXPECT_GE(reported[k], 0.0);
+    EXPECT_LT(reported[k], 1.0);
+    if (k > 0) {
+      EXPECT_GE(reported[k], reported[k - 1]);
+    }
+  }
+  std::printf("progress: %zu reports, the last %.3f\n", reported.size(), reported.back());
   // After every addition and every swap, the kept state is that of a fresh interpolation.
   EXPECT_EQ(swapped.stateMismatches, 0u);
   EXPECT_EQ(plain.swapPasses, 0u);
