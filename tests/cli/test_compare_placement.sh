@@ -15,9 +15,12 @@ rows = list(csv.DictReader(open(sys.argv[1])))
 assert [r["method"] for r in rows] == ["uniform", "greedy"], rows
 for r in rows:
     assert list(r) == ["scene", "method", "budget", "probes", "place_seconds", "rel_rmse", "p95",
-                       "max", "reference_noise", "rel_rmse_std_error", "leaking_fraction"], r
+                       "max", "reference_noise", "rel_rmse_std_error", "leaking_fraction",
+                       "leaking_outside_hull", "outside_hull"], r
     assert all(r[k] for k in r), r
     assert 0 <= float(r["leaking_fraction"]) <= 1, r
+    assert 0 <= float(r["leaking_outside_hull"]) <= float(r["leaking_fraction"]), r
+    assert 0 < float(r["outside_hull"]) < 1, r
     # 256 samples on cornell: noisy, but the volumes are wrong by more than the reference is.
     assert 0 < float(r["reference_noise"]) < float(r["rel_rmse"]) < 1.5, r
     assert 0 < float(r["rel_rmse_std_error"]) < float(r["rel_rmse"]), r
