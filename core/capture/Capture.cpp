@@ -493,11 +493,15 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
   PS_CHECK_EQ(scene.triangleMaterial.size(), scene.triangleCount());
   uint64_t rng = streamState(seed, 0);
   const double offset[2] = {uniform01(rng), uniform01(rng)};
-  // Two coincident triangles (solids sharing a face) are reported either way round: a front
-  // face counts as the back face beside it. Beside: within a few float roundings of the hit's
-  // distance, which Embree computes in float from float coordinates.
-  const double scale = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-  const double coincident = 1e-3 * tracer.rayEpsilon() + 1e-6 * scale;
+  // Two coincident triangles facing opposite ways are reported either way round. Where two
+  // solids share a face, a ray from inside one reaches its back face there, with the other
+  // solid's front face beside it, and past the pair it is inside the other solid: its next hit
+  // is a back face. A sheet made of two triangles back to back looks the same at the pair, but
+  // past it the ray is outside (its next hit is a front face, or nothing): no back face.
+  // Beside: within the ray offset plus the float roundings of the two hits (Embree intersects
+  // in float, from float coordinates).
+  const double coincident =
+      tracer.rayEpsilon() + 1e-6 * std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
   double inside = 0;
   for (int j = 0; j < rays; ++j) {
     double u, v;
@@ -505,14 +509,18 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
     const Ray ray{p, uniformSphere(u, v)};
     const auto hit = tracer.intersect(ray);
     if (!hit) continue;
-    Hit back = *hit;
-    if (hit->frontFace) {
-      const auto other = tracer.backFaceNear(ray, hit->t, coincident + 1e-6 * hit->t);
-      if (!other) continue;
-      back.triangle = *other;
-      back.frontFace = false;
+    Hit first = *hit;
+    const double halfWidth = coincident + 1e-6 * hit->t;
+    if (const auto other = tracer.faceNear(ray, hit->t, halfWidth, hit->frontFace)) {
+      // A pair: what lies past it decides (a back face: a shared face; else a sheet).
+      const auto next = tracer.intersect(Ray{p, ray.direction, hit->t + halfWidth});
+      if (!next || next->frontFace) continue;
+      if (first.frontFace) {
+        first.triangle = *other;
+        first.frontFace = false;
+      }
     }
-    inside += insideWeight(scene, back);
+    inside += insideWeight(scene, first);
   }
   return inside / rays;
 }

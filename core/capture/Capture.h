@@ -97,7 +97,9 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
 /// (BENCHMARKS.md). Where two solids share a face (a wall standing on a floor slab, two slabs
 /// meeting), a ray that reaches the shared face counts its back face: Embree reports either of
 /// the two coincident triangles, and counting the front one let points inside the solids there
-/// through (BENCHMARKS.md, "Probes inside geometry at shared faces"). The capture's own
+/// through (BENCHMARKS.md, "Where the leaks are"). A sheet made of two triangles back to back
+/// is told apart by what lies past it: a ray that crosses a shared face is inside the other
+/// solid (its next hit is a back face), one that crosses a sheet is not. The capture's own
 /// ProbeCapture::backfaceFraction takes the first hit as it is. Deterministic for a given seed.
 double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed);
 

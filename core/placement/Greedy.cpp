@@ -777,7 +777,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       touched.push_back(j);
       for (size_t k : touched) {
         lookNext[k] = 1;
-        if (k > j) look[k] = 1;  // still ahead in this pass
+        if (k > j && !look[k]) {  // still ahead in this pass: one more step
+          look[k] = 1;
+          steps += 1;
+        }
       }
     }
     result.swaps += swapped;

@@ -52,12 +52,13 @@ class Tracer {
                     ray.direction.z, ray.tMin, ray.tMax);
   }
 
-  /// A triangle whose back faces `ray` (dot(direction, normal) > 0) within `halfWidth` of
-  /// distance t along it, or nothing. Where two solids share a face (two boxes stacked, a wall
-  /// standing on a floor slab), two coincident triangles face opposite ways and intersect()
-  /// reports either one: from inside one solid, a ray may seem to leave through the other's
-  /// front face. Call with a hit's t to find the back face beside it.
-  std::optional<uint32_t> backFaceNear(const Ray& ray, double t, double halfWidth) const;
+  /// A triangle within `halfWidth` of distance t along `ray` that shows it its back
+  /// (dot(direction, normal) > 0) when `back`, else its front; or nothing. Where two solids
+  /// share a face (two boxes stacked, a wall standing on a floor slab), or a sheet is made of
+  /// two triangles back to back, two coincident triangles face opposite ways and intersect()
+  /// reports either one. Call with a hit's t and the other facing to find the triangle beside
+  /// it.
+  std::optional<uint32_t> faceNear(const Ray& ray, double t, double halfWidth, bool back) const;
 
   /// Distance by which ray origins are offset from surfaces (scaled to the scene,
   /// tol::kRayOffsetRelative of the bounds diagonal).

@@ -4,6 +4,7 @@
 // recomputed to the same numbers and replaced.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -504,14 +505,16 @@ TEST(Eval, SaysWhichQueriesAreOutsideTheHullAndLeakThere) {
   EXPECT_EQ(r.leakingFraction, r.leakingOutsideHullFraction);
   // Per query: outside is where the point is outside the cube, and a leak outside is beyond the
   // wall.
+  // (Points within 1e-4 of the cube's faces are left out of the per-query check: locate()
+  // counts a point within its barycentric slack as inside.)
   size_t out = 0, leakOut = 0;
   for (const EvalQuery& q : r.perQuery) {
-    const bool inCube =
-        std::abs(q.point.x) <= 1 && std::abs(q.point.y) <= 1 && std::abs(q.point.z) <= 1;
-    EXPECT_EQ(q.outside, !inCube) << q.point;
-    EXPECT_EQ(q.leaking, q.point.x > 1.3) << q.point;
     out += q.outside ? 1 : 0;
     leakOut += q.outside && q.leaking ? 1 : 0;
+    const double m = std::max({std::abs(q.point.x), std::abs(q.point.y), std::abs(q.point.z)});
+    if (std::abs(m - 1) < 1e-4) continue;
+    EXPECT_EQ(q.outside, m > 1) << q.point;
+    EXPECT_EQ(q.leaking, q.point.x > 1.3) << q.point;
   }
   EXPECT_EQ(double(out) / n, r.outsideHullFraction);
   EXPECT_EQ(double(leakOut) / n, r.leakingOutsideHullFraction);

@@ -463,7 +463,7 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
   });
   // Progress: once per addition (after the start's probes) and per probe taken out, never
   // going back, below 1 (the caller reports the end).
-  EXPECT_GT(reported.size(), swapped.swapTries);
+  EXPECT_EQ(reported.size(), 16 - swapped.initialCount + swapped.swapTries);
   for (size_t k = 0; k < reported.size(); ++k) {
     EXPECT_GE(reported[k], 0.0);
     EXPECT_LT(reported[k], 1.0);
@@ -471,7 +471,8 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
       EXPECT_GE(reported[k], reported[k - 1]);
     }
   }
-  std::printf("progress: %zu reports, the last %.3f\n", reported.size(), reported.back());
+  std::printf("progress: %zu reports, the last %.3f; %zu probes taken out in %zu passes\n",
+              reported.size(), reported.back(), swapped.swapTries, swapped.swapPasses);
   // After every addition and every swap, the kept state is that of a fresh interpolation.
   EXPECT_EQ(swapped.stateMismatches, 0u);
   EXPECT_EQ(plain.swapPasses, 0u);
