@@ -493,7 +493,8 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
   PS_CHECK_EQ(scene.triangleMaterial.size(), scene.triangleCount());
   uint64_t rng = streamState(seed, 0);
   const double offset[2] = {uniform01(rng), uniform01(rng)};
-  // Two coincident triangles facing opposite ways are reported either way round. Where two
+  // Two coincident triangles facing opposite ways (oppositeFaceAt) are reported either way
+  // round. Where two
   // solids share a face, a ray from inside one reaches its back face there, with the other
   // solid's front face beside it, and past the pair it is inside the other solid: its next hit
   // is a back face. A sheet made of two triangles back to back looks the same at the pair, but
@@ -511,7 +512,7 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
     if (!hit) continue;
     Hit first = *hit;
     const double halfWidth = coincident + 1e-6 * hit->t;
-    if (const auto other = tracer.faceNear(ray, hit->t, halfWidth, hit->frontFace)) {
+    if (const auto other = tracer.oppositeFaceAt(ray, *hit, halfWidth)) {
       // A pair: what lies past it decides (a back face: a shared face; else a sheet).
       const auto next = tracer.intersect(Ray{p, ray.direction, hit->t + halfWidth});
       if (!next || next->frontFace) continue;

@@ -74,29 +74,27 @@ void alphaMaskFilter(const RTCFilterFunctionNArguments* args) {
   }
 }
 
-/// faceNear(): the context Embree hands its filter (the Embree context first, so that the
-/// filter's context pointer is this), and what the filter found.
-struct FacingContext {
+/// oppositeFaceAt(): the context Embree hands its filter (the Embree context first, so that
+/// the filter's context pointer is this), and what the filter found.
+struct OppositeContext {
   RTCIntersectContext context;
   const std::vector<Vec3>* faceNormals = nullptr;
-  Vec3 direction;
-  bool back = true;  ///< looking for a triangle that shows the ray its back
+  Vec3 normal;  ///< the hit triangle's
   uint32_t found = RTC_INVALID_GEOMETRY_ID;
 };
 
-/// Context filter of faceNear(): notes the first candidate with the facing asked for and
-/// rejects every candidate, so that the traversal sees all of them in the ray's short range.
-/// Embree calls it after the geometry's own (alpha mask) filter, so cut-out points are not seen.
-/// Degenerate triangles (normal 0) face neither way.
-void facingFilter(const RTCFilterFunctionNArguments* args) {
-  auto* c = reinterpret_cast<FacingContext*>(args->context);
+/// Context filter of oppositeFaceAt(): notes the first candidate whose normal is opposite the
+/// hit's and rejects every candidate, so that the traversal sees all of them in the ray's short
+/// range. Embree calls it after the geometry's own (alpha mask) filter, so cut-out points are
+/// not seen. Degenerate triangles (normal 0) are opposite nothing.
+void oppositeFilter(const RTCFilterFunctionNArguments* args) {
+  auto* c = reinterpret_cast<OppositeContext*>(args->context);
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
-    if (c->found == RTC_INVALID_GEOMETRY_ID && prim < c->faceNormals->size()) {
-      const double d = dot((*c->faceNormals)[prim], c->direction);
-      if (c->back ? d > 0 : d < 0) c->found = prim;
-    }
+    if (c->found == RTC_INVALID_GEOMETRY_ID && prim < c->faceNormals->size() &&
+        dot((*c->faceNormals)[prim], c->normal) < -0.999)
+      c->found = prim;
     args->valid[i] = 0;
   }
 }
@@ -132,7 +130,7 @@ Tracer::Tracer(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>
                 errorName(rtcGetDeviceError(nullptr)));
   impl_->scene = rtcNewScene(impl_->device);
   impl_->throwIfError("rtcNewScene");
-  // The context filter serves faceNear() only; other rays pass no filter.
+  // The context filter serves oppositeFaceAt() only; other rays pass no filter.
   rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
 
@@ -214,17 +212,16 @@ std::optional<Hit> Tracer::intersect(double ox, double oy, double oz, double dx,
   return hit;
 }
 
-std::optional<uint32_t> Tracer::faceNear(const Ray& ray, double t, double halfWidth,
-                                         bool back) const {
-  FacingContext c;
+std::optional<uint32_t> Tracer::oppositeFaceAt(const Ray& ray, const Hit& hit,
+                                               double halfWidth) const {
+  OppositeContext c;
   rtcInitIntersectContext(&c.context);
-  c.context.filter = &facingFilter;
+  c.context.filter = &oppositeFilter;
   c.faceNormals = &impl_->faceNormals;
-  c.direction = ray.direction;
-  c.back = back;
+  c.normal = hit.geometricNormal;
   RTCRayHit rh;
   fillRay(ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y,
-          ray.direction.z, std::max(0.0, t - halfWidth), t + halfWidth, rh.ray);
+          ray.direction.z, std::max(0.0, hit.t - halfWidth), hit.t + halfWidth, rh.ray);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;

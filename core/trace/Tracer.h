@@ -52,13 +52,13 @@ class Tracer {
                     ray.direction.z, ray.tMin, ray.tMax);
   }
 
-  /// A triangle within `halfWidth` of distance t along `ray` that shows it its back
-  /// (dot(direction, normal) > 0) when `back`, else its front; or nothing. Where two solids
-  /// share a face (two boxes stacked, a wall standing on a floor slab), or a sheet is made of
-  /// two triangles back to back, two coincident triangles face opposite ways and intersect()
-  /// reports either one. Call with a hit's t and the other facing to find the triangle beside
-  /// it.
-  std::optional<uint32_t> faceNear(const Ray& ray, double t, double halfWidth, bool back) const;
+  /// A triangle within `halfWidth` of `hit`'s distance along `ray` whose plane is the hit
+  /// triangle's turned round (normals within about 2.6 degrees of opposite), or nothing. Where
+  /// two solids share a face (two boxes stacked, a wall standing on a floor slab), or a sheet
+  /// is made of two triangles back to back, two coincident triangles face opposite ways and
+  /// intersect() reports either one; this finds the other. Faces that merely meet the hit
+  /// triangle at an edge are not opposite, however near.
+  std::optional<uint32_t> oppositeFaceAt(const Ray& ray, const Hit& hit, double halfWidth) const;
 
   /// Distance by which ray origins are offset from surfaces (scaled to the scene,
   /// tol::kRayOffsetRelative of the bounds diagonal).

@@ -383,20 +383,30 @@ TEST(CaptureValidity, APointInsideSolidsThatShareAFaceIsInside) {
     for (const double z : {0.05, -0.05, 0.5, -0.5})
       EXPECT_EQ(backfaceFraction(sheetTracer, {0.1, 0.2, z}, 256, 3), 0.0) << z;
   }
-  // faceNear: down from inside the wall, the wall's bottom (back) and the slab's top (front)
+  // oppositeFaceAt: down from inside the wall, the wall's bottom (back) and the slab's top (front)
   // coincide at t = 0.003; up from below the slabs, only front faces lie there.
   const Ray down{{-0.004, 0.003, -0.7}, {0, -1, 0}};
   const auto hit = tracer.intersect(down);
   ASSERT_TRUE(hit);
   EXPECT_NEAR(hit->t, 0.003, 1e-6);
-  const auto back = tracer.faceNear(down, hit->t, 1e-6, true);
-  ASSERT_TRUE(back);
-  const uint32_t* tri = &tracer.scene().indices[3 * size_t(*back)];
+  const auto other = tracer.oppositeFaceAt(down, *hit, 1e-6);
+  ASSERT_TRUE(other);
+  const uint32_t* tri = &tracer.scene().indices[3 * size_t(*other)];
   const Vec3 a = tracer.scene().vertex(tri[0]), b = tracer.scene().vertex(tri[1]),
              c = tracer.scene().vertex(tri[2]);
-  EXPECT_GT(dot(cross(b - a, c - a), down.direction), 0);  // it faces away from the ray
-  EXPECT_FALSE(tracer.faceNear(Ray{{0.5, -1, 0}, {0, 1, 0}}, 0.9, 1e-6, true));
-  EXPECT_TRUE(tracer.faceNear(Ray{{0.5, -1, 0}, {0, 1, 0}}, 0.9, 1e-6, false));
+  const Vec3 n = normalize(cross(b - a, c - a));
+  EXPECT_LT(dot(n, hit->geometricNormal), -0.999);  // the hit's plane turned round
+  EXPECT_NEAR(dot(n, a - down.origin), dot(n, down.direction) * hit->t, 1e-9);  // at the hit
+  const Ray up{{0.5, -1, 0}, {0, 1, 0}};
+  const auto below = tracer.intersect(up);
+  ASSERT_TRUE(below);
+  EXPECT_FALSE(tracer.oppositeFaceAt(up, *below, 1e-6));
+  // At an edge, the faces that meet there are near but not opposite: a point on the wall's
+  // vertical edge sees no pair, whatever the width.
+  const Ray along{{-0.05, 1, 2.5}, {0, 0, -1}};
+  const auto edge = tracer.intersect(along);
+  ASSERT_TRUE(edge);
+  EXPECT_FALSE(tracer.oppositeFaceAt(along, *edge, 0.01));
 }
 
 TEST(CaptureValidity, BackfaceFractionIsOneInsideASolidAndZeroOutside) {

@@ -219,7 +219,7 @@ TEST(Chajdas, PillarRoomFromACapturedField) {
   double nearest = 1e9;
   for (const ChajdasProbe& p : r.probes) {
     nearest = std::min(nearest, length(p.position - Vec3{2.0, 2.7, 1.5}));
-    EXPECT_LE(backfaceFraction(tracer, p.position, 128, 3), 0.25);
+    EXPECT_LE(backfaceFraction(tracer, p.position, 128, 3), 0.25) << p.position;
   }
   EXPECT_LT(nearest, 2 * us.spacingMeters);
   // --budget: the aggressiveness giving 40 probes within 10 % (or the closest count found).
