@@ -494,13 +494,12 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
   uint64_t rng = streamState(seed, 0);
   const double offset[2] = {uniform01(rng), uniform01(rng)};
   // Two coincident triangles facing opposite ways (oppositeFaceAt) are reported either way
-  // round. Where two
-  // solids share a face, a ray from inside one reaches its back face there, with the other
-  // solid's front face beside it, and past the pair it is inside the other solid: its next hit
-  // is a back face. A sheet made of two triangles back to back looks the same at the pair, but
-  // past it the ray is outside (its next hit is a front face, or nothing): no back face.
-  // Beside: within the ray offset plus the float roundings of the two hits (Embree intersects
-  // in float, from float coordinates).
+  // round. Where two solids share a face, a ray from inside one reaches its back face there,
+  // with the other solid's front face beside it, and past the pair it is inside the other
+  // solid: its next hit is a back face. A sheet made of two triangles back to back looks the
+  // same at the pair, but past it the ray is outside (its next hit is a front face, or
+  // nothing): no back face. Beside: within the ray offset plus the float roundings of the two
+  // hits (Embree intersects in float, from float coordinates).
   const double coincident =
       tracer.rayEpsilon() + 1e-6 * std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
   double inside = 0;

@@ -394,7 +394,8 @@ TEST(LeakCuts, BadSettingsThrowParameterError) {
 // may hit either of two coincident faces, and when the front one counted, points inside the
 // slabs showed back-face fractions of 0.3 to 0.4 and the cuts' 16 validity rays passed them.
 // Seeing none of their tetrahedron's probes, they were just what refineForLeakCuts looks for,
-// and became probes (backfaceFraction now counts the back face beside a front one).
+// and became probes (backfaceFraction now finds such pairs and tells a shared face from a
+// back-to-back sheet by what lies past it).
 TEST(LeakCuts, ProbesAddedForTheCutsAreOutsideGeometry) {
   const Tracer& tracer = twoRooms().tracer;
   const std::vector<Vec3> probes = coarseSet(tracer);
