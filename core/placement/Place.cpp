@@ -62,6 +62,7 @@ PlaceOutcome placeWithUniform(const Context& c) {
   UniformSettings us;
   us.seed = r.seed;
   std::vector<Vec3> points;
+  PlaceOutcome out;
   if (r.budget != 0) {
     const int budget = r.budget - int(c.kept.size());
     if (!c.kept.empty() && budget < 4)
@@ -70,11 +71,17 @@ PlaceOutcome placeWithUniform(const Context& c) {
     UniformBudgetResult b = placeUniformBudget(c.tracer, budget, us, c.stage("place"));
     points = std::move(b.points);
     us.spacingMeters = b.spacingMeters;
+    // Methods are compared at equal probe counts: say when the grid is not one (two-rooms at
+    // 32 gets 36, its grids of 32 being too far from cubic).
+    if (std::abs(double(points.size()) - budget) > 0.1 * budget)
+      out.notes.push_back(
+          format("uniform: no grid of the search has %d valid points within 10 %%; "
+                 "the closest has %zu",
+                 budget, points.size()));
   } else {
     us.spacingMeters = r.spacingMeters != 0 ? r.spacingMeters : c.defaultSpacing();
     points = placeUniform(c.tracer, us, c.stage("place"));
   }
-  PlaceOutcome out;
   out.spacingMeters = us.spacingMeters;
   std::vector<PlacedProbe> probes;
   for (const Vec3& p : points) probes.push_back({p, 0.0});

@@ -39,6 +39,11 @@ json.dump(s, open(f"{tmp}/locked.json", "w"))
 PY
 "$cli" place "$scene" --method greedy --budget 20 "${field[@]}" --keep "$tmp/locked.json" -o "$tmp/k.json"
 "$cli" place "$scene" --method uniform --budget 20 --no-leak-refine --keep "$tmp/locked.json" -o "$tmp/ku.json"
+# A uniform budget no grid meets within 10 % says so (two-rooms at 32: 36 probes); one met does not.
+"$cli" place "$root/resources/scenes/two-rooms.gltf" --method uniform --budget 32 --no-leak-refine -o "$tmp/u32.json" | tee "$tmp/u32.txt"
+grep -q "uniform: no grid of the search has 32 valid points within 10 %; the closest has 36" "$tmp/u32.txt"
+"$cli" place "$scene" --method uniform --budget 64 --no-leak-refine -o "$tmp/u64.json" | tee "$tmp/u64.txt"
+if grep -q "within 10 %" "$tmp/u64.txt"; then echo "a note for a budget the grid meets" >&2; exit 1; fi
 python3 - "$tmp" <<'PY'
 import json, sys
 tmp = sys.argv[1]
