@@ -79,6 +79,9 @@ void registerPlace(CLI::App& app) {
                   "greedy: passes of swaps after the additions, at most (default 4; 0: none): "
                   "each probe in turn goes to the candidate, where the error is then largest, "
                   "that lowers the error most; a pass that gains less than 1 % ends them");
+  cmd->add_option("--swap-neighbours", o->request.swapNeighbours,
+                  "greedy: field samples nearest to the probe taken out that each swap tries too "
+                  "(default 26; 0: only the far candidates)");
   cmd->add_option("--ascent-iterations", o->request.ascentIterations,
                   "ascent: steps per probe at most");
   cmd->add_option("--ascent-step", o->request.ascentStepMeters,

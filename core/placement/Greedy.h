@@ -55,6 +55,10 @@ struct GreedySettings {
   /// them, as does one that lowers the error by less than swapMinGain of it. 0: none.
   int swapPasses = 0;
   double swapMinGain = 0.01;
+  /// A swap also tries the swapNeighbours field samples nearest to the probe it took out (a
+  /// local move: the other candidates are where the error is then largest, mostly far away).
+  /// 0: none.
+  int swapNeighbours = 0;
   /// Tests: after every change, interpolate every point afresh and count those whose kept state
   /// differs (GreedyResult::stateMismatches). Slow.
   bool verifyState = false;
@@ -94,6 +98,7 @@ struct GreedyResult {
   size_t reevaluations = 0;  ///< points re-interpolated after the first mesh (locality measure)
   size_t swapPasses = 0;     ///< swap passes run
   size_t swaps = 0;          ///< moves the swaps made (a slot moved twice counts twice)
+  size_t localSwaps = 0;     ///< of swaps, moves to one of the nearest samples (swapNeighbours)
   size_t swapTries = 0;      ///< probes taken out and tried elsewhere (moved or not)
   size_t swapTrials = 0;     ///< of trials, those the swaps made
   std::vector<double> swapErrorHistory;  ///< fieldError after each swap pass
@@ -132,8 +137,9 @@ void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 /// faces, are re-interpolated.
 /// An addition never raises the field error until none can lower it (noImprovement).
 /// Then, with swapPasses, swaps: each new probe in turn (the initial ones too) is taken out, and
-/// the best of it and the candidates of the 8 tetrahedra then holding the most error
-/// goes in its place; a pass that moves no probe, or gains less than swapMinGain, ends them.
+/// the best of it, the candidates of the 8 tetrahedra then holding the most error and the
+/// swapNeighbours free samples nearest to it goes in its place; a pass that moves no probe, or
+/// gains less than swapMinGain, ends them.
 /// After the first pass, only the probes a move touched (the moved ones and those sharing a
 /// tetrahedron with them, before or after the move) are taken out again (a heuristic: a
 /// probe left alone may have missed a gain elsewhere).

@@ -217,6 +217,7 @@ PlaceOutcome placeWithGreedy(const Context& c) {
   gs.budget = r.budget;
   gs.maxError = r.maxError;
   gs.swapPasses = r.swapPasses;
+  gs.swapNeighbours = r.swapNeighbours;
   checkGreedyRequest(r);                   // the options by their names first
   checkGreedySettings(gs, c.kept.size());  // before the dense field is built
   DenseFieldSettings fs = greedyFieldSettings(r);
@@ -270,10 +271,11 @@ PlaceOutcome placeWithGreedy(const Context& c) {
     std::string errors;
     for (double e : g.swapErrorHistory) errors += format(" %.4f", e);
     out.notes.push_back(
-        format("greedy: %zu swap pass%s took out %zu probes and made %zu moves (%zu trials, "
-               "against %zu for the additions); error %.4f after the additions, then%s",
-               g.swapPasses, g.swapPasses == 1 ? "" : "es", g.swapTries, g.swaps, g.swapTrials,
-               g.trials - g.swapTrials, g.errorHistory.back(), errors.c_str()));
+        format("greedy: %zu swap pass%s took out %zu probes and made %zu moves, %zu of them to a "
+               "neighbouring sample (%zu trials, against %zu for the additions); error %.4f "
+               "after the additions, then%s",
+               g.swapPasses, g.swapPasses == 1 ? "" : "es", g.swapTries, g.swaps, g.localSwaps,
+               g.swapTrials, g.trials - g.swapTrials, g.errorHistory.back(), errors.c_str()));
   }
   if (g.noImprovement) {
     // Additions that raised the error: those where no candidate lowered it and the least
@@ -464,6 +466,9 @@ void checkGreedyRequest(const PlaceRequest& r) {
   if (r.swapPasses < 0)
     throw ParameterError("--swap-passes: expected 0 or more passes, got " +
                          std::to_string(r.swapPasses));
+  if (r.swapNeighbours < 0)
+    throw ParameterError("--swap-neighbours: expected 0 or more samples, got " +
+                         std::to_string(r.swapNeighbours));
 }
 
 std::vector<std::string> placementMethods() {

@@ -31,6 +31,13 @@ inline constexpr int kGreedyProbeSpp = 1024;  ///< the bake's default (BakeSetti
 /// probes, place takes 5 to 7 times as long as without them (field seed 1: two-rooms 21 s
 /// and 129 s, dream-apartment 29 s and 214 s; "Cheaper swaps").
 inline constexpr int kGreedySwapPasses = 4;
+/// The field samples nearest to a probe that its swap tries besides the far candidates
+/// (GreedySettings::swapNeighbours): a 3 x 3 x 3 block's worth. Two-rooms at 32 probes, field
+/// seeds 1 to 4: mean rel_rmse 0.329 with none, 0.317 with 8, 0.290 with 26, 0.296 with 56 and
+/// 124. With 26, greedy's rel_rmse fell by 0 to 18 % on the bundled scenes and by 5 to 17 % on
+/// the shared ones at 32 to 512 probes, and place took 1.5 to 3.8 times as long (BENCHMARKS.md,
+/// "Local moves in greedy's swaps").
+inline constexpr int kGreedySwapNeighbours = 26;
 /// Held-out points at most (each keeps its position, SH and its error state).
 inline constexpr size_t kMaxGreedyHeldOutPoints = 4000000;
 
@@ -65,6 +72,8 @@ struct PlaceRequest {
   int probeSpp = kGreedyProbeSpp;
   /// greedy: passes of swaps after the additions (GreedySettings::swapPasses); 0: none.
   int swapPasses = kGreedySwapPasses;
+  /// greedy: the nearest field samples each swap tries (GreedySettings::swapNeighbours).
+  int swapNeighbours = kGreedySwapNeighbours;
   int ascentIterations = 8;     ///< ascent: steps per probe at most
   double ascentStepMeters = 0;  ///< ascent: first step; 0 = half the start grid's spacing
   bool ascentDirect = false;    ///< ascent: follow the full light, not the indirect only

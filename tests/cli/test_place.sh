@@ -12,7 +12,7 @@ field=(--field-depth 1 --field-spp 32 --no-leak-refine)
 "$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g2.json"
 cmp "$tmp/g.json" "$tmp/g2.json"  # deterministic for a seed
 # The swaps (on by default) say what they did; --swap-passes 0 runs the additions alone.
-grep -Eq "greedy: [0-9]+ swap pass(es)? took out [0-9]+ probes and made [0-9]+ moves \([0-9]+ trials, against [0-9]+ for the additions\)" "$tmp/g.txt"
+grep -Eq "greedy: [0-9]+ swap pass(es)? took out [0-9]+ probes and made [0-9]+ moves, [0-9]+ of them to a neighbouring sample \([0-9]+ trials, against [0-9]+ for the additions\)" "$tmp/g.txt"
 "$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 --swap-passes 0 -o "$tmp/g0.json" | tee "$tmp/g0.txt"
 if grep -q "swap pass" "$tmp/g0.txt"; then echo "swaps with --swap-passes 0" >&2; exit 1; fi
 "$cli" place "$scene" --method greedy --max-error 0.3 "${field[@]}" -o "$tmp/e.json"
@@ -92,6 +92,7 @@ expect_error "above the limit of 4000000" "$cli" place "$scene" --method greedy 
 expect_error "--held-out-uniform: expected a share from 0 to 1, got 2" "$cli" place "$scene" --method greedy --budget 8 --held-out-uniform 2 -o "$tmp/x.json"
 expect_error "--probe-spp: expected 0 or more samples per probe, got -2" "$cli" place "$scene" --method greedy --budget 8 --probe-spp -2 -o "$tmp/x.json"
 expect_error "--swap-passes: expected 0 or more passes, got -1" "$cli" place "$scene" --method greedy --budget 8 --swap-passes -1 -o "$tmp/x.json"
+expect_error "--swap-neighbours: expected 0 or more samples, got -3" "$cli" place "$scene" --method greedy --budget 8 --swap-neighbours -3 -o "$tmp/x.json"
 expect_error "field depth: expected 0 to 8" "$cli" place "$scene" --method greedy --budget 8 --field-depth 9 -o "$tmp/x.json"
 expect_error "available: ascent, chajdas, greedy, spawn-merge, uniform" "$cli" place "$scene" --method magic -o "$tmp/x.json"
 expect_error "spawn-merge needs at least 8 new probes" "$cli" place "$scene" --method spawn-merge --budget 6 -o "$tmp/x.json"

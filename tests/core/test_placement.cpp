@@ -446,6 +446,18 @@ TEST(Greedy, HeldOutPointsMeasureTheErrorBetweenTheProbes) {
               heldOut);
 }
 
+/// After swaps, which take probes out and put others in: the incremental sums still equal a
+/// recompute at the held-out points, and no sample is a probe twice.
+void expectSwappedSetExact(const DenseField& f, const TwoRoomsHeldOut& h, const GreedyResult& r) {
+  const std::vector<double> ones(h.points.size(), 1.0);
+  const double fromScratch =
+      errorFromScratch(volumeOfSamples(f, r.sampleIndex), h.points, h.sh, ones);
+  EXPECT_NEAR(r.fieldError, fromScratch, 1e-4 * fromScratch);
+  std::vector<size_t> sorted = r.sampleIndex;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end());
+}
+
 TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
   DenseField f = twoRoomsField();
   for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
@@ -494,19 +506,39 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
     before = e;
   }
   EXPECT_EQ(swapped.fieldError, swapped.swapErrorHistory.back());
-  // Swaps take probes out and put others in: the incremental sums still equal a recompute.
   ASSERT_EQ(swapped.positions.size(), 16u);
-  const std::vector<double> ones(h.points.size(), 1.0);
-  const double fromScratch =
-      errorFromScratch(volumeOfSamples(f, swapped.sampleIndex), h.points, h.sh, ones);
-  EXPECT_NEAR(swapped.fieldError, fromScratch, 1e-4 * fromScratch);
-  std::vector<size_t> sorted = swapped.sampleIndex;
-  std::sort(sorted.begin(), sorted.end());
-  EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end());  // no probe twice
+  expectSwappedSetExact(f, h, swapped);
   for (size_t k = 0; k < swapped.positions.size(); ++k)
     EXPECT_EQ(swapped.positions[k], f.samples[swapped.sampleIndex[k]].position);
   std::printf("two-rooms, 16 probes: error %.4f after the additions, %.4f after %zu swaps\n",
               plain.fieldError, swapped.fieldError, swapped.swaps);
+}
+
+TEST(Greedy, SwapsTryTheNearestSamples) {
+  // A swap also tries the samples nearest to the probe it took out: moves of one sample, which
+  // the far candidates (where the error is then largest) do not offer, lower the error further.
+  DenseField f = twoRoomsField();
+  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  const TwoRoomsHeldOut& h = twoRoomsHeldOut();
+  GreedySettings s;
+  s.budget = 16;
+  s.heldOut = h.samples;
+  s.swapPasses = 3;
+  s.verifyState = true;
+  const GreedyResult far = placeGreedy(f, {}, s);
+  s.swapNeighbours = 26;
+  const GreedyResult near = placeGreedy(f, {}, s);
+  EXPECT_EQ(far.localSwaps, 0u);
+  EXPECT_GT(near.localSwaps, 0u);
+  EXPECT_LE(near.localSwaps, near.swaps);
+  EXPECT_EQ(near.stateMismatches, 0u);
+  EXPECT_EQ(near.errorHistory, far.errorHistory);  // the same additions
+  EXPECT_LT(near.fieldError, far.fieldError);
+  expectSwappedSetExact(f, h, near);
+  std::printf(
+      "two-rooms, 16 probes: error %.4f with the far candidates, %.4f with the 26 "
+      "nearest samples too (%zu of %zu moves to one of them)\n",
+      far.fieldError, near.fieldError, near.localSwaps, near.swaps);
 }
 
 TEST(Greedy, SwapsOnTheFieldsOwnSamplesAndWithoutABudget) {
@@ -737,6 +769,9 @@ TEST(Greedy, RejectsBadParameters) {
   EXPECT_THROW(placeGreedy(f, {}, s), ParameterError);
   s.swapPasses = 1;
   s.swapMinGain = 1;
+  EXPECT_THROW(placeGreedy(f, {}, s), ParameterError);
+  s.swapMinGain = 0.01;
+  s.swapNeighbours = -1;
   EXPECT_THROW(placeGreedy(f, {}, s), ParameterError);
 }
 
