@@ -644,7 +644,7 @@ TEST(Greedy, ProbeValuesFromTheirOwnCapture) {
   s.budget = 30;
   const GreedyResult plain = placeGreedy(f, {}, s);
   std::vector<Vec3> captured;
-  s.captureProbeValues = [&](std::span<const Vec3> at) {
+  auto fieldValues = [&](std::span<const Vec3> at) {
     std::vector<ShRgb> sh;
     for (const Vec3& p : at) {
       captured.push_back(p);
@@ -656,6 +656,7 @@ TEST(Greedy, ProbeValuesFromTheirOwnCapture) {
     }
     return sh;
   };
+  s.captureProbeValues = fieldValues;
   const GreedyResult own = placeGreedy(f, {}, s);
   EXPECT_EQ(own.positions, plain.positions);
   EXPECT_DOUBLE_EQ(own.fieldError, plain.fieldError);
@@ -669,6 +670,17 @@ TEST(Greedy, ProbeValuesFromTheirOwnCapture) {
     return std::vector<ShRgb>(at.size(), ShRgb{});
   };
   EXPECT_NE(placeGreedy(f, {}, s).positions, plain.positions);
+  // The swaps' candidates, the nearby samples too, are captured before they are tried.
+  GreedySettings w;
+  w.budget = 30;
+  w.swapPasses = 2;
+  w.swapNeighbours = 26;
+  const GreedyResult plainSwaps = placeGreedy(f, {}, w);
+  EXPECT_GT(plainSwaps.localSwaps, 0u);
+  w.captureProbeValues = fieldValues;
+  const GreedyResult ownSwaps = placeGreedy(f, {}, w);
+  EXPECT_EQ(ownSwaps.positions, plainSwaps.positions);
+  EXPECT_DOUBLE_EQ(ownSwaps.fieldError, plainSwaps.fieldError);
 }
 
 TEST(Greedy, StopsAtTheMaxErrorAndIsDeterministic) {
