@@ -75,8 +75,9 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   swapPasses_->setSpecialValueText(tr("none"));
   swapPasses_->setToolTip(
       tr("greedy: after the additions, passes that move each probe to where it lowers the error "
-         "most; they stop early once a pass gains less than 1 %. Each pass can take as long as "
-         "the additions (none: the additions alone)"));
+         "most, far away or to a nearby sample; they stop early once a pass gains less than 1 %. "
+         "Each pass can take several times as long as the additions (none: the additions "
+         "alone)"));
   form->addRow(tr("Swap passes"), swapPasses_);
   form->addRow(tr("Preview samples"), captureSpp_);
   replace_ = new QCheckBox(tr("Replace unlocked candidates"));

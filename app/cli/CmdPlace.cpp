@@ -77,8 +77,9 @@ void registerPlace(CLI::App& app) {
                   "bake's; at most --field-spp: the field sample's capture)");
   cmd->add_option("--swap-passes", o->request.swapPasses,
                   "greedy: passes of swaps after the additions, at most (default 4; 0: none): "
-                  "each probe in turn goes to the candidate, where the error is then largest, "
-                  "that lowers the error most; a pass that gains less than 1 % ends them");
+                  "each probe in turn goes to the candidate, where the error is then largest or "
+                  "next to it (--swap-neighbours), that lowers the error most; a pass that gains "
+                  "less than 1 % ends them");
   cmd->add_option("--swap-neighbours", o->request.swapNeighbours,
                   "greedy: field samples nearest to the probe taken out that each swap tries too "
                   "(default 26; 0: only the far candidates)");
