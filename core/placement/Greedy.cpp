@@ -717,11 +717,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
           }
   };
   // A swap's local candidates: the swapNeighbours field samples nearest to `at` that are not
-  // probes, avoided or already in `tried` (ties to the lower index). The other candidates are
-  // where the error is largest once the probe is out, mostly far from it, so that a probe
-  // otherwise never moves by a sample or two. The octree's samples are denser where the field
-  // is refined, so the moves are smaller there. Most moves are these (two-rooms at 32 probes,
-  // field seed 1: 56 of 70).
+  // probes, avoided or already in `tried` (ties to the lower index). The other candidates come
+  // from wherever the error is largest once the probe is out, not from around it. The octree's
+  // samples are denser where the field is refined, so the moves are smaller there. Most moves
+  // are these (two-rooms at 32 probes, field seed 1: 56 of 70).
   std::vector<std::pair<double, size_t>> nearBuffer;
   auto nearestFree = [&](Vec3 at, const std::vector<size_t>& tried) {
     std::vector<size_t> out;

@@ -56,8 +56,7 @@ struct GreedySettings {
   int swapPasses = 0;
   double swapMinGain = 0.01;
   /// A swap also tries the swapNeighbours field samples nearest to the probe it took out (a
-  /// local move: the other candidates are where the error is then largest, mostly far away).
-  /// 0: none.
+  /// local move: the other candidates come from wherever the error is then largest). 0: none.
   int swapNeighbours = 0;
   /// Tests: after every change, interpolate every point afresh and count those whose kept state
   /// differs (GreedyResult::stateMismatches). Slow.
