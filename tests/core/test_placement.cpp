@@ -333,6 +333,17 @@ const DenseField& twoRoomsField() {
   return f;
 }
 
+/// twoRoomsField without capture noise (standard errors zero): the field error is then plain
+/// relative RMS, which the tests' oracles recompute.
+const DenseField& noiselessTwoRoomsField() {
+  static const DenseField f = [] {
+    DenseField g = twoRoomsField();
+    for (FieldSample& sample : g.samples) sample.shStdError = ShRgb{};
+    return g;
+  }();
+  return f;
+}
+
 /// The relative RMS error over the 14 normals of the probes' interpolation at `points` against
 /// their SH, weighted by `weights`: the oracle for the incremental bookkeeping of placeGreedy.
 double errorFromScratch(const ProbeVolume& v, std::span<const Vec3> points,
@@ -377,8 +388,7 @@ double fieldErrorFromScratch(const DenseField& f, const std::vector<size_t>& pro
 TEST(Greedy, ErrorDoesNotIncreaseAsProbesAreAdded) {
   // Without capture noise (standard errors zero) the field error is plain relative RMS, which the
   // oracle below recomputes.
-  DenseField f = twoRoomsField();
-  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  const DenseField& f = noiselessTwoRoomsField();
   GreedySettings s;
   s.budget = 48;
   const GreedyResult r = placeGreedy(f, {}, s);
@@ -421,8 +431,7 @@ const TwoRoomsHeldOut& twoRoomsHeldOut() {
 }
 
 TEST(Greedy, HeldOutPointsMeasureTheErrorBetweenTheProbes) {
-  DenseField f = twoRoomsField();
-  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  const DenseField& f = noiselessTwoRoomsField();
   const TwoRoomsHeldOut& h = twoRoomsHeldOut();
   const std::vector<Vec3>& points = h.points;
   ASSERT_GT(points.size(), 1000u);
@@ -459,8 +468,7 @@ void expectSwappedSetExact(const DenseField& f, const TwoRoomsHeldOut& h, const 
 }
 
 TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
-  DenseField f = twoRoomsField();
-  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  const DenseField& f = noiselessTwoRoomsField();
   const TwoRoomsHeldOut& h = twoRoomsHeldOut();
   GreedySettings s;
   s.budget = 16;
@@ -517,8 +525,7 @@ TEST(Greedy, SwapsLowerTheErrorAndKeepItsSumsExact) {
 TEST(Greedy, SwapsTryTheNearestSamples) {
   // A swap also tries the samples nearest to the probe it took out: moves of one sample, which
   // the far candidates (where the error is then largest) do not offer, lower the error further.
-  DenseField f = twoRoomsField();
-  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  const DenseField& f = noiselessTwoRoomsField();
   const TwoRoomsHeldOut& h = twoRoomsHeldOut();
   GreedySettings s;
   s.budget = 16;
@@ -543,8 +550,7 @@ TEST(Greedy, SwapsTryTheNearestSamples) {
 
 TEST(Greedy, SwapsOnTheFieldsOwnSamplesAndWithoutABudget) {
   // No held-out points: the field's samples carry the weights (some of them 0, split cells).
-  DenseField f = twoRoomsField();
-  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  const DenseField& f = noiselessTwoRoomsField();
   auto place = [&](GreedySettings s) {
     s.verifyState = true;
     const GreedyResult r = placeGreedy(f, {}, s);
@@ -738,8 +744,7 @@ TEST(Greedy, EveryRoomAndBothSidesOfThePillarGetProbes) {
 }
 
 TEST(Greedy, KeepsLockedProbesAndBuildsAroundThem) {
-  DenseField f = twoRoomsField();
-  for (FieldSample& s : f.samples) s.shStdError = ShRgb{};
+  const DenseField& f = noiselessTwoRoomsField();
   // Two kept probes at field samples, with their SH, so that the error can be recomputed.
   const size_t far = f.samples.size() / 2;
   std::vector<KeptProbe> kept = {{f.samples[7].position, f.samples[7].sh},
