@@ -9,7 +9,6 @@
 #include <string>
 #include <tuple>
 #include <unordered_map>
-#include <unordered_set>
 
 #include "core/common/Check.h"
 #include "core/common/Error.h"
@@ -304,6 +303,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   size_t committedAbsent = kNone;
   std::vector<uint64_t> committedHull;
   std::vector<uint64_t> committedTets;  // sorted
+  // The samples of each committed tetrahedron (CSR over committedTets: those of committedTets[k]
+  // are tetSamples[tetStart[k], tetStart[k + 1]), ascending) and the samples outside the hull
+  // (ascending): a trial visits the samples of the tetrahedra it removed, not every sample.
+  std::vector<uint32_t> tetStart, tetSamples, outsideSamples;
   double currentWeightedErrSq = 0;
   bool first = true;
   // A clamp's distance is rebuilt from float barycentric weights: its rounding grows with the
@@ -313,6 +316,23 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       (box.diagonal() + std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z),
                                   std::abs(box.hi.x), std::abs(box.hi.y), std::abs(box.hi.z)}));
 
+  // Rebuilds tetStart, tetSamples and outsideSamples from state and committedTets.
+  auto indexSamples = [&] {
+    std::vector<uint32_t> tetOf(N);
+    tetStart.assign(committedTets.size() + 1, 0);
+    outsideSamples.clear();
+    for (size_t i = 0; i < N; ++i) {
+      const auto it = std::lower_bound(committedTets.begin(), committedTets.end(), state[i].tet);
+      PS_CHECK(it != committedTets.end() && *it == state[i].tet);
+      tetOf[i] = uint32_t(it - committedTets.begin());
+      ++tetStart[tetOf[i] + 1];
+      if (state[i].outside) outsideSamples.push_back(uint32_t(i));
+    }
+    for (size_t k = 0; k < committedTets.size(); ++k) tetStart[k + 1] += tetStart[k];
+    tetSamples.resize(N);
+    std::vector<uint32_t> fill(tetStart.begin(), tetStart.end() - 1);
+    for (size_t i = 0; i < N; ++i) tetSamples[fill[tetOf[i]]++] = uint32_t(i);
+  };
   // Tetrahedralizes the probes `pos` (Delaunay, Sukys 3.2.1) and interpolates the samples whose
   // tetrahedron disappeared, and those outside the hull near a change of its faces (below);
   // every sample on the first call. `extraProbe` (a sample index or kNone)
@@ -371,9 +391,8 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       trial.changed.resize(N);
       for (size_t i = 0; i < N; ++i) trial.changed[i] = i;
     } else {
-      std::unordered_set<uint64_t> tets;
-      tets.reserve(volume.tets.size() * 2);
-      tets.insert(trial.tets.begin(), trial.tets.end());
+      std::vector<uint64_t> sortedTets = trial.tets;
+      std::sort(sortedTets.begin(), sortedTets.end());
       // A sample inside the hull changes only when its tetrahedron went. One outside keeps its
       // clamp unless the hull's faces changed near it (samples outside are most of a
       // boundary-sampled field's cost otherwise: clampToHull visits every hull face; and
@@ -425,14 +444,29 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
             if (boxDist2(b, p) <= reach) return true;
         return false;
       };
-      for (size_t i = 0; i < N; ++i)
-        if (!tets.count(state[i].tet) || i == extraProbe ||
-            (state[i].outside && hullChanged && clampMayChange(state[i], point[i]))) {
-          if (weightedOnly && weight[i] == 0 && i != extraProbe)
-            trial.partial = true;
-          else
-            trial.changed.push_back(i);
-        }
+      // The samples to interpolate again: those of the committed tetrahedra this mesh does not
+      // have (every sample's tetrahedron is one of the committed mesh's), the extra probe, and
+      // those outside the hull whose clamp may change; in ascending order, as a scan of every
+      // sample would give them (the error's sum is then the same to the last bit).
+      std::vector<size_t> redo;
+      for (size_t k = 0, m = 0; k < committedTets.size(); ++k) {
+        while (m < sortedTets.size() && sortedTets[m] < committedTets[k]) ++m;
+        if (m < sortedTets.size() && sortedTets[m] == committedTets[k]) continue;
+        redo.insert(redo.end(), tetSamples.begin() + tetStart[k],
+                    tetSamples.begin() + tetStart[k + 1]);
+      }
+      if (extraProbe != kNone) redo.push_back(extraProbe);
+      if (hullChanged)
+        for (uint32_t i : outsideSamples)
+          if (clampMayChange(state[i], point[i])) redo.push_back(i);
+      std::sort(redo.begin(), redo.end());
+      redo.erase(std::unique(redo.begin(), redo.end()), redo.end());
+      for (size_t i : redo) {
+        if (weightedOnly && weight[i] == 0 && i != extraProbe)
+          trial.partial = true;
+        else
+          trial.changed.push_back(i);
+      }
     }
     trial.changedState.resize(trial.changed.size());
     tbb::parallel_for(size_t(0), trial.changed.size(), [&](size_t q) {
@@ -523,6 +557,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     committedHull = trial.hull;
     committedTets = trial.tets;
     std::sort(committedTets.begin(), committedTets.end());
+    indexSamples();
     committedAbsent = trial.absent;
     double sum = 0;  // recomputed in full so that no rounding accumulates
     for (size_t i = 0; i < N; ++i) sum += weight[i] * state[i].errSq;
@@ -787,6 +822,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         std::swap(state, savedState);
         committedHull = savedHull;
         committedTets = savedTets;
+        indexSamples();
         committedAbsent = savedAbsent;
         currentWeightedErrSq = savedErrSq;
         result.fieldError = savedError;
