@@ -135,7 +135,6 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   // The probes: kept ones first, then field samples. vals[p] = irradiance vector of probe p.
   std::vector<Vec3> pos;
   std::vector<IrrVec> vals;
-  std::vector<ShRgb> zeroSh;
   for (const KeptProbe& k : kept) {
     pos.push_back(k.position);
     vals.push_back(greedyErrorNormalsIrradiance(k.sh));
@@ -333,23 +332,25 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     std::vector<uint32_t> fill(tetStart.begin(), tetStart.end() - 1);
     for (size_t i = 0; i < N; ++i) tetSamples[fill[tetOf[i]]++] = uint32_t(i);
   };
-  // Tetrahedralizes the probes `pos` (Delaunay, Sukys 3.2.1) and interpolates the samples whose
-  // tetrahedron disappeared, and those outside the hull near a change of its faces (below);
-  // every sample on the first call. `extraProbe` (a sample index or kNone)
-  // is counted as a probe (error 0). `weightedOnly`: points of weight 0, which do not change the
-  // error, are left as they were (Trial::partial), a trial's cost when candidates outnumber the
-  // held-out points.
-  auto evaluate = [&](size_t extraProbe, bool weightedOnly = false, size_t absent = kNone) {
-    // The probes' input to the tetrahedralization: pos, less the one at `absent` (a swap's
+  // Tetrahedralizes the probes `probes` (positions, with values `values`; Delaunay, Sukys 3.2.1)
+  // and interpolates the samples whose tetrahedron disappeared, and those outside the hull near a
+  // change of its faces (below); every sample on the first call. `extraProbe` (a sample index or
+  // kNone) is counted as a probe (error 0). `weightedOnly`: points of weight 0, which do not
+  // change the error, are left as they were (Trial::partial), a trial's cost when candidates
+  // outnumber the held-out points. It reads the committed state and writes nothing shared, so
+  // that the trials of several candidates can run at once (tryCandidates).
+  auto evaluateWith = [&](const std::vector<Vec3>& probes, const std::vector<IrrVec>& values,
+                          size_t extraProbe, bool weightedOnly, size_t absent) {
+    // The probes' input to the tetrahedralization: probes, less the one at `absent` (a swap's
     // probe taken out; pos keeps its slot so that every other probe keeps its index).
     std::vector<Vec3> input;
     if (absent != kNone) {
-      input = pos;
+      input = probes;
       input.erase(input.begin() + std::ptrdiff_t(absent));
     }
     Tetrahedralization t;
     try {
-      t = tetrahedralize(absent != kNone ? input : pos);
+      t = tetrahedralize(absent != kNone ? input : probes);
     } catch (const ParameterError&) {
       throw FlatProbes{};
     }
@@ -365,7 +366,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       return tetKey({probeOfVertex[size_t(v[0])], probeOfVertex[size_t(v[1])],
                      probeOfVertex[size_t(v[2])], probeOfVertex[size_t(v[3])]});
     };
-    zeroSh.assign(t.vertices.size(), ShRgb{});
+    const std::vector<ShRgb> zeroSh(t.vertices.size(), ShRgb{});
     const ProbeVolume volume = buildProbeVolume(t, zeroSh);
     const HullClamp hullClamp(volume);
     Trial trial;
@@ -480,7 +481,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       for (int c = 0; c < 4; ++c) {
         const size_t p = size_t(probeOfVertex[size_t(tv[size_t(c)])]);
         const double w = double(loc.weights[size_t(c)]);
-        for (int k = 0; k < kNormals; ++k) interp[k] += w * vals[p][k];
+        for (int k = 0; k < kNormals; ++k) interp[k] += w * values[p][k];
       }
       double e = 0;
       for (int k = 0; k < kNormals; ++k) e += (interp[k] - ref[i][k]) * (interp[k] - ref[i][k]);
@@ -513,6 +514,10 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     }
     trial.weightedErrSq = std::max(0.0, sum);
     return trial;
+  };
+  // The current probes (pos, vals).
+  auto evaluate = [&](size_t extraProbe, bool weightedOnly = false, size_t absent = kNone) {
+    return evaluateWith(pos, vals, extraProbe, weightedOnly, absent);
   };
   // GreedySettings::verifyState: the committed state against every point interpolated afresh.
   auto verify = [&] {
@@ -646,38 +651,37 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
     return candidates;
   };
   // Tries each candidate as the probe at `slot` of pos (the Delaunay mesh rebuilt with it) and
-  // returns the one leaving the lowest error (kNone for none), its trial in `bestTrial`.
+  // returns the one leaving the lowest error (kNone for none), its trial in `bestTrial`. The
+  // candidates' trials run at once (each on its own copy of the probes); the best is then taken
+  // in candidate order, as one trial after another would take it.
   auto tryCandidates = [&](std::span<const size_t> candidates, size_t slot, size_t& best,
                            Trial& bestTrial) {
     const bool append = slot == pos.size();
-    if (append) {
-      pos.emplace_back();
-      vals.emplace_back();
-    }
-    const Vec3 keptPos = pos[slot];
-    const IrrVec keptVal = vals[slot];
-    for (size_t c : candidates) {
-      pos[slot] = field.samples[c].position;
-      vals[slot] = valueAsProbe(c);
-      Trial trial;
+    std::vector<Trial> trials(candidates.size());
+    std::vector<char> meshed(candidates.size(), 0);
+    tbb::parallel_for(size_t(0), candidates.size(), [&](size_t k) {
+      std::vector<Vec3> probes = pos;
+      std::vector<IrrVec> values = vals;
+      if (append) {
+        probes.emplace_back();
+        values.emplace_back();
+      }
+      probes[slot] = field.samples[candidates[k]].position;
+      values[slot] = valueAsProbe(candidates[k]);
       try {
-        trial = evaluate(c, true);
+        trials[k] = evaluateWith(probes, values, candidates[k], true, kNone);
+        meshed[k] = 1;
       } catch (const FlatProbes&) {  // a swap's candidate in the plane of the other probes
-        continue;
       }
-      result.reevaluations += trial.changed.size();
+    });
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      if (!meshed[k]) continue;
+      result.reevaluations += trials[k].changed.size();
       ++result.trials;
-      if (best == kNone || trial.weightedErrSq < bestTrial.weightedErrSq) {
-        best = c;
-        bestTrial = std::move(trial);
+      if (best == kNone || trials[k].weightedErrSq < bestTrial.weightedErrSq) {
+        best = candidates[k];
+        bestTrial = std::move(trials[k]);
       }
-    }
-    if (append) {
-      pos.pop_back();
-      vals.pop_back();
-    } else {
-      pos[slot] = keptPos;
-      vals[slot] = keptVal;
     }
   };
 

@@ -1,6 +1,7 @@
 // The dense field (octree refinement near geometry and where neighbours differ) and the greedy,
 // error-driven placement on the bundled scenes.
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -546,6 +547,26 @@ TEST(Greedy, SwapsTryTheNearestSamples) {
       "two-rooms, 16 probes: error %.4f with the far candidates, %.4f with the 26 "
       "nearest samples too (%zu of %zu moves to one of them)\n",
       far.fieldError, near.fieldError, near.localSwaps, near.swaps);
+}
+
+TEST(Greedy, SameProbesOnOneThreadAsOnMany) {
+  // A step's candidates are tried at once; the best is taken in candidate order, so the thread
+  // count changes nothing (additions, swaps and their local moves).
+  const DenseField& f = noiselessTwoRoomsField();
+  GreedySettings s;
+  s.budget = 16;
+  s.heldOut = twoRoomsHeldOut().samples;
+  s.swapPasses = 2;
+  s.swapNeighbours = 26;
+  const GreedyResult many = placeGreedy(f, {}, s);
+  GreedyResult one;
+  tbb::task_arena(1).execute([&] { one = placeGreedy(f, {}, s); });
+  EXPECT_EQ(one.sampleIndex, many.sampleIndex);
+  EXPECT_EQ(one.errorHistory, many.errorHistory);
+  EXPECT_EQ(one.swapErrorHistory, many.swapErrorHistory);
+  EXPECT_EQ(one.fieldError, many.fieldError);
+  EXPECT_EQ(one.trials, many.trials);
+  EXPECT_GT(many.localSwaps, 0u);
 }
 
 TEST(Greedy, SwapsOnTheFieldsOwnSamplesAndWithoutABudget) {
