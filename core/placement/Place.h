@@ -29,15 +29,18 @@ inline constexpr int kGreedyProbeSpp = 1024;  ///< the bake's default (BakeSetti
 /// (means of field seeds 1 to 4) they took the rows where greedy's rel_rmse is at most half of
 /// uniform's from 11 to 14 of 15 (BENCHMARKS.md, "Swaps after greedy's additions"). At 512
 /// probes, place took 5 to 7 times as long as without them before the local moves (field seed
-/// 1: two-rooms 21 s and 129 s, dream-apartment 29 s and 214 s; "Cheaper swaps") and 12 times
-/// with them (24 s and 279 s, 28 s and 335 s; "Local moves in greedy's swaps").
+/// 1: two-rooms 21 s and 129 s, dream-apartment 29 s and 214 s; "Cheaper swaps"), 12 times
+/// with them (24 s and 279 s, 28 s and 335 s; "Local moves in greedy's swaps"), and 10 times
+/// with the candidates tried at once (15.5 s and 153 s, 18.7 s and 198 s; "Greedy's trials in
+/// parallel").
 inline constexpr int kGreedySwapPasses = 4;
 /// The field samples nearest to a probe that its swap tries besides the far candidates
 /// (GreedySettings::swapNeighbours): a 3 x 3 x 3 block's worth. Two-rooms at 32 probes, field
 /// seeds 1 to 4: mean rel_rmse 0.329 with none, 0.317 with 8, 0.290 with 26, 0.296 with 56 and
 /// 0.297 with 124. With 26, greedy's rel_rmse fell by 0 to 18 % on the bundled scenes and by 5
 /// to 17 % on the shared ones at 32 to 512 probes, and place took 1.5 to 3.2 times as long
-/// (BENCHMARKS.md, "Local moves in greedy's swaps").
+/// (BENCHMARKS.md, "Local moves in greedy's swaps"); with the candidates tried at once, 1.1 to
+/// 1.7 times stop 23's at 512 probes ("Greedy's trials in parallel").
 inline constexpr int kGreedySwapNeighbours = 26;
 /// Held-out points at most (each keeps its position, SH and its error state).
 inline constexpr size_t kMaxGreedyHeldOutPoints = 4000000;
