@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <string>
 #include <tuple>
 #include <unordered_map>
@@ -652,13 +653,16 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   };
   // Tries each candidate as the probe at `slot` of pos (the Delaunay mesh rebuilt with it) and
   // returns the one leaving the lowest error (kNone for none), its trial in `bestTrial`. The
-  // candidates' trials run at once (each on its own copy of the probes); the best is then taken
-  // in candidate order, as one trial after another would take it.
+  // candidates' trials run at once, each on its own copy of the probes. Whichever finishes
+  // first, the best is the one trying them in order would keep: the lowest error, on a tie the
+  // earliest candidate, and a best from an earlier call (`best` given) wins ties. Only the best
+  // so far is kept, so at most a trial per thread and the best are alive at once.
   auto tryCandidates = [&](std::span<const size_t> candidates, size_t slot, size_t& best,
                            Trial& bestTrial) {
     const bool append = slot == pos.size();
-    std::vector<Trial> trials(candidates.size());
-    std::vector<char> meshed(candidates.size(), 0);
+    std::vector<size_t> changedCount(candidates.size(), kNone);  // kNone: not meshed
+    std::mutex bestMutex;
+    size_t bestK = kNone;  // the best's index in `candidates`, when it is one of them
     tbb::parallel_for(size_t(0), candidates.size(), [&](size_t k) {
       std::vector<Vec3> probes = pos;
       std::vector<IrrVec> values = vals;
@@ -668,21 +672,27 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       }
       probes[slot] = field.samples[candidates[k]].position;
       values[slot] = valueAsProbe(candidates[k]);
+      Trial trial;
       try {
-        trials[k] = evaluateWith(probes, values, candidates[k], true, kNone);
-        meshed[k] = 1;
+        trial = evaluateWith(probes, values, candidates[k], true, kNone);
       } catch (const FlatProbes&) {  // a swap's candidate in the plane of the other probes
+        return;
+      }
+      changedCount[k] = trial.changed.size();
+      const std::lock_guard<std::mutex> lock(bestMutex);
+      const bool none = best == kNone && bestK == kNone;
+      if (none || trial.weightedErrSq < bestTrial.weightedErrSq ||
+          (trial.weightedErrSq == bestTrial.weightedErrSq && bestK != kNone && k < bestK)) {
+        bestTrial = std::move(trial);
+        bestK = k;
       }
     });
-    for (size_t k = 0; k < candidates.size(); ++k) {
-      if (!meshed[k]) continue;
-      result.reevaluations += trials[k].changed.size();
-      ++result.trials;
-      if (best == kNone || trials[k].weightedErrSq < bestTrial.weightedErrSq) {
-        best = candidates[k];
-        bestTrial = std::move(trials[k]);
+    for (size_t count : changedCount)
+      if (count != kNone) {
+        result.reevaluations += count;
+        ++result.trials;
       }
-    }
+    if (bestK != kNone) best = candidates[bestK];
   };
 
   constexpr size_t kCandidateTets = 8;  // tetrahedra whose candidates are tried per addition

@@ -40,7 +40,8 @@ inline constexpr int kGreedySwapPasses = 4;
 /// 0.297 with 124. With 26, greedy's rel_rmse fell by 0 to 18 % on the bundled scenes and by 5
 /// to 17 % on the shared ones at 32 to 512 probes, and place took 1.5 to 3.2 times as long
 /// (BENCHMARKS.md, "Local moves in greedy's swaps"); with the candidates tried at once, 1.1 to
-/// 1.7 times stop 23's at 512 probes ("Greedy's trials in parallel").
+/// 2.1 times stop 23's time at 32 to 512 probes, 1.1 to 1.7 at 512 ("Greedy's trials in
+/// parallel", against stop 23's times in the table of "Local moves in greedy's swaps").
 inline constexpr int kGreedySwapNeighbours = 26;
 /// Held-out points at most (each keeps its position, SH and its error state).
 inline constexpr size_t kMaxGreedyHeldOutPoints = 4000000;

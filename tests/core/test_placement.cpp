@@ -550,14 +550,16 @@ TEST(Greedy, SwapsTryTheNearestSamples) {
 }
 
 TEST(Greedy, SameProbesOnOneThreadAsOnMany) {
-  // A step's candidates are tried at once; the best is taken in candidate order, so the thread
-  // count changes nothing (additions, swaps and their local moves).
+  // A step's candidates are tried at once, and the best is the one trying them in order would
+  // keep, so the thread count changes nothing (additions, swaps and their local moves). With
+  // one thread the trials finish in candidate order; with more, in any order.
   const DenseField& f = noiselessTwoRoomsField();
   GreedySettings s;
   s.budget = 16;
   s.heldOut = twoRoomsHeldOut().samples;
   s.swapPasses = 2;
   s.swapNeighbours = 26;
+  s.verifyState = true;  // the state each trial starts from is a fresh interpolation's
   const GreedyResult many = placeGreedy(f, {}, s);
   GreedyResult one;
   tbb::task_arena(1).execute([&] { one = placeGreedy(f, {}, s); });
@@ -566,6 +568,8 @@ TEST(Greedy, SameProbesOnOneThreadAsOnMany) {
   EXPECT_EQ(one.swapErrorHistory, many.swapErrorHistory);
   EXPECT_EQ(one.fieldError, many.fieldError);
   EXPECT_EQ(one.trials, many.trials);
+  EXPECT_EQ(one.stateMismatches, 0u);
+  EXPECT_EQ(many.stateMismatches, 0u);
   EXPECT_GT(many.localSwaps, 0u);
 }
 
