@@ -35,6 +35,7 @@ void registerEval(CLI::App& app) {
     bool json = false;
     std::string perQuery;
     double lightClearance = kDefaultLightClearanceRelative;
+    int floorSpp = 0;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -55,6 +56,11 @@ void registerEval(CLI::App& app) {
   cmd->add_option("--light-clearance", o->lightClearance,
                   "Queries keep this fraction of the domain's diagonal from point and spot lights "
                   "(default 0.02; 0: none)");
+  cmd->add_option("--floor-spp", o->floorSpp,
+                  "Also capture a probe at every query at this many samples and report "
+                  "sh_floor_rel_rmse: the rel_rmse of a probe at every query, which no placement "
+                  "goes below (the probes' SH irradiance and capture noise; default 0: off)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--per-query", o->perQuery,
                   "Write every query to this CSV: x,y,z,nx,ny,nz,reference,reference_std,"
                   "interpolated,rel_error,leaking,outside (luminance of the irradiance; "
@@ -64,8 +70,9 @@ void registerEval(CLI::App& app) {
     if (o->queries > 10'000'000)
       throw ParameterError("--queries: " + std::to_string(o->queries) +
                            " is above the limit of 10 million query points");
-    if (o->referenceSpp > (1 << 24) || o->spp > (1 << 24))
-      throw ParameterError("--spp, --reference-spp: above the limit of 16777216 samples");
+    if (o->referenceSpp > (1 << 24) || o->spp > (1 << 24) || o->floorSpp > (1 << 24))
+      throw ParameterError(
+          "--spp, --reference-spp, --floor-spp: above the limit of 16777216 samples");
     std::string scenePath;
     LightingRig rig;
     ProbeVolume volume;
@@ -98,6 +105,7 @@ void registerEval(CLI::App& app) {
     es.seed = o->seed;
     es.domain = domain;
     es.lightClearanceRelative = o->lightClearance;
+    es.floorSpp = o->floorSpp;
     if (!o->noCache) {
       es.sceneHash = sceneContentHash(scenePath);
       if (!o->cacheDir.empty()) {
@@ -145,6 +153,7 @@ void registerEval(CLI::App& app) {
       j["seconds"] = r.seconds;
       j["reference_cached"] = r.referenceCached;
       j["light_clearance_m"] = r.lightClearanceMeters;
+      if (r.shFloorRelRmse) j["sh_floor_rel_rmse"] = *r.shFloorRelRmse;
       std::cout << j.dump(2) << "\n";
     } else {
       std::printf(
@@ -158,6 +167,11 @@ void registerEval(CLI::App& app) {
           r.overCutFraction, r.seconds, r.referenceCached ? ", reference from the cache" : "",
           r.relRmseStdError, r.referenceRelNoise, r.outsideHullFraction,
           r.leakingOutsideHullFraction, r.leakingFraction - r.leakingOutsideHullFraction);
+      if (r.shFloorRelRmse)
+        std::printf(
+            "SH floor %.4f (the relative RMS error of a probe at every query, captured at %d "
+            "spp: no placement goes below it)\n",
+            *r.shFloorRelRmse, o->floorSpp);
     }
   });
 }

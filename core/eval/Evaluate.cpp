@@ -121,6 +121,7 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   // Before the cache, whose key leaves the clearance out for some scenes.
   checkLightClearance(s.lightClearanceRelative);
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
+  if (s.floorSpp < 0) throw ParameterError("floor-spp: expected 0 (off) or more samples");
   const auto start = std::chrono::steady_clock::now();
   EvalResult r;
   const size_t M = size_t(s.queries);
@@ -212,6 +213,19 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   }
   mean /= M;
   r.relRmse = den > 0 ? std::sqrt(num / den) : 0.0;
+  if (s.floorSpp > 0) {
+    // The floor: a probe at each query point, read at that point (no interpolation).
+    CaptureSettings cs;
+    cs.samplesPerProbe = s.floorSpp;
+    cs.seed = s.seed ^ 0xF100Du;  // not the reference's streams
+    const std::vector<ProbeCapture> caps = captureProbes(tracer, rig, points, cs);
+    double floorNum = 0;
+    for (size_t q = 0; q < M; ++q) {
+      const double e = luminance(caps[q].sh.irradiance(normals[q])) - ref[q];
+      floorNum += e * e;
+    }
+    r.shFloorRelRmse = den > 0 ? std::sqrt(floorNum / den) : 0.0;
+  }
   r.referenceRelNoise = den > 0 ? std::sqrt(noise / den) : 0.0;
   // The standard error of relRmse from drawing M queries (the delta method on the ratio of the
   // means of e^2 and E_ref^2): var(R) ~ var(e^2 - R E_ref^2) / (M mean(E_ref^2)^2), R = relRmse^2,

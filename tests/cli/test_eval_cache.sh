@@ -21,6 +21,21 @@ ls "$tmp/eval-reference-cache/"*.psref >/dev/null
 "$cli" eval "$tmp/greedy.psv" "${eval_opts[@]}" >"$tmp/greedy-cached.json"
 "$cli" eval "$tmp/greedy.psv" "${eval_opts[@]}" --no-cache >"$tmp/greedy-nocache.json"
 "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --seed 8 >"$tmp/seed8.json"
+# --floor-spp adds the SH floor (a probe at every query), below the volume's error, and
+# changes nothing else; without it the key is absent.
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --floor-spp 64 >"$tmp/floor.json"
+python3 - "$tmp/first.json" "$tmp/floor.json" <<'PY'
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:])
+assert "sh_floor_rel_rmse" not in a, a
+assert 0 < b["sh_floor_rel_rmse"] < b["rel_rmse"], b
+assert b["rel_rmse"] == a["rel_rmse"] and b["reference_cached"], (a, b)
+PY
+"$cli" eval "$tmp/uniform.psv" --queries 48 --reference-spp 64 --floor-spp 64 | grep -q "^SH floor 0\.[0-9]* (the relative RMS error of a probe at every query"
+if "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --floor-spp -1 >/dev/null 2>"$tmp/floor.err"; then
+  echo "eval --floor-spp -1 succeeded" >&2; exit 1
+fi
+grep -q "floor-spp" "$tmp/floor.err"
 # Another cache folder starts empty.
 "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --cache "$tmp/other-cache" >"$tmp/other.json"
 [ "$(ls "$tmp/other-cache" | wc -l)" = 1 ]

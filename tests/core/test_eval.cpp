@@ -519,3 +519,43 @@ TEST(Eval, SaysWhichQueriesAreOutsideTheHullAndLeakThere) {
   EXPECT_EQ(double(out) / n, r.outsideHullFraction);
   EXPECT_EQ(double(leakOut) / n, r.leakingOutsideHullFraction);
 }
+
+// The SH floor against physics: a sun alone over a black floor, so the reference is exactly
+// E max(0, n.l) and a probe's order-2 SH holds exactly the sun's projection (no ray noise). A probe
+// at a query then gives E (1/4 + c/2 + 5/16 P2(c)), c = n.l (the clamped cosine's Legendre terms
+// up to order 2), whatever the placement: over uniform normals a relative RMS of sqrt(2) / 16.
+TEST(Eval, ShFloorOfASunAloneIsTheClampedCosinesOrder2Error) {
+  const Scene scene = ps::testing::floorScene();
+  const Tracer tracer(scene);
+  LightingRig rig;
+  Light sun;
+  sun.type = LightType::Directional;
+  sun.direction = {0, -1, 0};  // travelling down
+  sun.intensity = {1, 1, 1};
+  rig.lights.push_back(sun);
+  const std::vector<Vec3> pts = {{-2, 0.5, -2}, {2, 0.5, -2}, {0, 0.5, 2}, {0, 3, 0}};
+  // Black probes: the volume is wholly wrong, and the floor does not read it.
+  const ProbeVolume v = volumeFromProbes(pts, std::vector<ShRgb>(pts.size()));
+  EvalSettings es;
+  es.queries = 4096;
+  es.referenceSpp = 1;
+  es.domain = {Bounds3{{-1, 0.5, -1}, {1, 2.5, 1}}};
+  EXPECT_FALSE(evaluateVolume(tracer, rig, v, es).shFloorRelRmse.has_value());
+  es.floorSpp = 1;
+  const EvalResult r = evaluateVolume(tracer, rig, v, es);
+  ASSERT_TRUE(r.shFloorRelRmse.has_value());
+  double num = 0, den = 0;
+  for (const EvalQuery& q : r.perQuery) {
+    const double c = q.normal.y;
+    const double exact = std::max(0.0, c);
+    const double order2 = 0.25 + 0.5 * c + 5.0 / 16.0 * 0.5 * (3 * c * c - 1);
+    EXPECT_NEAR(q.reference, exact, 1e-6);
+    num += (order2 - exact) * (order2 - exact);
+    den += exact * exact;
+  }
+  EXPECT_NEAR(*r.shFloorRelRmse, std::sqrt(num / den), 1e-4);
+  EXPECT_NEAR(*r.shFloorRelRmse, std::sqrt(2.0) / 16, 0.005);  // this draw of 4096 normals
+  EXPECT_NEAR(r.relRmse, 1.0, 1e-12);
+  es.floorSpp = -1;
+  EXPECT_THROW(evaluateVolume(tracer, rig, v, es), ParameterError);
+}
