@@ -58,9 +58,10 @@ void registerEval(CLI::App& app) {
                   "(default 0.02; 0: none)");
   cmd->add_option("--floor-spp", o->floorSpp,
                   "Also capture a probe at every query at this many samples and report "
-                  "sh_floor_rel_rmse: the rel_rmse of a probe at every query, which no placement "
-                  "goes below (the probes' SH irradiance and capture noise; default 0: off)")
-      ->check(CLI::NonNegativeNumber);
+                  "sh_floor_rel_rmse, the rel_rmse of a probe at every query: its SH part is what "
+                  "no placement removes; it also holds the capture noise at this spp and the "
+                  "reference's noise (default 0: off)")
+      ->check(CLI::Range(0, 1 << 24));
   cmd->add_option("--per-query", o->perQuery,
                   "Write every query to this CSV: x,y,z,nx,ny,nz,reference,reference_std,"
                   "interpolated,rel_error,leaking,outside (luminance of the irradiance; "
@@ -70,9 +71,8 @@ void registerEval(CLI::App& app) {
     if (o->queries > 10'000'000)
       throw ParameterError("--queries: " + std::to_string(o->queries) +
                            " is above the limit of 10 million query points");
-    if (o->referenceSpp > (1 << 24) || o->spp > (1 << 24) || o->floorSpp > (1 << 24))
-      throw ParameterError(
-          "--spp, --reference-spp, --floor-spp: above the limit of 16777216 samples");
+    if (o->referenceSpp > (1 << 24) || o->spp > (1 << 24))
+      throw ParameterError("--spp, --reference-spp: above the limit of 16777216 samples");
     std::string scenePath;
     LightingRig rig;
     ProbeVolume volume;
@@ -153,7 +153,10 @@ void registerEval(CLI::App& app) {
       j["seconds"] = r.seconds;
       j["reference_cached"] = r.referenceCached;
       j["light_clearance_m"] = r.lightClearanceMeters;
-      if (r.shFloorRelRmse) j["sh_floor_rel_rmse"] = *r.shFloorRelRmse;
+      if (r.shFloorRelRmse) {
+        j["sh_floor_rel_rmse"] = *r.shFloorRelRmse;
+        j["floor_spp"] = o->floorSpp;
+      }
       std::cout << j.dump(2) << "\n";
     } else {
       std::printf(
@@ -170,7 +173,8 @@ void registerEval(CLI::App& app) {
       if (r.shFloorRelRmse)
         std::printf(
             "SH floor %.4f (the relative RMS error of a probe at every query, captured at %d "
-            "spp: no placement goes below it)\n",
+            "spp: its SH part no placement removes; it holds that capture's noise and the "
+            "reference's)\n",
             *r.shFloorRelRmse, o->floorSpp);
     }
   });

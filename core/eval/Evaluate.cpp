@@ -143,9 +143,11 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
       r.notes.push_back("damaged reference cache entry " + problem + "; recomputing it");
   }
   r.referenceCached = reference.has_value();
+  // Progress: the reference (when traced), the floor's captures (when asked for), the volume.
+  const double referenceShare = s.floorSpp > 0 ? 0.5 : 0.95;
   if (!reference) {
     ProgressFn refProgress;
-    if (progress) refProgress = [&](double f) { return progress(0.95 * f); };
+    if (progress) refProgress = [&](double f) { return progress(referenceShare * f); };
     reference = computeReference(tracer, rig, s, refProgress);
     if (cache) {
       try {
@@ -165,6 +167,29 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     uncut = volume;
     uncut->cutStart.clear();
     uncut->cutPlanes.clear();
+  }
+  // The SH floor: a probe captured at each query point, read at that point (no interpolation).
+  // In batches, so that only each capture's luminance for the query's normal is kept; each
+  // batch from its own streams (a probe's stream follows its index in the batch).
+  std::vector<double> floorGot(s.floorSpp > 0 ? M : 0);
+  if (s.floorSpp > 0) {
+    constexpr size_t kFloorBatch = 4096;
+    CaptureSettings cs;
+    cs.samplesPerProbe = s.floorSpp;
+    for (size_t b = 0; b < M; b += kFloorBatch) {
+      const size_t n = std::min(kFloorBatch, M - b);
+      cs.seed = (s.seed ^ 0xF100Du) + 0x100000000ull * (b / kFloorBatch);  // not the reference's
+      ProgressFn batchProgress;
+      if (progress)
+        batchProgress = [&](double f) {
+          return progress(referenceShare +
+                          (0.95 - referenceShare) * (double(b) + f * double(n)) / double(M));
+        };
+      const std::vector<ProbeCapture> caps = captureProbes(
+          tracer, rig, std::span<const Vec3>(points).subspan(b, n), cs, batchProgress);
+      for (size_t k = 0; k < n; ++k)
+        floorGot[b + k] = luminance(caps[k].sh.irradiance(normals[b + k]));
+    }
   }
   std::vector<double> ref(M), got(M);
   std::vector<char> leaking(M, 0), overCut(M, 0), outside(M, 0);
@@ -214,16 +239,8 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   mean /= M;
   r.relRmse = den > 0 ? std::sqrt(num / den) : 0.0;
   if (s.floorSpp > 0) {
-    // The floor: a probe at each query point, read at that point (no interpolation).
-    CaptureSettings cs;
-    cs.samplesPerProbe = s.floorSpp;
-    cs.seed = s.seed ^ 0xF100Du;  // not the reference's streams
-    const std::vector<ProbeCapture> caps = captureProbes(tracer, rig, points, cs);
     double floorNum = 0;
-    for (size_t q = 0; q < M; ++q) {
-      const double e = luminance(caps[q].sh.irradiance(normals[q])) - ref[q];
-      floorNum += e * e;
-    }
+    for (size_t q = 0; q < M; ++q) floorNum += (floorGot[q] - ref[q]) * (floorGot[q] - ref[q]);
     r.shFloorRelRmse = den > 0 ? std::sqrt(floorNum / den) : 0.0;
   }
   r.referenceRelNoise = den > 0 ? std::sqrt(noise / den) : 0.0;

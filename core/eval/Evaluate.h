@@ -35,7 +35,8 @@ struct EvalSettings {
   /// drawn again (0: none). Part of the cache key when the scene or rig has such a light.
   double lightClearanceRelative = kDefaultLightClearanceRelative;
   /// When > 0, also EvalResult::shFloorRelRmse: a probe captured at this many samples at every
-  /// query point (the bake's capture). Not cached; M captures of this many rays.
+  /// query point (the bake's capture). Not cached: queries x floorSpp rays, in
+  /// EvalResult::seconds.
   int floorSpp = 0;
 };
 
@@ -82,11 +83,14 @@ struct EvalResult {
   /// queries carry most of the squared error and this is large; more queries lower it as
   /// 1 / sqrt(queries). 0 with one query.
   double relRmseStdError = 0;
-  /// With EvalSettings::floorSpp: the relRmse of a volume holding a probe at every query point,
-  /// each read at its own probe. The error that no placement removes: the probes' order-2
-  /// spherical-harmonic irradiance (which cannot follow a sharp light, as a sun's clamped
-  /// cosine: sqrt(2) / 16 = 0.088 of a sun alone over uniform normals, test_eval), plus their
-  /// capture noise at floorSpp (which a higher bake spp lowers). Unset without floorSpp.
+  /// With EvalSettings::floorSpp: the relRmse of a probe captured at every query point, each
+  /// query read at its own probe. Its order-2 spherical-harmonic part is, on average over the
+  /// query normals, the least any volume of order-2 SH probes reaches, whatever the placement:
+  /// the SH irradiance cannot follow a sharp light, as a sun's clamped cosine (sqrt(2) / 16 =
+  /// 0.088 for an unshadowed sun alone over uniform normals, test_eval). It also holds the
+  /// probes' capture noise at floorSpp, which more samples, or a blend of several probes,
+  /// lower (so a volume can come out below it), and the reference's own noise
+  /// (referenceRelNoise). Unset without floorSpp.
   std::optional<double> shFloorRelRmse;
   /// Per-query relative error |E_vol - E_ref| / max(E_ref, 0.1 * mean E_ref): percentiles.
   double p95RelError = 0;

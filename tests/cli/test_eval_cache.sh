@@ -21,17 +21,24 @@ ls "$tmp/eval-reference-cache/"*.psref >/dev/null
 "$cli" eval "$tmp/greedy.psv" "${eval_opts[@]}" >"$tmp/greedy-cached.json"
 "$cli" eval "$tmp/greedy.psv" "${eval_opts[@]}" --no-cache >"$tmp/greedy-nocache.json"
 "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --seed 8 >"$tmp/seed8.json"
-# --floor-spp adds the SH floor (a probe at every query), below the volume's error, and
-# changes nothing else; without it the key is absent.
-"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --floor-spp 64 >"$tmp/floor.json"
-python3 - "$tmp/first.json" "$tmp/floor.json" <<'PY'
+# --floor-spp adds the SH floor (a probe at every query) and the spp it used, and changes no
+# other figure; without it neither key is there. Its own captures: another spp, another floor.
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --floor-spp 16 >"$tmp/floor16.json"
+"$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --floor-spp 64 >"$tmp/floor64.json"
+python3 - "$tmp/first.json" "$tmp/floor16.json" "$tmp/floor64.json" <<'PY'
 import json, sys
-a, b = (json.load(open(p)) for p in sys.argv[1:])
-assert "sh_floor_rel_rmse" not in a, a
-assert 0 < b["sh_floor_rel_rmse"] < b["rel_rmse"], b
-assert b["rel_rmse"] == a["rel_rmse"] and b["reference_cached"], (a, b)
+a, b, c = (json.load(open(p)) for p in sys.argv[1:])
+assert "sh_floor_rel_rmse" not in a and "floor_spp" not in a, a
+assert b["floor_spp"] == 16 and c["floor_spp"] == 64, (b, c)
+assert b["sh_floor_rel_rmse"] > 0 and c["sh_floor_rel_rmse"] > 0, (b, c)
+assert b["sh_floor_rel_rmse"] != c["sh_floor_rel_rmse"], (b, c)
+for k in a:
+    if k not in ("seconds", "reference_cached"):
+        assert b[k] == a[k] and c[k] == a[k], k
+assert b["reference_cached"] and c["reference_cached"], (b, c)
 PY
-"$cli" eval "$tmp/uniform.psv" --queries 48 --reference-spp 64 --floor-spp 64 | grep -q "^SH floor 0\.[0-9]* (the relative RMS error of a probe at every query"
+"$cli" eval "$tmp/uniform.psv" --queries 48 --reference-spp 64 --floor-spp 16 >"$tmp/floor.txt"
+grep -q "^SH floor [0-9.]* (the relative RMS error of a probe at every query, captured at 16" "$tmp/floor.txt"
 if "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" --floor-spp -1 >/dev/null 2>"$tmp/floor.err"; then
   echo "eval --floor-spp -1 succeeded" >&2; exit 1
 fi
