@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # scripts/compare-placement at one small budget on cornell: a row per method with every column,
-# the reference's noise and the leaking fraction among them, and no plots (PLOTS=0); with
-# LEAK_CUTS=1 on two-rooms, the same probe counts and fewer leaking queries.
+# the reference's noise, the leaking fraction and the scene's SH floor among them, and no plots
+# (PLOTS=0); with LEAK_CUTS=1 on two-rooms, the same probe counts and fewer leaking queries
+# (and no floor, FLOOR=0).
 # Usage: test_compare_placement.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
 cli="$1"; root="$2"
@@ -16,7 +17,7 @@ assert [r["method"] for r in rows] == ["uniform", "greedy"], rows
 for r in rows:
     assert list(r) == ["scene", "method", "budget", "probes", "place_seconds", "rel_rmse", "p95",
                        "max", "reference_noise", "rel_rmse_std_error", "leaking_fraction",
-                       "leaking_outside_hull", "outside_hull"], r
+                       "leaking_outside_hull", "outside_hull", "sh_floor"], r
     assert all(r[k] for k in r), r
     assert 0 <= float(r["leaking_fraction"]) <= 1, r
     assert 0 <= float(r["leaking_outside_hull"]) <= float(r["leaking_fraction"]), r
@@ -25,11 +26,13 @@ for r in rows:
     assert 0 < float(r["reference_noise"]) < float(r["rel_rmse"]) < 1.5, r
     assert 0 < float(r["rel_rmse_std_error"]) < float(r["rel_rmse"]), r
     assert abs(int(r["probes"]) - 16) <= 3, r  # the uniform grid's count is coarse at 16
+    # The scene's SH floor, from the first row's eval, in every row (at 64 spp, mostly noise).
+    assert float(r["sh_floor"]) > 0 and r["sh_floor"] == rows[0]["sh_floor"], r
 PY
 [ ! -e "$tmp/p-error-vs-probes.png" ]
 for cuts in 0 1; do
   PROBESTUDIO="$cli" SCENES=two-rooms METHODS=uniform QUERIES=256 REFERENCE_SPP=16 BAKE_SPP=16 \
-    PLOTS=0 EVAL_CACHE="$tmp/cache" LEAK_CUTS=$cuts \
+    PLOTS=0 EVAL_CACHE="$tmp/cache" LEAK_CUTS=$cuts FLOOR=0 \
     "$root/scripts/compare-placement" "$tmp/c$cuts.csv" 16 >"$tmp/log" 2>&1 || { cat "$tmp/log"; exit 1; }
 done
 python3 - "$tmp/c0.csv" "$tmp/c1.csv" <<'PY'
@@ -37,6 +40,7 @@ import csv, sys
 plain, cut = (list(csv.DictReader(open(f)))[0] for f in sys.argv[1:3])
 assert plain["probes"] == cut["probes"], (plain, cut)
 assert float(cut["leaking_fraction"]) < float(plain["leaking_fraction"]) / 2, (plain, cut)
+assert plain["sh_floor"] == "" and cut["sh_floor"] == "", (plain, cut)  # FLOOR=0
 print("compare-placement LEAK_CUTS=1: %s probes, leaking_fraction %s -> %s"
       % (cut["probes"], plain["leaking_fraction"], cut["leaking_fraction"]))
 PY
