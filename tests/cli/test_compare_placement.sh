@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # scripts/compare-placement at one small budget on cornell: a row per method with every column,
 # the reference's noise, the leaking fraction and the scene's SH floor among them, and no plots
-# (PLOTS=0); with LEAK_CUTS=1 on two-rooms, the same probe counts and fewer leaking queries
-# (and no floor, FLOOR=0).
+# (PLOTS=0); the floor captured once per scene; with LEAK_CUTS=1 on two-rooms, the same probe
+# counts and fewer leaking queries (and no floor, FLOOR=0).
 # Usage: test_compare_placement.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
 cli="$1"; root="$2"
@@ -30,6 +30,24 @@ for r in rows:
     assert float(r["sh_floor"]) > 0 and r["sh_floor"] == rows[0]["sh_floor"], r
 PY
 [ ! -e "$tmp/p-error-vs-probes.png" ]
+# The floor is captured once per scene (its first row's eval), through a probestudio that logs
+# its arguments; every row of a scene holds its floor.
+printf '#!/usr/bin/env bash\nprintf "%%s\\n" "$*" >>"%s"\nexec "%s" "$@"\n' "$tmp/calls" "$cli" \
+  >"$tmp/logged-probestudio"
+chmod +x "$tmp/logged-probestudio"
+PROBESTUDIO="$tmp/logged-probestudio" SCENES="cornell two-rooms" METHODS=uniform QUERIES=64 \
+  REFERENCE_SPP=16 BAKE_SPP=16 PLOTS=0 EVAL_CACHE="$tmp/cache" \
+  "$root/scripts/compare-placement" "$tmp/f.csv" 16 32 >"$tmp/log" 2>&1 || { cat "$tmp/log"; exit 1; }
+[ "$(grep -c '^eval .* --floor-spp 16$' "$tmp/calls")" = 2 ] || { cat "$tmp/calls"; exit 1; }
+[ "$(grep -c '^eval ' "$tmp/calls")" = 4 ]
+python3 - "$tmp/f.csv" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert [r["scene"] for r in rows] == ["cornell"] * 2 + ["two-rooms"] * 2, rows
+for a, b in (rows[0:2], rows[2:4]):
+    assert float(a["sh_floor"]) > 0 and a["sh_floor"] == b["sh_floor"], (a, b)
+assert rows[0]["sh_floor"] != rows[2]["sh_floor"], rows
+PY
 for cuts in 0 1; do
   PROBESTUDIO="$cli" SCENES=two-rooms METHODS=uniform QUERIES=256 REFERENCE_SPP=16 BAKE_SPP=16 \
     PLOTS=0 EVAL_CACHE="$tmp/cache" LEAK_CUTS=$cuts FLOOR=0 \
