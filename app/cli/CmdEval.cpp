@@ -58,8 +58,9 @@ void registerEval(CLI::App& app) {
                   "(default 0.02; 0: none)");
   cmd->add_option("--floor-spp", o->floorSpp,
                   "Also capture a probe at every query at this many samples and report "
-                  "sh_floor_rel_rmse, the rel_rmse of a probe at every query: its SH part is what "
-                  "no placement removes; it also holds the capture noise at this spp and the "
+                  "sh_floor_rel_rmse, the rel_rmse of a probe at every query: its SH part is, on "
+                  "average over the normals, what no placement removes; it also holds the capture "
+                  "noise at this spp (which a blend of probes or more spp lowers) and the "
                   "reference's noise (default 0: off)")
       ->check(CLI::Range(0, 1 << 24));
   cmd->add_option("--per-query", o->perQuery,
@@ -173,8 +174,8 @@ void registerEval(CLI::App& app) {
       if (r.shFloorRelRmse)
         std::printf(
             "SH floor %.4f (the relative RMS error of a probe at every query, captured at %d "
-            "spp: its SH part no placement removes; it holds that capture's noise and the "
-            "reference's)\n",
+            "spp: its SH part no placement removes, on average over the normals; it holds that "
+            "capture's noise, which a blend of probes lowers, and the reference's)\n",
             *r.shFloorRelRmse, o->floorSpp);
     }
   });
