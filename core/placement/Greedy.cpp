@@ -789,6 +789,7 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
   std::vector<uint8_t> look(swappable, 1), lookNext(swappable, 0);
   const size_t additionTrials = result.trials;
   std::vector<SampleState> savedState;
+  std::vector<uint32_t> savedTetStart, savedTetSamples, savedOutside;  // the index of savedState
   double stepsDone = double(budget);  // the additions, then each probe taken out
   for (int pass = 0; pass < s.swapPasses; ++pass) {
     const double before = result.fieldError;
@@ -808,6 +809,9 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
       // tetrahedralized again would give the same error (to rounding), at a full
       // re-interpolation's cost.
       savedState = state;
+      savedTetStart = tetStart;
+      savedTetSamples = tetSamples;
+      savedOutside = outsideSamples;
       const std::vector<uint64_t> savedHull = committedHull, savedTets = committedTets;
       const double savedErrSq = currentWeightedErrSq, savedError = result.fieldError;
       const size_t savedAbsent = committedAbsent;
@@ -836,7 +840,9 @@ GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kep
         std::swap(state, savedState);
         committedHull = savedHull;
         committedTets = savedTets;
-        indexSamples();
+        std::swap(tetStart, savedTetStart);
+        std::swap(tetSamples, savedTetSamples);
+        std::swap(outsideSamples, savedOutside);
         committedAbsent = savedAbsent;
         currentWeightedErrSq = savedErrSq;
         result.fieldError = savedError;
