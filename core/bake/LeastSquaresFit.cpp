@@ -229,22 +229,16 @@ FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolu
 
   // Captured in chunks, keeping only the SH (the target of the fit).
   std::vector<ShRgb> targets(points.size());
-  for (size_t first = 0; first < points.size(); first += kCaptureChunk) {
-    const size_t count = std::min(kCaptureChunk, points.size() - first);
-    CaptureSettings cs;
-    cs.samplesPerProbe = s.samplesPerPoint;
-    cs.seed = (s.seed ^ 0xF17F17F17ull) + first;  // another stream per chunk
-    cs.mode = s.mode;
-    cs.threads = s.threads;
-    ProgressFn captureProgress;
-    if (progress)
-      captureProgress = [&](double f) {
-        return progress(0.9 * (double(first) + f * double(count)) / double(points.size()));
-      };
-    const std::vector<ProbeCapture> caps = captureProbes(
-        tracer, rig, std::span<const Vec3>(points).subspan(first, count), cs, captureProgress);
-    for (size_t i = 0; i < count; ++i) targets[first + i] = caps[i].sh;
-  }
+  CaptureSettings cs;
+  cs.samplesPerProbe = s.samplesPerPoint;
+  cs.seed = s.seed ^ 0xF17F17F17ull;
+  cs.mode = s.mode;
+  cs.threads = s.threads;
+  ProgressFn captureProgress;
+  if (progress) captureProgress = [&](double f) { return progress(0.9 * f); };
+  captureProbesInChunks(
+      tracer, rig, points, cs, kCaptureChunk,
+      [&](size_t i, const ProbeCapture& c) { targets[i] = c.sh; }, captureProgress);
 
   // Where each point interpolates (clamped to the hull outside it, as every query is).
   const HullClamp hullClamp(volume);

@@ -485,6 +485,27 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
   return out;
 }
 
+void captureProbesInChunks(const Tracer& tracer, const LightingRig& rig,
+                           std::span<const Vec3> points, const CaptureSettings& settings,
+                           size_t chunk,
+                           const std::function<void(size_t, const ProbeCapture&)>& take,
+                           const ProgressFn& progress) {
+  PS_CHECK(chunk > 0);
+  CaptureSettings cs = settings;
+  for (size_t first = 0; first < points.size(); first += chunk) {
+    const size_t count = std::min(chunk, points.size() - first);
+    cs.seed = settings.seed + 0x100000000ull * (first / chunk);
+    ProgressFn chunkProgress;
+    if (progress)
+      chunkProgress = [&](double f) {
+        return progress((double(first) + f * double(count)) / double(points.size()));
+      };
+    const std::vector<ProbeCapture> caps =
+        captureProbes(tracer, rig, points.subspan(first, count), cs, chunkProgress);
+    for (size_t i = 0; i < count; ++i) take(first + i, caps[i]);
+  }
+}
+
 double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
   if (rays < 1)
     throw ParameterError("backfaceFraction: rays is " + std::to_string(rays) +

@@ -3,6 +3,7 @@
 // standard error of every coefficient and the validity of the point (Kontkanen & Laine sec. 5).
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -84,6 +85,17 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
                                         std::span<const Vec3> points,
                                         const CaptureSettings& settings,
                                         const ProgressFn& progress = {});
+
+/// Captures one probe per point as captureProbes does, `chunk` points at a time, and hands each
+/// capture to `take(index into points, capture)` instead of keeping them all (a capture holds its
+/// SH, histograms and more: for millions of points, keep only what is needed). Chunk c is
+/// captured with seed settings.seed + 2^32 c, so that each chunk has its own streams (a probe's
+/// stream follows its index in its chunk). `progress` covers all the chunks.
+void captureProbesInChunks(const Tracer& tracer, const LightingRig& rig,
+                           std::span<const Vec3> points, const CaptureSettings& settings,
+                           size_t chunk,
+                           const std::function<void(size_t, const ProbeCapture&)>& take,
+                           const ProgressFn& progress = {});
 
 /// Fraction of `rays` uniformly distributed rays from p that hit back faces (Kontkanen & Laine
 /// sec. 5), a back face of double-sided geometry (glTF doubleSided; its winding still says

@@ -169,27 +169,23 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     uncut->cutPlanes.clear();
   }
   // The SH floor: a probe captured at each query point, read at that point (no interpolation).
-  // In batches, so that only each capture's luminance for the query's normal is kept; each
-  // batch from its own streams (a probe's stream follows its index in the batch).
+  // In chunks, keeping only each capture's luminance for the query's normal.
   std::vector<double> floorGot(s.floorSpp > 0 ? M : 0);
   if (s.floorSpp > 0) {
-    constexpr size_t kFloorBatch = 4096;
     CaptureSettings cs;
     cs.samplesPerProbe = s.floorSpp;
-    for (size_t b = 0; b < M; b += kFloorBatch) {
-      const size_t n = std::min(kFloorBatch, M - b);
-      cs.seed = (s.seed ^ 0xF100Du) + 0x100000000ull * (b / kFloorBatch);  // not the reference's
-      ProgressFn batchProgress;
-      if (progress)
-        batchProgress = [&](double f) {
-          return progress(referenceShare +
-                          (0.95 - referenceShare) * (double(b) + f * double(n)) / double(M));
-        };
-      const std::vector<ProbeCapture> caps = captureProbes(
-          tracer, rig, std::span<const Vec3>(points).subspan(b, n), cs, batchProgress);
-      for (size_t k = 0; k < n; ++k)
-        floorGot[b + k] = luminance(caps[k].sh.irradiance(normals[b + k]));
-    }
+    cs.seed = s.seed ^ 0xF100Du;  // not the reference's streams
+    ProgressFn floorProgress;
+    if (progress)
+      floorProgress = [&](double f) {
+        return progress(referenceShare + (0.95 - referenceShare) * f);
+      };
+    captureProbesInChunks(
+        tracer, rig, points, cs, 4096,
+        [&](size_t q, const ProbeCapture& c) {
+          floorGot[q] = luminance(c.sh.irradiance(normals[q]));
+        },
+        floorProgress);
   }
   std::vector<double> ref(M), got(M);
   std::vector<char> leaking(M, 0), overCut(M, 0), outside(M, 0);
