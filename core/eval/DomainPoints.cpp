@@ -54,26 +54,31 @@ DomainPoints::DomainPoints(const Tracer& tracer, const LightingRig& rig,
   clearance_ = lightClearanceMeters(tracer, domain, clearanceRelative);
 }
 
-std::optional<Vec3> DomainPoints::draw(uint64_t& rng, int validityRays,
-                                       double invalidBackfaceFraction) const {
+std::optional<Vec3> DomainPoints::drawInBoxes(uint64_t& rng) const {
   // Uniform in the union of the boxes: a box by its volume, a point in it kept with probability
   // 1 / the number of boxes holding it. With one box this is the plain uniform draw.
+  size_t k = 0;
+  if (boxes_.size() > 1) {
+    const double u = uniform01(rng) * total_;
+    while (k + 1 < boxes_.size() && cumulative_[k] <= u) ++k;
+  }
+  const Bounds3& b = boxes_[k];
+  const Vec3 e = b.extent();
+  const Vec3 p = b.lo + Vec3(e.x * uniform01(rng), e.y * uniform01(rng), e.z * uniform01(rng));
+  if (boxes_.size() > 1) {
+    int holding = 0;
+    for (const Bounds3& o : boxes_) holding += o.contains(p) ? 1 : 0;
+    if (uniform01(rng) * std::max(holding, 1) >= 1.0) return std::nullopt;
+  }
+  return p;
+}
+
+std::optional<Vec3> DomainPoints::draw(uint64_t& rng, int validityRays,
+                                       double invalidBackfaceFraction) const {
   for (int attempt = 0; attempt < 1000; ++attempt) {
-    size_t k = 0;
-    if (boxes_.size() > 1) {
-      const double u = uniform01(rng) * total_;
-      while (k + 1 < boxes_.size() && cumulative_[k] <= u) ++k;
-    }
-    const Bounds3& b = boxes_[k];
-    const Vec3 e = b.extent();
-    const Vec3 p = b.lo + Vec3(e.x * uniform01(rng), e.y * uniform01(rng), e.z * uniform01(rng));
-    if (boxes_.size() > 1) {
-      int holding = 0;
-      for (const Bounds3& o : boxes_) holding += o.contains(p) ? 1 : 0;
-      if (uniform01(rng) * std::max(holding, 1) >= 1.0) continue;
-    }
-    if (!clearOfLights(p)) continue;
-    if (backfaceFraction(tracer_, p, validityRays, splitMix64(rng)) > invalidBackfaceFraction)
+    const std::optional<Vec3> p = drawInBoxes(rng);
+    if (!p || !clearOfLights(*p)) continue;
+    if (backfaceFraction(tracer_, *p, validityRays, splitMix64(rng)) > invalidBackfaceFraction)
       continue;
     return p;
   }

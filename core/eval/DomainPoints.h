@@ -40,6 +40,11 @@ class DomainPoints {
   std::optional<Vec3> draw(uint64_t& rng, int validityRays = 32,
                            double invalidBackfaceFraction = 0.25) const;
 
+  /// One try of draw(): a point uniform over the boxes' union, or nothing where a point drawn
+  /// in a box overlapping others is turned down (the union stays uniform). Neither geometry
+  /// nor the light clearance is tested.
+  std::optional<Vec3> drawInBoxes(uint64_t& rng) const;
+
   /// `count` draws, draw q from the stream streamSeed(seed, q) (in parallel, deterministic):
   /// the points found, in draw order (fewer than `count` where draws failed).
   std::vector<Vec3> drawMany(size_t count, uint64_t seed) const;

@@ -291,6 +291,21 @@ struct CutSample {
   uint32_t active = 0;        ///< bit k: vertex k has a weight (outside the hull: the face's)
   uint32_t kept = 0xF;        ///< the vertices the cuts chosen so far keep
   std::array<double, 4> w{};  ///< its barycentric weights (outside the hull: on the face)
+  /// The points of the tet's own draw it stands for: queries are uniform in the domain, so a
+  /// cut's cost counts volume (1 for the points drawn in and beyond the tet; more for those
+  /// drawn sparser over the domain, ClampedPoint).
+  double weight = 1;
+};
+
+/// Points drawn over the domain for the clamps beyond the hull's edges and corners, at most
+/// (whatever LeakCutSettings::samplesTotal is: each is held until they are shared out).
+constexpr size_t kMaxClampedDraws = size_t(1) << 22;
+
+/// A point outside the hull, with the weights locate() gives it (those of its clamp to the hull).
+struct ClampedPoint {
+  Vec3 p;
+  std::array<float, 4> weights;
+  double weight = 1;  ///< as CutSample::weight
 };
 
 /// A candidate cut: plane `plane` hides the vertices `mask` from the queries on side
@@ -372,6 +387,21 @@ class TetCutter {
     faces_.push_back(face);
   }
 
+  /// Points of the domain outside the hull that locate() clamps to an edge or a corner of one of
+  /// this tet's hull faces (no face's prism holds them; draw() covers the prisms): each with
+  /// the weights the clamp gives it, on two vertices or one.
+  void testClamped(std::span<const ClampedPoint> points) {
+    for (const ClampedPoint& c : points) {
+      uint32_t active = 0;
+      std::array<double, 4> bary{};
+      for (int k = 0; k < 4; ++k) {
+        bary[size_t(k)] = c.weights[size_t(k)];
+        if (c.weights[size_t(k)] > 0) active |= 1u << k;
+      }
+      test(c.p, active, bary, c.weight);
+    }
+  }
+
   /// `share` times `count` points uniform in the tet, and as many in proportion beyond each hull
   /// face (a point of the face moved out along its normal, up to where the domain ends).
   void draw(int count, double share) {
@@ -432,38 +462,42 @@ class TetCutter {
       planes[size_t(slot[tr.plane])].hide |= tr.mask << (tr.positive ? 0 : 4);
     };
     std::vector<char> applied(triples_.size(), 0);
-    size_t leaking = leakingCount();
-    double cost = double(leaking);  // no cut moves a weight yet
+    // Weighted (CutSample::weight): the volume of the points leaking.
+    double leaking = leakingWeight();
+    double cost = leaking;  // no cut moves a weight yet
     // The picks in order, with the cost after each; the shortest prefix with the lowest is kept
     // (picks that only hid more pairs and never led to a lower cost are dropped).
     std::vector<size_t> picks;
     double bestCost = cost;
-    size_t bestPicks = 0, bestLeaking = leaking;
+    size_t bestPicks = 0;
     constexpr double kEps = 1e-9;
-    while (leaking > 0) {
+    while (leaking > kEps) {
       // Best by cost lowered (ties: more pairs hidden); else the exploring pick.
-      double bestGain = 0, exploreGain = 0;
-      long bestPairs = 0, explorePairs = 0, bestLeakGain = 0;
+      double bestGain = 0, exploreGain = 0, bestLeakGain = 0;
+      long bestPairs = 0, explorePairs = 0;
       size_t best = triples_.size(), explore = triples_.size();
       for (size_t j = 0; j < triples_.size(); ++j) {
         const CutTriple& tr = triples_[j];
         if (applied[j] || (slot[tr.plane] < 0 && planes.size() >= size_t(s_.maxPlanesPerTet)))
           continue;
         const std::vector<char>& side = sideOf[tr.plane];
-        long leakGain = 0, pairs = 0;
-        double moved = 0;
+        long leakCount = 0, pairs = 0;  // points that stop leaking (less those that start)
+        double leakGain = 0, moved = 0;
         for (size_t i = 0; i < n; ++i) {
           const CutSample& smp = points_[i];
           if (bool(side[i]) != tr.positive || !(smp.kept & tr.mask)) continue;
-          leakGain +=
+          const long d =
               long(cutSampleLeaks(smp, smp.kept)) - long(cutSampleLeaks(smp, smp.kept & ~tr.mask));
+          leakCount += d;
+          leakGain += smp.weight * double(d);
           pairs += std::popcount(smp.kept & tr.mask & smp.hidden);
           // A point that sees every probe it interpolates (beyond a hull face, the face's three:
           // the one opposite has no weight there) is harmed by any weight a cut moves.
           if (alpha > 0 && !(smp.hidden & smp.active))
-            moved += cutWeightChange(smp, smp.kept & ~tr.mask) - cutWeightChange(smp, smp.kept);
+            moved += smp.weight *
+                     (cutWeightChange(smp, smp.kept & ~tr.mask) - cutWeightChange(smp, smp.kept));
         }
-        const double gain = double(leakGain) - alpha * moved;
+        const double gain = leakGain - alpha * moved;
         // Ties go to the first: a vertex alone comes before the masks that hold it.
         if (gain > bestGain + kEps ||
             (gain > kEps && gain >= bestGain - kEps && pairs > bestPairs)) {
@@ -472,7 +506,7 @@ class TetCutter {
           bestLeakGain = leakGain;
           best = j;
         }
-        if (leakGain == 0 && pairs > 0 &&
+        if (leakCount == 0 && pairs > 0 &&
             (explore == triples_.size() || pairs > explorePairs ||
              (pairs == explorePairs && gain > exploreGain + kEps))) {
           explorePairs = pairs;
@@ -491,13 +525,12 @@ class TetCutter {
       addToPlanes(tr);
       for (size_t i = 0; i < n; ++i)
         if (bool(sideOf[tr.plane][i]) == tr.positive) points_[i].kept &= ~tr.mask;
-      leaking -= size_t(bestLeakGain);
+      leaking -= bestLeakGain;
       cost -= bestGain;
       picks.push_back(best);
       if (cost < bestCost - kEps) {
         bestCost = cost;
         bestPicks = picks.size();
-        bestLeaking = leaking;
       }
     }
     if (bestPicks < picks.size()) {  // replay the best prefix
@@ -507,8 +540,7 @@ class TetCutter {
       for (CutSample& smp : points_)
         smp.kept = detail::cutKeptVertices(planes.data(), planes.size(), smp.p);
     }
-    PS_CHECK_EQ(leakingCount(), bestLeaking);
-    return bestLeaking;
+    return leakingCount();
   }
 
   /// Points that interpolate a vertex they cannot see, with the vertices kept for them now.
@@ -516,6 +548,12 @@ class TetCutter {
     size_t n = 0;
     for (const CutSample& smp : points_) n += cutSampleLeaks(smp, smp.kept);
     return n;
+  }
+  /// The same, each point weighed by CutSample::weight.
+  double leakingWeight() const {
+    double w = 0;
+    for (const CutSample& smp : points_) w += cutSampleLeaks(smp, smp.kept) ? smp.weight : 0.0;
+    return w;
   }
 
   /// Up to `count` points still leaking, spread out: each the farthest from the vertices and the
@@ -553,8 +591,8 @@ class TetCutter {
 
   /// Traces from p to the active vertices; keeps p, with the candidate cuts it asks for, when a
   /// vertex is hidden and p is valid.
-  void test(Vec3 p, uint32_t active, const std::array<double, 4>& bary) {
-    CutSample smp{p, 0, active, 0xF, bary};
+  void test(Vec3 p, uint32_t active, const std::array<double, 4>& bary, double weight = 1) {
+    CutSample smp{p, 0, active, 0xF, bary, weight};
     PlaneCoeffs hitPlanes[4];
     // Every vertex, also one without weight (beyond a hull face): a cut that hides the face's
     // vertices gives it the weight (applyCuts).
@@ -666,6 +704,47 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
     size_t samples = 0, hiddenBefore = 0, hiddenAfter = 0;
     std::vector<Vec3> unresolved;
   };
+  // Beyond an edge or a corner of the hull, queries are clamped onto it (two probes or one
+  // interpolated) and lie in no face's prism: where the hull is small against the domain, most
+  // of the domain is there (two-rooms, greedy at 32 probes: 84 % of eval's queries outside the
+  // hull, and each of 8 of its leaking queries drawn at random clamped to an edge or a corner).
+  // Points uniform in the domain are located as queries are and given to the tet they clamp
+  // into.
+  v.cutStart.clear();  // locate() as the uncut volume (the cuts are replaced below)
+  v.cutPlanes.clear();
+  std::vector<std::vector<ClampedPoint>> clampedOf(v.tets.size());
+  double domainVolume = 0;
+  for (const Bounds3& b : domain) {
+    const Vec3 e = b.extent();
+    domainVolume += b.empty() ? 0.0 : std::max(0.0, e.x) * std::max(0.0, e.y) * std::max(0.0, e.z);
+  }
+  if (!v.hullFaces.empty() && perVolume > 0 && domainVolume > 0) {
+    const DomainPoints boxes(tracer, LightingRig{}, domain, 0.0);
+    // The tets' density over the domain, but at most samplesTotal points (as many again as the
+    // tets get; each costs a locate(), and rays only where it clamps to an edge or a corner),
+    // each then weighing more.
+    const size_t count = size_t(
+        std::min({perVolume * domainVolume, double(s.samplesTotal), double(kMaxClampedDraws)}));
+    // Each stands for as many of the tets' points as the density is lower (CutSample::weight).
+    const double clampedWeight =
+        count > 0 ? std::max(1.0, perVolume * domainVolume / double(count)) : 1.0;
+    std::vector<ClampedPoint> drawn(count);
+    std::vector<int32_t> tetOf(count, -1);
+    tbb::parallel_for(size_t(0), count, [&](size_t i) {
+      uint64_t rng = streamSeed(s.seed ^ 0x636c616d70ull, i);
+      const std::optional<Vec3> p = boxes.drawInBoxes(rng);
+      if (!p) return;
+      const VolumeLocation loc = locate(v, *p);
+      if (!loc.outside || loc.tet < 0) return;
+      int weighted = 0;
+      for (float w : loc.weights) weighted += w > 0 ? 1 : 0;
+      if (weighted > 2) return;  // on a face: its prism's points stand for it
+      drawn[i] = {*p, loc.weights, clampedWeight};
+      tetOf[i] = loc.tet;
+    });
+    for (size_t i = 0; i < count; ++i)
+      if (tetOf[i] >= 0) clampedOf[size_t(tetOf[i])].push_back(drawn[i]);
+  }
   std::vector<TetCuts> out(v.tets.size());
   tbb::parallel_for(size_t(0), v.tets.size(), [&](size_t t) {
     Vec3 corner[4];
@@ -675,6 +754,7 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
     const int count = int(
         std::clamp(std::round(perVolume * volume[t]), double(s.samplesPerTet), double(1 << 20)));
     cutter.draw(count, 1.0);
+    cutter.testClamped(clampedOf[t]);
     // Where a leak shows, look closer: the cut must hold for the whole tet, not only the
     // points that found it.
     if (cutter.hiddenSamples() > 0)

@@ -92,6 +92,10 @@ struct LeakCutSettings {
   int samplesPerTet = 32;
   /// Points drawn in all, shared out by volume (a tetrahedron gets at least samplesPerTet;
   /// at most 2^32): queries are uniform in the domain, so the cuts are tested where they will be.
+  /// As many again at most (and 2^22) are drawn uniformly over the domain for the queries
+  /// clamped to an edge or a corner of the hull, which lie beyond no face: each goes to the
+  /// tetrahedron locate() gives it, and where they are sparser than the tetrahedra's points each
+  /// weighs as many of those as it stands for, so that a cut's cost counts volume.
   size_t samplesTotal = size_t(1) << 18;
   /// A tetrahedron in which a point found a hidden vertex draws more, up to this many times
   /// samplesPerTet (in [1, 1024]).
