@@ -70,9 +70,9 @@ void registerBake(CLI::App& app) {
                   "over_cut_fraction): default 0.25, 0 counts the leaks alone")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--leak-cut-probes", o->leakCutProbes,
-                "Also add probes where the cuts cannot end a leak: at the hull of the domain's "
-                "valid points and at points the cuts leave leaking (fewer leaks, more probes, "
-                "and on the bundled scenes a higher rel_rmse; BENCHMARKS.md)");
+                "Also add probes where the cuts cannot end a leak, at points they leave leaking "
+                "(fewer leaks, more probes; on two-rooms a higher rel_rmse at 32 and 64 greedy "
+                "probes; BENCHMARKS.md)");
   cmd->add_flag("--fit", o->fit,
                 "Least-squares probe values: fit the volume's interpolation to captures at random "
                 "points of the domain instead of keeping each probe's own capture (lower error, "

@@ -50,17 +50,14 @@ void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSetting
   if (!settings.leakRefineProbes) sukys.maxIterations = 0;  // trace and count, add nothing
   const LeakRefineResult leak = refineLeaks(tracer, probes.positions, sukys);
   append(leak.added);
-  // The hull and the cuts' probes after Sukys's refinement: the edges they make are the cuts'.
-  std::vector<Vec3> hull;
+  // The cuts' probes after Sukys's refinement: the edges they make are the cuts'.
   LeakCutRefineResult forCuts;
   if (settings.leakCuts && settings.leakCutProbes) {
-    hull = coverDomain(tracer, rig, probes.positions, domain, settings.leakCutSettings);
-    append(hull);
     forCuts = refineForLeakCuts(tracer, rig, probes.positions, domain, settings.leakCutSettings);
     append(forCuts.added);
   }
-  r.leakProbesAdded = leak.added.size() + hull.size() + forCuts.added.size();
-  r.leakCutProbesAdded = hull.size() + forCuts.added.size();
+  r.leakProbesAdded = leak.added.size() + forCuts.added.size();
+  r.leakCutProbesAdded = forCuts.added.size();
   r.leakingEdgesBefore = leak.leakingEdgesBefore;
   r.leakingEdgesAfter = leak.leakingEdgesAfter;
   r.leakingVolumeFractionBefore = leak.leakingVolumeFractionBefore;

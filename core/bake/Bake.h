@@ -39,9 +39,9 @@ struct BakeSettings {
   /// With leak refinement: the leak cuts after the tetrahedralization (computeLeakCuts);
   /// `bake --no-leak-cuts` turns them off, leaving Sukys's refinement alone.
   bool leakCuts = true;
-  /// With the cuts: probes where they cannot end a leak (coverDomain, refineForLeakCuts); off by
-  /// default (`bake --leak-cut-probes`): on the bundled scenes they end nearly every leak the
-  /// cuts leave but raise rel_rmse (BENCHMARKS.md).
+  /// With the cuts: probes where they cannot end a leak (refineForLeakCuts); off by default
+  /// (`bake --leak-cut-probes`): on two-rooms they end nearly every leak the cuts leave, but
+  /// raise rel_rmse at 32 and 64 greedy probes (BENCHMARKS.md, "Leak cuts at the hull's edges").
   bool leakCutProbes = false;
   LeakRefineSettings leakRefineSettings;
   LeakCutSettings leakCutSettings;
@@ -57,7 +57,7 @@ struct BakeResult {
   size_t captured = 0;            ///< probes traced in this bake
   size_t cacheHits = 0;           ///< probes whose SH came from the capture cache
   size_t leakProbesAdded = 0;     ///< probes added by leak refinement (included in `probes`)
-  size_t leakCutProbesAdded = 0;  ///< of those, added for the cuts (coverDomain, refineForLeakCuts)
+  size_t leakCutProbesAdded = 0;  ///< of those, added for the cuts (refineForLeakCuts)
   size_t leakingEdgesBefore = 0, leakingEdgesAfter = 0;
   double leakingVolumeFractionBefore = 0, leakingVolumeFractionAfter = 0;
   double leakSeconds = 0;                 ///< the leak refinement stage (the cuts apart)
@@ -78,7 +78,7 @@ struct BakeProbes {
 BakeProbes gatherAcceptedProbes(const ProbeSet& set);
 
 /// Stage 2: leak refinement (when settings.leakRefine): Sukys's edge refinement, then the probes
-/// the leak cuts need (coverDomain and refineForLeakCuts, with the set's rig, for queries in
+/// the leak cuts need (refineForLeakCuts, with the set's rig, for queries in
 /// `domain`: the importance boxes, empty for the scene bounds); appends the added probes (id 0)
 /// and records the counts in r.
 void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSettings& settings,

@@ -834,43 +834,4 @@ LeakCutRefineResult refineForLeakCuts(const Tracer& tracer, const LightingRig& r
   return r;
 }
 
-std::vector<Vec3> coverDomain(const Tracer& tracer, const LightingRig& rig,
-                              std::span<const Vec3> probes, std::span<const Bounds3> domain,
-                              const LeakCutSettings& s) {
-  if (s.hullPoints < 0 || !(s.hullSpacingRelative >= 0))
-    throw ParameterError("leak cuts: hull points and spacing must be >= 0");
-  std::vector<Vec3> added;
-  if (s.hullPoints == 0) return added;
-  const DomainPoints points(tracer, rig, domain, kDefaultLightClearanceRelative);
-  std::vector<Vec3> drawn(size_t(s.hullPoints));
-  std::vector<char> found(drawn.size(), 0);
-  tbb::parallel_for(size_t(0), drawn.size(), [&](size_t i) {
-    uint64_t rng = streamSeed(s.seed ^ 0x68756c6cull, i);
-    if (const std::optional<Vec3> p = points.draw(rng, s.validityRays, s.invalidBackfaceFraction)) {
-      drawn[i] = *p;
-      found[i] = 1;
-    }
-  });
-  std::vector<Vec3> all(probes.begin(), probes.end());
-  for (size_t i = 0; i < drawn.size(); ++i)
-    if (found[i]) all.push_back(drawn[i]);
-  const Tetrahedralization t = tetrahedralize(all);
-  std::vector<char> onHull(t.vertices.size(), 0);
-  for (size_t k = 0; k < t.tets.size(); ++k)
-    for (int i = 0; i < 4; ++i)
-      if (t.neighbors[k][i] < 0)
-        for (int j = 0; j < 4; ++j)
-          if (j != i) onHull[size_t(t.tets[k][j])] = 1;
-  const double spacing = s.hullSpacingRelative * domainBounds(tracer, domain).diagonal();
-  PointGrid grid(std::max(spacing, 1e-9));
-  for (size_t i = 0; i < probes.size(); ++i) grid.insert(probes[i], int32_t(i));
-  for (size_t i = probes.size(); i < all.size(); ++i) {
-    if (!onHull[size_t(t.vertexOfInput[i])]) continue;
-    if (grid.nearestWithin(all[i], spacing, [](Vec3) { return true; }) >= 0) continue;
-    grid.insert(all[i], int32_t(i));
-    added.push_back(all[i]);
-  }
-  return added;
-}
-
 }  // namespace ps

@@ -121,10 +121,6 @@ struct LeakCutSettings {
   int refineRounds = 8;
   size_t unresolvedPerTet = 1;
   size_t maxAdded = 10000;
-  /// coverDomain: valid points drawn in the domain, and the spacing (relative to the domain's
-  /// diagonal) below which a point of their hull adds no probe.
-  int hullPoints = 8192;
-  double hullSpacingRelative = 0.06;
 };
 
 struct LeakCutResult {
@@ -152,17 +148,6 @@ struct LeakCutResult {
 /// `domain`: where queries can be (the importance volumes' boxes; empty: the scene bounds),
 /// which bounds the points drawn outside the hull.
 LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<const Bounds3> domain,
-                              const LeakCutSettings& settings = {});
-
-/// Queries outside the probes' convex hull are clamped to a hull face, whose probes may all be
-/// hidden from them (the floor band of a room under a hull face that spans two rooms): probes
-/// are added at the vertices of the convex hull of the probes and `hullPoints` valid points of
-/// the domain (each farther than the spacing from every probe), so that the hull holds nearly
-/// all of the domain's valid points. Returns the added probes. Deterministic for a seed.
-/// The points keep the clearance from the scene's and `rig`'s point and spot lights that eval's
-/// queries keep (a probe beside a lamp would spread its glare over its tetrahedra).
-std::vector<Vec3> coverDomain(const Tracer& tracer, const LightingRig& rig,
-                              std::span<const Vec3> probes, std::span<const Bounds3> domain,
                               const LeakCutSettings& settings = {});
 
 /// Where the cuts cannot stop a leak (a query sees none of the probes its cell keeps, as beside
