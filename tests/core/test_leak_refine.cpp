@@ -370,8 +370,9 @@ TEST(LeakCuts, PlanesLeaveAloneThePointsThatSeeEveryProbe) {
 // probes of the edge, or the corner's one; no hull face's prism holds it, so the cuts draw their
 // points for it over the domain, located as queries are. A box of probes above room A's floor,
 // its lower north edge at y 1.2, z -2: a point in the gap between the cabinet and the west wall
-// (x < -5.6, below the cabinet's top at 0.9, z < -2.45) is clamped onto that edge, sees its
-// west end past the cabinet's west face and not its east end (x -4.5) across the cabinet.
+// (x < -5.6, below the cabinet's top at 0.9, z < -2.45) is clamped onto that edge or its west
+// corner (x -5.9), sees that corner past the cabinet's west face and not the east one (x -4.5)
+// across the cabinet.
 TEST(LeakCuts, QueriesClampedToAHullEdgeGetCutsToo) {
   const Tracer& tracer = twoRooms().tracer;
   std::vector<Vec3> probes;
