@@ -41,7 +41,8 @@ struct BakeSettings {
   bool leakCuts = true;
   /// With the cuts: probes where they cannot end a leak (refineForLeakCuts); off by default
   /// (`bake --leak-cut-probes`): on two-rooms they end nearly every leak the cuts leave, but
-  /// raise rel_rmse at 32 and 64 greedy probes (BENCHMARKS.md, "Leak cuts at the hull's edges").
+  /// raise rel_rmse at 32 and 64 greedy probes (BENCHMARKS.md, "Leak cuts beyond the hull's edges
+  /// and corners").
   bool leakCutProbes = false;
   LeakRefineSettings leakRefineSettings;
   LeakCutSettings leakCutSettings;

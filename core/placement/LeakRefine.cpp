@@ -291,7 +291,7 @@ struct CutSample {
   uint32_t active = 0;        ///< bit k: vertex k has a weight (outside the hull: the face's)
   uint32_t kept = 0xF;        ///< the vertices the cuts chosen so far keep
   std::array<double, 4> w{};  ///< its barycentric weights (outside the hull: on the face)
-  /// The points of the tet's own draw it stands for: queries are uniform in the domain, so a
+  /// The points of the nominal density it stands for: queries are uniform in the domain, so a
   /// cut's cost counts volume (1 for the points drawn in and beyond the tet; more for those
   /// drawn sparser over the domain, ClampedPoint).
   double weight = 1;
@@ -462,19 +462,20 @@ class TetCutter {
       planes[size_t(slot[tr.plane])].hide |= tr.mask << (tr.positive ? 0 : 4);
     };
     std::vector<char> applied(triples_.size(), 0);
-    // Weighted (CutSample::weight): the volume of the points leaking.
-    double leaking = leakingWeight();
-    double cost = leaking;  // no cut moves a weight yet
+    // The points leaking (a count), and the cost: their weight (CutSample::weight), plus the
+    // weight moved at points that see every probe.
+    size_t leaking = leakingCount();
+    double cost = leakingWeight();  // no cut moves a weight yet
     // The picks in order, with the cost after each; the shortest prefix with the lowest is kept
     // (picks that only hid more pairs and never led to a lower cost are dropped).
     std::vector<size_t> picks;
     double bestCost = cost;
-    size_t bestPicks = 0;
+    size_t bestPicks = 0, bestLeaking = leaking;
     constexpr double kEps = 1e-9;
-    while (leaking > kEps) {
+    while (leaking > 0) {
       // Best by cost lowered (ties: more pairs hidden); else the exploring pick.
-      double bestGain = 0, exploreGain = 0, bestLeakGain = 0;
-      long bestPairs = 0, explorePairs = 0;
+      double bestGain = 0, exploreGain = 0;
+      long bestPairs = 0, explorePairs = 0, bestLeakCount = 0;
       size_t best = triples_.size(), explore = triples_.size();
       for (size_t j = 0; j < triples_.size(); ++j) {
         const CutTriple& tr = triples_[j];
@@ -503,7 +504,7 @@ class TetCutter {
             (gain > kEps && gain >= bestGain - kEps && pairs > bestPairs)) {
           bestGain = gain;
           bestPairs = pairs;
-          bestLeakGain = leakGain;
+          bestLeakCount = leakCount;
           best = j;
         }
         if (leakCount == 0 && pairs > 0 &&
@@ -518,19 +519,20 @@ class TetCutter {
         if (explore == triples_.size()) break;  // no cut helps
         best = explore;
         bestGain = exploreGain;
-        bestLeakGain = 0;
+        bestLeakCount = 0;  // the exploring pick ends no leak and starts none
       }
       const CutTriple& tr = triples_[best];
       applied[best] = 1;
       addToPlanes(tr);
       for (size_t i = 0; i < n; ++i)
         if (bool(sideOf[tr.plane][i]) == tr.positive) points_[i].kept &= ~tr.mask;
-      leaking -= bestLeakGain;
+      leaking = size_t(long(leaking) - bestLeakCount);
       cost -= bestGain;
       picks.push_back(best);
       if (cost < bestCost - kEps) {
         bestCost = cost;
         bestPicks = picks.size();
+        bestLeaking = leaking;
       }
     }
     if (bestPicks < picks.size()) {  // replay the best prefix
@@ -540,7 +542,8 @@ class TetCutter {
       for (CutSample& smp : points_)
         smp.kept = detail::cutKeptVertices(planes.data(), planes.size(), smp.p);
     }
-    return leakingCount();
+    PS_CHECK_EQ(leakingCount(), bestLeaking);
+    return bestLeaking;
   }
 
   /// Points that interpolate a vertex they cannot see, with the vertices kept for them now.
@@ -710,7 +713,19 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
   // hull, and each of 8 of its leaking queries drawn at random clamped to an edge or a corner).
   // Points uniform in the domain are located as queries are and given to the tet they clamp
   // into.
-  v.cutStart.clear();  // locate() as the uncut volume (the cuts are replaced below)
+  // locate() as the uncut volume: its cuts are put aside, and back if this throws.
+  struct CutsAside {
+    ProbeVolume& v;
+    std::vector<uint32_t> start;
+    std::vector<ProbeVolume::CutPlane> planes;
+    bool replaced = false;
+    ~CutsAside() {
+      if (replaced) return;
+      v.cutStart = std::move(start);
+      v.cutPlanes = std::move(planes);
+    }
+  } aside{v, std::move(v.cutStart), std::move(v.cutPlanes)};
+  v.cutStart.clear();
   v.cutPlanes.clear();
   std::vector<std::vector<ClampedPoint>> clampedOf(v.tets.size());
   double domainVolume = 0;
@@ -720,12 +735,15 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
   }
   if (!v.hullFaces.empty() && perVolume > 0 && domainVolume > 0) {
     const DomainPoints boxes(tracer, LightingRig{}, domain, 0.0);
+    const HullClamp hullClamp(v);  // locate()'s own clamp, faster
     // The tets' density over the domain, but at most samplesTotal points (as many again as the
     // tets get; each costs a locate(), and rays only where it clamps to an edge or a corner),
     // each then weighing more.
     const size_t count = size_t(
         std::min({perVolume * domainVolume, double(s.samplesTotal), double(kMaxClampedDraws)}));
-    // Each stands for as many of the tets' points as the density is lower (CutSample::weight).
+    // Each stands for as many points of the nominal density (perVolume, that of the tets'
+    // draws and the faces' prisms before their minimums and the denser draw where a leak
+    // shows) as its own is lower (CutSample::weight).
     const double clampedWeight =
         count > 0 ? std::max(1.0, perVolume * domainVolume / double(count)) : 1.0;
     std::vector<ClampedPoint> drawn(count);
@@ -734,7 +752,7 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
       uint64_t rng = streamSeed(s.seed ^ 0x636c616d70ull, i);
       const std::optional<Vec3> p = boxes.drawInBoxes(rng);
       if (!p) return;
-      const VolumeLocation loc = locate(v, *p);
+      const VolumeLocation loc = locate(v, *p, -1, &hullClamp);
       if (!loc.outside || loc.tet < 0) return;
       int weighted = 0;
       for (float w : loc.weights) weighted += w > 0 ? 1 : 0;
@@ -766,6 +784,7 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
     if (r.hiddenAfter > 0) r.unresolved = cutter.leakingPoints(s.unresolvedPerTet);
   });
   LeakCutResult result;
+  aside.replaced = true;
   v.cutStart.assign(v.tets.size() + 1, 0);
   v.cutPlanes.clear();
   for (size_t t = 0; t < out.size(); ++t) {

@@ -129,7 +129,9 @@ struct LeakCutResult {
   /// Points drawn that interpolate a vertex they cannot see, before and after the cuts.
   size_t hiddenSamplesBefore = 0;
   size_t hiddenSamplesAfter = 0;
-  size_t samples = 0;  ///< points drawn that count (LeakCutSettings::samplesPerTet)
+  /// Points drawn that count (LeakCutSettings::samplesPerTet), those drawn over the domain for
+  /// the hull's edges and corners included (each once, whatever its weight).
+  size_t samples = 0;
   /// Per tetrahedron the cuts leave leaking, up to unresolvedPerTet of its points that still
   /// interpolate a probe they cannot see (each the farthest from the tetrahedron's vertices and
   /// those before it), in tet order.
@@ -140,10 +142,11 @@ struct LeakCutResult {
 
 /// Fills v.cutStart and v.cutPlanes (replacing any cuts it had). Per tetrahedron: the candidate
 /// cuts come from the surfaces hit by the rays from its points to the vertices they cannot see,
-/// each a (plane, side, vertices) to hide; greedily, the candidate that most lowers the count
-/// of points interpolating a hidden vertex is taken, or on a tie the one that hides the most
+/// each a (plane, side, vertices) to hide; greedily, the candidate that most lowers the cost
+/// (the points interpolating a hidden vertex, each by the volume it stands for, plus the
+/// over-cut: LeakCutSettings::overCutWeight) is taken, or on a tie the one that hides the most
 /// (point, hidden vertex) pairs (a point behind a wall and a cabinet needs two planes before its
-/// count falls), up to the cap on planes; the shortest run of picks with the lowest count is
+/// count falls), up to the cap on planes; the shortest run of picks with the lowest cost is
 /// kept. Deterministic for a seed. Throws ps::ParameterError for settings out of range.
 /// `domain`: where queries can be (the importance volumes' boxes; empty: the scene bounds),
 /// which bounds the points drawn outside the hull.
