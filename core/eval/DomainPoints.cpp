@@ -44,8 +44,7 @@ DomainPoints::DomainPoints(const Tracer& tracer, const LightingRig& rig,
     boxes_.assign(domain.begin(), domain.end());
   // Each box by its share of the total volume (a flat one never: it holds no volume).
   for (const Bounds3& b : boxes_) {
-    const Vec3 e = b.extent();
-    total_ += b.empty() ? 0.0 : std::max(0.0, e.x) * std::max(0.0, e.y) * std::max(0.0, e.z);
+    total_ += b.volume();
     cumulative_.push_back(total_);
   }
   if (!domain.empty() && !(total_ > 0))

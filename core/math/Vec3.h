@@ -128,6 +128,11 @@ struct Bounds3 {
   Vec3 extent() const { return hi - lo; }
   Vec3 center() const { return (lo + hi) * 0.5; }
   double diagonal() const { return empty() ? 0.0 : length(hi - lo); }
+  /// 0 for an empty box (and along an axis whose extent is NaN).
+  double volume() const {
+    const Vec3 e = hi - lo;
+    return empty() ? 0.0 : std::max(0.0, e.x) * std::max(0.0, e.y) * std::max(0.0, e.z);
+  }
   bool contains(Vec3 p) const {
     return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
   }

@@ -729,10 +729,7 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
   v.cutPlanes.clear();
   std::vector<std::vector<ClampedPoint>> clampedOf(v.tets.size());
   double domainVolume = 0;
-  for (const Bounds3& b : domain) {
-    const Vec3 e = b.extent();
-    domainVolume += b.empty() ? 0.0 : std::max(0.0, e.x) * std::max(0.0, e.y) * std::max(0.0, e.z);
-  }
+  for (const Bounds3& b : domain) domainVolume += b.volume();
   if (!v.hullFaces.empty() && perVolume > 0 && domainVolume > 0) {
     const DomainPoints boxes(tracer, LightingRig{}, domain, 0.0);
     const HullClamp hullClamp(v);  // locate()'s own clamp, faster
