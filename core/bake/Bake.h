@@ -40,9 +40,10 @@ struct BakeSettings {
   /// `bake --no-leak-cuts` turns them off, leaving Sukys's refinement alone.
   bool leakCuts = true;
   /// With the cuts: probes where they cannot end a leak (refineForLeakCuts); off by default
-  /// (`bake --leak-cut-probes`): on two-rooms they end nearly every leak the cuts leave, but
-  /// raise rel_rmse at 32 and 64 greedy probes (BENCHMARKS.md, "Leak cuts beyond the hull's edges
-  /// and corners").
+  /// (`bake --leak-cut-probes`, which also sets leakCutSettings.overCutWeight to 0 unless
+  /// `--over-cut-weight` is given): on two-rooms they end nearly every leak the cuts leave, but
+  /// raise rel_rmse at 32 greedy probes (BENCHMARKS.md, "A hull sliver's faces, and the cuts'
+  /// weight with --leak-cut-probes").
   bool leakCutProbes = false;
   LeakRefineSettings leakRefineSettings;
   LeakCutSettings leakCutSettings;

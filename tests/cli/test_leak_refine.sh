@@ -31,6 +31,10 @@ grep -q -- "--leak-cuts-only" "$tmp/err.txt"
 # The cuts chosen for the leaks alone take more weight from probes in plain view.
 "$cli" bake "$tmp/plain.json" -o "$tmp/leaks-alone.psv" --spp 128 --over-cut-weight 0
 "$cli" eval "$tmp/leaks-alone.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-leaks-alone.json"
+# With probes for what the cuts leave, the cuts count the leaks alone unless a weight is given.
+"$cli" bake "$tmp/plain.json" -o "$tmp/cut-probes.psv" --spp 128 --leak-cut-probes | tee "$tmp/bake-cut-probes.txt"
+grep -q "are for the cuts" "$tmp/bake-cut-probes.txt"
+"$cli" bake "$tmp/plain.json" -o "$tmp/cut-probes-w.psv" --spp 128 --leak-cut-probes --over-cut-weight 0.25
 if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" --over-cut-weight -1 2>"$tmp/err.txt"; then
   echo "a negative --over-cut-weight was accepted" >&2; exit 1
 fi
@@ -60,6 +64,14 @@ assert all(p["method"] == "uniform" for p in plain), "no leak probes with --no-l
 leak = [p for p in refined if p["method"] == "leak"]
 assert len(leak) > 0 and len(refined) == len(plain) + len(leak), (len(plain), len(refined))
 assert all(p["score"] >= 1 for p in leak)
+def volume_metadata(path):
+    import struct
+    b = open(path, "rb").read()
+    m = struct.unpack_from("<I", b, 28)[0]
+    return json.loads(b[len(b) - 4 - m:len(b) - 4])
+assert volume_metadata(f"{tmp}/cut-probes.psv")["leak_cut_over_cut_weight"] == 0
+assert volume_metadata(f"{tmp}/cut-probes-w.psv")["leak_cut_over_cut_weight"] == 0.25
+assert volume_metadata(f"{tmp}/baked-refined.psv")["leak_cut_over_cut_weight"] == 0.25
 ep = json.load(open(f"{tmp}/e-plain.json"))
 es = json.load(open(f"{tmp}/e-sukys.json"))
 er = json.load(open(f"{tmp}/e-refined.json"))
