@@ -374,8 +374,8 @@ class TetCutter {
   /// `inside`: a point inside the hull (the mean of the probes), which gives the face its outward
   /// side. Not the opposite vertex: a sliver on the hull, flat once its corners are floats, has
   /// that vertex in the face's plane, and its face's prism then ran inwards across the whole
-  /// domain (two-rooms, greedy 512 with `bake --leak-cut-probes`: 169,211 points drawn for one
-  /// such tet at x = -6.05 left leaking, up to x = 6.05).
+  /// domain (two-rooms, greedy 512 with `bake --leak-cut-probes --over-cut-weight 0` and 2^20
+  /// cut points: 169,211 points drawn for one such tet at x = -6.05 left leaking, up to x = 6.05).
   void addHullFace(int opposite, double perVolume, Vec3 inside) {
     Face face{opposite, {0, 0, 0}, {}, 0};
     for (int k = 0, m = 0; k < 4; ++k)
