@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <unordered_set>
 
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
@@ -58,6 +59,7 @@ struct Document::JobResult {
   QStringList notes;  ///< what the job did, one line each (placement methods' notes)
   std::optional<EvaluationPoint> evaluation;
   std::vector<std::pair<uint64_t, Vec3>> captured;  ///< recapture: id, position captured at
+  std::vector<uint64_t> replaced;                   ///< place: the probes it replaced
 };
 
 Document::Document(QObject* parent) : QObject(parent) {
@@ -464,57 +466,66 @@ void Document::proposeCandidates() {
   });
 }
 
+PlaceRequest PlacementRequest::toPlaceRequest() const {
+  PlaceRequest r;
+  r.method = method;
+  r.budget = budget;
+  // The panel shows every field; a method is given those it reads (PlacementMethod::parameters).
+  const PlacementMethod& m = findPlacementMethod(method);
+  auto takes = [&](std::string_view name) {
+    return std::find(m.parameters.begin(), m.parameters.end(), name) != m.parameters.end();
+  };
+  if (budget <= 0 && takes("spacingMeters")) r.parameters.set("spacingMeters", spacingMeters);
+  if (takes("aggressiveness")) r.parameters.set("aggressiveness", aggressiveness);
+  if (takes("swapPasses")) r.parameters.set("swapPasses", swapPasses);
+  // The artist's accepted probes stay; the candidates unless they are replaced.
+  r.keepAccepted = true;
+  r.keepCandidates = !replaceCandidates;
+  r.refineLeaks = refineLeaks;
+  return r;
+}
+
+QString PlacementRequest::fieldLabel(const std::string& parameter) {
+  if (parameter == "method") return QObject::tr("Method");
+  if (parameter == "budget") return QObject::tr("Budget");
+  if (parameter == "spacingMeters") return QObject::tr("Spacing");
+  if (parameter == "aggressiveness") return QObject::tr("Aggressiveness");
+  if (parameter == "swapPasses") return QObject::tr("Swap passes");
+  return QString::fromStdString(parameter);
+}
+
 bool Document::runPlacement(const PlacementRequest& request) {
   if (!tracer_ || busy_) return false;
+  // A problem of the request is the panel's field, named as the panel names it; nothing starts.
   PlaceRequest place;
-  place.method = request.method;
-  place.budget = request.budget;
-  // A budget sets the count; without one the spacing does for the grid methods, the
-  // aggressiveness for chajdas; greedy needs a budget.
-  const bool fieldMethod = request.method == "greedy" || request.method == "chajdas";
-  if (request.budget <= 0 && request.method == "greedy")
-    throw ParameterError("budget: greedy needs a probe budget (at least 4)");
-  if (request.budget <= 0 && !fieldMethod && !(request.spacingMeters > 0))
-    throw ParameterError("spacing: expected a positive number of metres");
-  if (request.budget > 0 && request.budget < 4)
-    throw ParameterError("budget: expected at least 4 probes (or 0 for no budget)");
-  if (request.budget <= 0 && !fieldMethod) place.spacingMeters = request.spacingMeters;
-  place.aggressiveness = request.aggressiveness;
-  if (request.swapPasses < 0)
-    throw ParameterError("swap passes: expected 0 or more passes, got " +
-                         std::to_string(request.swapPasses));
-  place.swapPasses = request.swapPasses;
-  place.field.samplesPerProbe = request.samplesPerProbe;
-  place.probeSpp = request.samplesPerProbe;  // greedy's candidates as the preview captures them
-  // The probes that stay (accepted, locked, and the candidates when they are not replaced) are
-  // built around; rejected ones are not part of the volume (see onJobDone for them).
-  std::vector<Probe> kept;
-  for (const Probe& p : set_.probes)
-    if (p.state != ProbeState::Rejected &&
-        !(request.replaceCandidates && p.state == ProbeState::Candidate && !p.locked))
-      kept.push_back(p);
-  const LightingRig rig = set_.rig;
-  const std::vector<ImportanceVolume> volumes = set_.importanceVolumes;
+  try {
+    place = request.toPlaceRequest();
+    checkPlaceRequest(place, set_);
+  } catch (const ParameterError& e) {
+    if (e.parameter().empty()) throw;
+    throw ParameterError(PlacementRequest::fieldLabel(e.parameter()).toStdString(), e.problem());
+  }
+  const ProbeSet set = set_;
   std::shared_ptr<const Tracer> tracer = tracer_;
   const uint64_t sceneHash = sceneHash_;
   startJob("place", tr("Placing probes…"), [=](JobResult& result, const auto& report) {
     result.placement = request;
-    const PlaceOutcome placed = placeProbes(
-        *tracer, rig, place, kept, volumes, [&](const std::string& stage) -> ProgressFn {
+    const PlaceResult placed =
+        placeProbeSet(*tracer, set, place, [&](const std::string& stage) -> ProgressFn {
           const QString label = tr("Placing probes (%1)…").arg(QString::fromStdString(stage));
           return [&report, label](double f) { return report(label, 0.7 * f); };
         });
-    result.spacingMeters = placed.spacingMeters;
+    result.spacingMeters = placed.set.placement.spacingMeters;
     for (const std::string& note : placed.notes) result.notes << QString::fromStdString(note);
-    for (const PlacedProbe& p : placed.probes) {
-      Probe probe;
-      probe.position = p.position;
-      probe.method = request.method;
-      probe.score = p.score;
-      result.probes.push_back(probe);
-    }
-    captureQuickly(*tracer, rig, result.probes, request.samplesPerProbe, report, 0.7, result.error,
-                   sceneHash);
+    // The new probes (ids from the set's nextId on), and the probes the placement replaced.
+    for (const Probe& p : placed.set.probes)
+      if (p.id >= set.nextId) result.probes.push_back(p);
+    std::unordered_set<uint64_t> stay;
+    for (const Probe& p : placed.set.probes) stay.insert(p.id);
+    for (const Probe& p : set.probes)
+      if (!stay.count(p.id)) result.replaced.push_back(p.id);
+    captureQuickly(*tracer, set.rig, result.probes, request.samplesPerProbe, report, 0.7,
+                   result.error, sceneHash);
   });
   return true;
 }
@@ -692,27 +703,13 @@ void Document::onJobDone() {
     set_.placement.method = r->placement.method;
     set_.placement.spacingMeters = r->spacingMeters;
     set_.placement.budget = r->placement.budget;
-    // Keep accepted, rejected and locked probes; replace the unlocked candidates. Placement built
-    // around the probes that stay; a new probe closer than half the spacing to a rejected one is
-    // dropped too: the artist rejected that spot.
-    std::vector<uint64_t> replaced;
-    std::vector<Vec3> rejected;
-    for (const Probe& p : set_.probes) {
-      if (r->placement.replaceCandidates && p.state == ProbeState::Candidate && !p.locked)
-        replaced.push_back(p.id);
-      else if (p.state == ProbeState::Rejected)
-        rejected.push_back(p.position);
-    }
-    const double minDist = 0.5 * r->spacingMeters;
+    // The placement (core/placement/Place.h) kept the accepted, rejected and locked probes,
+    // replaced the others, and left out new probes beside rejected ones.
+    const std::vector<uint64_t> replaced = r->replaced;
     std::vector<Probe> added;
     for (Probe& p : r->probes) {
-      const bool near = std::any_of(rejected.begin(), rejected.end(), [&](const Vec3& k) {
-        return length(k - p.position) < minDist;
-      });
-      if (!near) {
-        p.id = allocateId();
-        added.push_back(std::move(p));
-      }
+      p.id = allocateId();
+      added.push_back(std::move(p));
     }
     auto* macro = new QUndoCommand(tr("Place %1 candidates (%2)")
                                        .arg(added.size())

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/io/ProbeSet.h"
+#include "core/placement/GreedyMethod.h"
 #include "core/placement/Place.h"
 #include "core/scene/Scene.h"
 
@@ -32,17 +33,23 @@ struct ProposalSettings {
   int samplesPerProbe = 64;      ///< quick SH capture
 };
 
-/// The placement panel's settings (issue 6, "placement panel"). The core has one method so far,
-/// "uniform" (core/placement/Uniform.h).
+/// The placement panel's settings. toPlaceRequest() turns them into the core's request
+/// (core/placement/Place.h), the one the command line builds from its flags.
 struct PlacementRequest {
   std::string method = "uniform";
-  double spacingMeters = 1.0;     ///< used when budget == 0
-  int budget = 0;                 ///< > 0: the spacing giving about this many probes
-  int samplesPerProbe = 64;       ///< quick capture of the candidates, so they show their light
+  double spacingMeters = 1.0;     ///< grid methods, used when budget == 0
+  int budget = 0;                 ///< > 0: the probe count (PlaceRequest::budget)
+  int samplesPerProbe = 64;       ///< quick capture of the new probes, so they show their light
   bool replaceCandidates = true;  ///< false: keep the unlocked candidates too, only add
   double aggressiveness = 1.0;    ///< chajdas: merging strength (without a budget)
-  /// greedy: passes of swaps after the additions, at most (PlaceRequest::swapPasses; 0: none).
-  int swapPasses = kGreedySwapPasses;
+  int swapPasses = kGreedySwapPasses;  ///< greedy: swap passes after the additions (0: none)
+  bool refineLeaks = true;             ///< PlaceRequest::refineLeaks
+  /// The core's request: the method's parameters among the fields above, the accepted probes
+  /// kept (and the candidates unless replaceCandidates). Throws ps::ParameterError("method")
+  /// for an unknown method.
+  PlaceRequest toPlaceRequest() const;
+  /// The panel's name of a core parameter (ParameterError::parameter()).
+  static QString fieldLabel(const std::string& parameter);
 };
 
 /// The bake's settings: the accepted probes captured at final quality.

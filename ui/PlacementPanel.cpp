@@ -84,6 +84,12 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   replace_->setChecked(true);
   replace_->setToolTip(tr("Off: keep the current candidates and only add new ones"));
   form->addRow(replace_);
+  placeLeakRefine_ = new QCheckBox(tr("Add probes against leaks"));
+  placeLeakRefine_->setChecked(true);
+  placeLeakRefine_->setToolTip(
+      tr("After the method, add candidates (method \"leak\") on both sides of the walls that "
+         "tetrahedron edges cross (Sukys 3.2.2), as `probestudio place` does"));
+  form->addRow(placeLeakRefine_);
   run_ = new QPushButton(tr("Run placement"));
   run_->setToolTip(
       tr("Replaces the unlocked candidates; accepted, rejected and locked probes "
@@ -198,6 +204,7 @@ PlacementRequest PlacementPanel::placementRequest() const {
   r.replaceCandidates = replace_->isChecked();
   r.aggressiveness = aggressiveness_->value();
   r.swapPasses = swapPasses_->value();
+  r.refineLeaks = placeLeakRefine_->isChecked();
   return r;
 }
 

@@ -61,6 +61,7 @@ class PlacementPanel : public QWidget {
   QSpinBox* swapPassesBox() const { return swapPasses_; }
   QSpinBox* captureSamplesBox() const { return captureSpp_; }
   QCheckBox* replaceBox() const { return replace_; }
+  QCheckBox* placeLeakRefineBox() const { return placeLeakRefine_; }
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
   QCheckBox* leakRefineBox() const { return leakRefine_; }
   QCheckBox* leakCutsBox() const { return leakCuts_; }
@@ -86,6 +87,7 @@ class PlacementPanel : public QWidget {
   QSpinBox* swapPasses_ = nullptr;
   QSpinBox* captureSpp_;
   QCheckBox* replace_;
+  QCheckBox* placeLeakRefine_ = nullptr;
   QCheckBox* leakRefine_ = nullptr;
   QCheckBox* leakCuts_ = nullptr;
   QCheckBox* fit_ = nullptr;

@@ -12,7 +12,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Check.h"
 #include "core/common/Error.h"
-#include "core/eval/DomainPoints.h"
+#include "core/domain/DomainPoints.h"
 #include "core/math/Random.h"
 
 namespace ps {

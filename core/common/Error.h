@@ -33,10 +33,23 @@ class FileError : public Error {
   std::string file_, field_;
 };
 
-/// A parameter given by the user is out of range or inconsistent.
+/// A parameter given by the user is out of range or inconsistent. `parameter` is the core's
+/// name of it (a placement method's parameter such as `swapPasses`, see
+/// core/placement/PlacementMethod.h), or empty; callers that show it under another name (a CLI
+/// flag, an editor field) rebuild the message from parameter() and problem().
 class ParameterError : public Error {
  public:
   using Error::Error;
+  ParameterError(std::string parameter, std::string problem)
+      : Error(parameter + ": " + problem),
+        parameter_(std::move(parameter)),
+        problem_(std::move(problem)) {}
+  const std::string& parameter() const { return parameter_; }
+  /// The message without the parameter's name (what() when there is no name).
+  std::string problem() const { return parameter_.empty() ? std::string(what()) : problem_; }
+
+ private:
+  std::string parameter_, problem_;
 };
 
 /// A long-running stage was cancelled through its progress callback.

@@ -14,7 +14,7 @@
 #include "core/capture/DirectLight.h"
 #include "core/common/Error.h"
 #include "core/common/Tolerances.h"
-#include "core/eval/DomainPoints.h"
+#include "core/domain/DomainPoints.h"
 #include "core/eval/ReferenceCache.h"
 #include "core/math/Random.h"
 

@@ -14,7 +14,7 @@
 #include "core/common/Check.h"
 #include "core/common/Error.h"
 #include "core/common/Tolerances.h"
-#include "core/eval/DomainPoints.h"
+#include "core/domain/DomainPoints.h"
 #include "core/math/Random.h"
 #include "core/tessellation/Tetrahedralization.h"
 

@@ -41,7 +41,7 @@ expect_error() {  # expect_error "expected text" cmd...
   grep -qF -- "$expected" "$tmp/err" || { echo "FAIL: $*: $(cat "$tmp/err")"; fail=1; }
 }
 expect_error "--aggressiveness: expected a positive number" "$cli" place "$scene" --method chajdas --aggressiveness 0 -o "$tmp/x.json"
-expect_error "not for --method chajdas" "$cli" place "$scene" --method chajdas --spacing 1 -o "$tmp/x.json"
+expect_error "--spacing: not an option of --method chajdas" "$cli" place "$scene" --method chajdas --spacing 1 -o "$tmp/x.json"
 expect_error "budget: expected at least 4 probes, got 3" "$cli" place "$scene" --method chajdas --budget 3 -o "$tmp/x.json"
 test ! -e "$tmp/x.json" || { echo "FAIL: a failed place wrote its output"; fail=1; }
 exit $fail

@@ -81,9 +81,9 @@ expect_error() {  # expect_error "expected text" cmd...
   if "$@" >"$tmp/out" 2>"$tmp/err"; then echo "FAIL: $* succeeded"; fail=1; return; fi
   grep -qF -- "$expected" "$tmp/err" || { echo "FAIL: $*: $(cat "$tmp/err")"; fail=1; }
 }
-expect_error "give --budget N or --max-error E" "$cli" place "$scene" --method greedy -o "$tmp/x.json"
-expect_error "--spacing: only for --method uniform" "$cli" place "$scene" --method greedy --spacing 1 --max-error 0.2 -o "$tmp/x.json"
-expect_error "--max-error: only for --method greedy" "$cli" place "$scene" --max-error 0.1 -o "$tmp/x.json"
+expect_error "--budget: expected a probe count: greedy needs a budget, an error target or both" "$cli" place "$scene" --method greedy -o "$tmp/x.json"
+expect_error "--spacing: not an option of --method greedy (its options: --budget, --max-error" "$cli" place "$scene" --method greedy --spacing 1 --max-error 0.2 -o "$tmp/x.json"
+expect_error "--max-error: not an option of --method uniform (its options: --budget, --spacing)" "$cli" place "$scene" --max-error 0.1 -o "$tmp/x.json"
 expect_error "budget: expected at least 4 probes, got 3" "$cli" place "$scene" --method greedy --budget 3 -o "$tmp/x.json"
 expect_error "beside the 2 kept probes" "$cli" place "$scene" --method greedy --budget 5 --keep "$tmp/locked.json" -o "$tmp/x.json"
 expect_error "base samples (limit 200000)" "$cli" place "$scene" --method greedy --budget 8 --field-spacing 0.01 -o "$tmp/x.json"
@@ -93,7 +93,7 @@ expect_error "--held-out-uniform: expected a share from 0 to 1, got 2" "$cli" pl
 expect_error "--probe-spp: expected 0 or more samples per probe, got -2" "$cli" place "$scene" --method greedy --budget 8 --probe-spp -2 -o "$tmp/x.json"
 expect_error "--swap-passes: expected 0 or more passes, got -1" "$cli" place "$scene" --method greedy --budget 8 --swap-passes -1 -o "$tmp/x.json"
 expect_error "--swap-neighbours: expected 0 or more samples, got -3" "$cli" place "$scene" --method greedy --budget 8 --swap-neighbours -3 -o "$tmp/x.json"
-expect_error "field depth: expected 0 to 8" "$cli" place "$scene" --method greedy --budget 8 --field-depth 9 -o "$tmp/x.json"
+expect_error "--field-depth: expected 0 to 8" "$cli" place "$scene" --method greedy --budget 8 --field-depth 9 -o "$tmp/x.json"
 expect_error "available: ascent, chajdas, greedy, spawn-merge, uniform" "$cli" place "$scene" --method magic -o "$tmp/x.json"
 expect_error "spawn-merge needs at least 8 new probes" "$cli" place "$scene" --method spawn-merge --budget 6 -o "$tmp/x.json"
 test ! -e "$tmp/x.json" || { echo "FAIL: a failed place wrote its output"; fail=1; }

@@ -10,7 +10,7 @@
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
-#include "core/eval/DomainPoints.h"
+#include "core/domain/DomainPoints.h"
 #include "core/eval/Evaluate.h"
 #include "core/io/SceneHash.h"
 #include "core/math/Random.h"

@@ -13,12 +13,13 @@
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
-#include "core/eval/DomainPoints.h"
+#include "core/domain/DomainPoints.h"
 #include "core/eval/Evaluate.h"
 #include "core/math/Random.h"
 #include "core/placement/Ascent.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
+#include "core/placement/GreedyMethod.h"
 #include "core/placement/Place.h"
 #include "core/placement/SpawnMerge.h"
 #include "core/placement/Uniform.h"
@@ -229,7 +230,7 @@ TEST(DenseField, BoundarySamplesFillTheLayerAlongTheWalls) {
 }
 
 TEST(DenseField, GreedysSurfaceDepthStaysAtMostTwo) {
-  PlaceRequest r;
+  GreedyMethodSettings r;
   EXPECT_EQ(greedyFieldSettings(r).maxDepth, kGreedyFieldDepth);
   EXPECT_EQ(greedyFieldSettings(r).maxSurfaceDepth, kGreedyFieldSurfaceDepth);
   EXPECT_TRUE(greedyFieldSettings(r).boundarySamples);
@@ -599,12 +600,12 @@ TEST(Greedy, SwapsOnTheFieldsOwnSamplesAndWithoutABudget) {
 TEST(Greedy, HeldOutPointsGoWhereItIsBrightAndWeighTheirVolume) {
   const Loaded& l = loaded("two-rooms.gltf");
   const DenseField& f = twoRoomsField();
-  PlaceRequest r;
-  r.budget = 64;  // 128 points per probe: 8192
+  GreedyMethodSettings r;
+  const int budget = 64;  // 128 points per probe: 8192
   r.field.samplesPerProbe = kFieldSpp;
-  const std::vector<HeldOutSample> bright = drawGreedyHeldOut(*l.tracer, {}, r, {}, f);
+  const std::vector<HeldOutSample> bright = drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, {}, f);
   r.heldOutUniformShare = 1;
-  const std::vector<HeldOutSample> even = drawGreedyHeldOut(*l.tracer, {}, r, {}, f);
+  const std::vector<HeldOutSample> even = drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, {}, f);
   // The volume outside geometry, from a plain uniform draw.
   const DomainPoints domain(*l.tracer, {}, {}, kDefaultLightClearanceRelative);
   const Bounds3 box = domainBounds(*l.tracer, {});
@@ -650,12 +651,12 @@ TEST(Greedy, HeldOutPointsInAThinImportanceVolume) {
   // A 1 mm slab of room A: its cells are one deep, and the count stays what was asked for
   // (cubic cells of the slab's volume would be 25,600, each with a point at least).
   const Loaded& l = loaded("two-rooms.gltf");
-  PlaceRequest r;
-  r.budget = 64;  // 8192 points
+  GreedyMethodSettings r;
+  const int budget = 64;  // 8192 points
   r.field.samplesPerProbe = kFieldSpp;
   const std::vector<ImportanceVolume> slab = {{"slab", Vec3(-5, 1, -2), Vec3(-1, 1.001, 2), 1}};
   const std::vector<HeldOutSample> points =
-      drawGreedyHeldOut(*l.tracer, {}, r, slab, twoRoomsField());
+      drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, slab, twoRoomsField());
   EXPECT_NEAR(double(points.size()), 8192, 0.05 * 8192);
   double weight = 0;
   for (const HeldOutSample& h : points) {
@@ -664,7 +665,8 @@ TEST(Greedy, HeldOutPointsInAThinImportanceVolume) {
   }
   EXPECT_NEAR(weight, 4 * 4 * 0.001, 1e-3 * 0.016);  // all of it is outside geometry
   r.heldOutUniformShare = 2;
-  EXPECT_THROW(drawGreedyHeldOut(*l.tracer, {}, r, slab, twoRoomsField()), ParameterError);
+  EXPECT_THROW(drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, slab, twoRoomsField()),
+               ParameterError);
 }
 
 TEST(Greedy, ProbeValuesFromTheirOwnCapture) {
@@ -908,27 +910,27 @@ TEST(Greedy, BeatsUniformOnTwoRoomsAtEqualProbeCount) {
 }
 
 TEST(Greedy, DefaultFieldBeatsUniformAndKeepsOffTheLight) {
-  // placeProbes' greedy (the field refined to depth 4 by the light, to depth 2 by the geometry,
-  // with boundary samples; no probe within the light clearance) against the uniform grid at 64
-  // probes, both captured at the same spp and measured against the same path-traced reference
-  // (which keeps the same clearance). Measured with 4096 queries, seeds 7 to 9: greedy / uniform
-  // 0.72, 0.89, 0.67 (BENCHMARKS.md); the bound leaves room for the test's smaller capture.
+  // The place pipeline's greedy (the field refined to depth 4 by the light, to depth 2 by the
+  // geometry, with boundary samples; no probe within the light clearance) against the uniform grid
+  // at 64 probes, both captured at the same spp and measured against the same path-traced reference
+  // (which keeps the same clearance). The bound leaves room for the test's smaller capture.
   const Loaded& l = loaded("two-rooms.gltf");
   PlaceRequest r;
   r.budget = 64;
+  r.refineLeaks = false;
   r.method = "uniform";
-  const PlaceOutcome u = placeProbes(*l.tracer, {}, r, {}, {});
+  const ProbeSet u = placeProbeSet(*l.tracer, {}, r).set;
   r.method = "greedy";
-  const PlaceOutcome g = placeProbes(*l.tracer, {}, r, {}, {});
+  const ProbeSet g = placeProbeSet(*l.tracer, {}, r).set;
   ASSERT_EQ(g.probes.size(), 64u);
   CaptureSettings cs;
   cs.samplesPerProbe = 256;
   EvalSettings es;
   es.queries = 4096;
   es.referenceSpp = 64;
-  auto eval = [&](const PlaceOutcome& o) {
+  auto eval = [&](const ProbeSet& o) {
     std::vector<Vec3> pts;
-    for (const PlacedProbe& p : o.probes) pts.push_back(p.position);
+    for (const Probe& p : o.probes) pts.push_back(p.position);
     const auto caps = captureProbes(*l.tracer, {}, pts, cs);
     std::vector<ShRgb> sh;
     for (const auto& c : caps) sh.push_back(c.sh);
@@ -938,11 +940,137 @@ TEST(Greedy, DefaultFieldBeatsUniformAndKeepsOffTheLight) {
   EXPECT_LT(eg, 0.85 * eu) << "greedy " << eg << ", uniform " << eu << " (" << u.probes.size()
                            << " probes)";
   const double clearance = kDefaultLightClearanceRelative * l.tracer->scene().bounds.diagonal();
-  for (const PlacedProbe& p : g.probes)
+  for (const Probe& p : g.probes)
     for (const Vec3& light : punctualLightPositions(l.tracer->scene(), {}))
       EXPECT_GE(length(p.position - light), clearance) << p.position;
   std::printf("two-rooms, 64 probes: rel_rmse greedy %.4f, uniform %.4f (%zu probes)\n", eg, eu,
               u.probes.size());
+}
+
+// --------------------------------------------------------------------- methods and pipeline
+
+TEST(PlacementMethods, TableIsSortedWithUniqueNamesAndEachMethodTakesItsOwnParameters) {
+  const auto table = placementMethodTable();
+  ASSERT_EQ(table.size(), 5u);
+  for (size_t i = 1; i < table.size(); ++i) EXPECT_LT(table[i - 1].name, table[i].name);
+  for (const PlacementMethod& m : table) {
+    EXPECT_FALSE(m.summary.empty()) << m.name;
+    // Its defaults are valid: no parameters and a budget of 64.
+    EXPECT_NO_THROW(createPlacer(m, {}, {64, 0})) << m.name;
+    // Each parameter it lists is read: a value that is not a number of it is refused by name.
+    for (std::string_view name : m.parameters) {
+      PlaceParameters p;
+      p.set(std::string(name), std::nan(""));
+      try {
+        createPlacer(m, p, {64, 0});
+        ADD_FAILURE() << m.name << " accepted NaN for " << name;
+      } catch (const ParameterError& e) {
+        EXPECT_EQ(e.parameter(), name) << e.what();
+      }
+    }
+  }
+}
+
+TEST(PlacementMethods, RefusalsNameTheParameterInTheCoresTerms) {
+  auto parameterOf = [](const std::string& method, const PlaceParameters& p, int budget,
+                        size_t kept = 0) -> std::string {
+    try {
+      createPlacer(findPlacementMethod(method), p, {budget, kept});
+    } catch (const ParameterError& e) {
+      EXPECT_EQ(std::string(e.what()), e.parameter() + ": " + e.problem());
+      return e.parameter();
+    }
+    return "(accepted)";
+  };
+  PlaceParameters spacing;
+  spacing.set("spacingMeters", 1);
+  EXPECT_EQ(parameterOf("greedy", spacing, 64), "spacingMeters");   // not greedy's
+  EXPECT_EQ(parameterOf("uniform", spacing, 64), "spacingMeters");  // with a budget
+  EXPECT_EQ(parameterOf("uniform", spacing, 0), "(accepted)");
+  PlaceParameters swaps;
+  swaps.set("swapPasses", -1);
+  EXPECT_EQ(parameterOf("greedy", swaps, 64), "swapPasses");
+  swaps.set("swapPasses", 1.5);
+  EXPECT_EQ(parameterOf("greedy", swaps, 64), "swapPasses");  // not a whole number
+  EXPECT_EQ(parameterOf("greedy", {}, 0), "budget");          // neither budget nor maxError
+  EXPECT_EQ(parameterOf("greedy", {}, 8, 6), "budget");       // fewer than 4 new probes
+  PlaceParameters share;
+  share.set("heldOutUniformShare", 2);
+  EXPECT_EQ(parameterOf("greedy", share, 64), "heldOutUniformShare");
+  PlaceParameters aggressiveness;
+  aggressiveness.set("aggressiveness", 0);
+  EXPECT_EQ(parameterOf("chajdas", aggressiveness, 0), "aggressiveness");
+  EXPECT_EQ(parameterOf("spawn-merge", {}, 6), "budget");  // fewer than 8 new probes
+  PlaceParameters depth;
+  depth.set("fieldDepth", 9);
+  EXPECT_EQ(parameterOf("chajdas", depth, 0), "fieldDepth");
+  try {
+    findPlacementMethod("grid");
+    ADD_FAILURE() << "an unknown method was found";
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.parameter(), "method");
+    EXPECT_NE(std::string(e.what()).find("available: ascent, chajdas, greedy, spawn-merge, "
+                                         "uniform"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(PlacePipeline, KeepsLockedAndAcceptedProbesRejectsStayAndLeakProbesAreMarked) {
+  const Loaded& l = loaded("two-rooms.gltf");
+  ProbeSet set;
+  Probe locked, accepted, candidate, rejected;
+  locked.position = Vec3(-3, 1.2, 0);
+  locked.locked = true;
+  accepted.position = Vec3(3, 1.2, 0);
+  accepted.state = ProbeState::Accepted;
+  candidate.position = Vec3(-3, 1.2, 1);
+  rejected.state = ProbeState::Rejected;
+  const uint64_t lockedId = set.add(locked), acceptedId = set.add(accepted),
+                 candidateId = set.add(candidate);
+  PlaceRequest r;
+  r.budget = 64;
+  r.keepAccepted = true;
+  // A rejected probe at a grid point of a run without it: that spot stays empty.
+  r.refineLeaks = false;
+  const PlaceResult plain = placeProbeSet(*l.tracer, set, r);
+  rejected.position = plain.set.probes.back().position;
+  const uint64_t rejectedId = set.add(rejected);
+  const PlaceResult placed = placeProbeSet(*l.tracer, set, r);
+  EXPECT_EQ(placed.kept, 2u);
+  EXPECT_EQ(placed.nearRejected, 1u);
+  EXPECT_EQ(placed.set.placement.method, "uniform");
+  EXPECT_EQ(placed.set.placement.budget, 64);
+  EXPECT_GT(placed.set.placement.spacingMeters, 0);
+  std::vector<uint64_t> ids;
+  for (const Probe& p : placed.set.probes) ids.push_back(p.id);
+  ASSERT_GE(ids.size(), 3u);
+  EXPECT_EQ(ids[0], lockedId);
+  EXPECT_EQ(ids[1], acceptedId);
+  EXPECT_EQ(ids[2], rejectedId);
+  EXPECT_EQ(std::count(ids.begin(), ids.end(), candidateId), 0);  // replaced
+  EXPECT_EQ(placed.set.probes.size(), 3 + placed.placed);
+  for (size_t i = 3; i < placed.set.probes.size(); ++i) {
+    EXPECT_EQ(placed.set.probes[i].method, "uniform");
+    EXPECT_EQ(placed.set.probes[i].state, ProbeState::Candidate);
+    EXPECT_GE(length(placed.set.probes[i].position - rejected.position),
+              0.5 * placed.set.placement.spacingMeters);
+  }
+  // Keeping the candidates as well, and refining leaks: two-rooms' wall gets "leak" probes.
+  r.keepCandidates = true;
+  r.refineLeaks = true;
+  r.newState = ProbeState::Accepted;
+  const PlaceResult refined = placeProbeSet(*l.tracer, set, r);
+  EXPECT_EQ(refined.kept, 3u);
+  EXPECT_GT(refined.leakAdded, 0u);
+  size_t leak = 0;
+  for (const Probe& p : refined.set.probes)
+    if (p.method == "leak") {
+      ++leak;
+      EXPECT_EQ(p.state, ProbeState::Accepted);
+      EXPECT_GE(p.score, 1);
+    }
+  EXPECT_EQ(leak, refined.leakAdded);
 }
 
 // ----------------------------------------------------------------------------------- ascent

@@ -1,4 +1,4 @@
-#include "core/eval/DomainPoints.h"
+#include "core/domain/DomainPoints.h"
 
 #include <tbb/parallel_for.h>
 

@@ -1,8 +1,9 @@
 #pragma once
 // Random points of the domain of interest (DESIGN.md): uniform over the union of the importance
 // volumes' boxes (the scene bounds when there are none), kept out of geometry (Kontkanen &
-// Laine sec. 5) and out of a clearance around point and spot lights. Eval's queries and the
-// bake's least-squares fit points are drawn from it.
+// Laine sec. 5) and out of a clearance around point and spot lights. Eval's queries, greedy's
+// held-out points, the leak cuts' points and the bake's least-squares fit points are drawn
+// from it, so it stands apart from all of those stages.
 #include <cstdint>
 #include <optional>
 #include <span>

@@ -1,0 +1,88 @@
+#pragma once
+// `greedy` as a placement method (core/placement/PlacementMethod.h): its parameters and
+// defaults, its dense field and its held-out points. The algorithm is core/placement/Greedy.h.
+
+#include <span>
+#include <vector>
+
+#include "core/common/Progress.h"
+#include "core/io/ProbeSet.h"
+#include "core/placement/DenseField.h"
+#include "core/placement/Greedy.h"
+#include "core/scene/LightingRig.h"
+#include "core/trace/Tracer.h"
+
+namespace ps {
+
+/// Held-out points per probe of the budget, by default (GreedyMethodSettings::heldOutPerProbe).
+/// The error greedy lowers is measured there rather than at the field's own samples, which sit
+/// where the field refined and miss most of the volume (BENCHMARKS.md, Placement).
+inline constexpr int kGreedyHeldOutPerProbe = 128;
+/// Samples per probe of each candidate's own capture: the bake's default
+/// (BakeSettings::capture), so that greedy weighs a probe as the bake will capture it.
+inline constexpr int kGreedyProbeSpp = 1024;
+/// Swap passes at most after the additions (GreedySettings::swapPasses). Swaps move the probes
+/// the early additions put down where later ones made them redundant; a pass that gains less
+/// than GreedySettings::swapMinGain ends them, so a larger cap costs little.
+inline constexpr int kGreedySwapPasses = 4;
+/// The field samples nearest to a probe that its swap tries besides the far candidates
+/// (GreedySettings::swapNeighbours): a 3 x 3 x 3 block's worth, the local move.
+inline constexpr int kGreedySwapNeighbours = 26;
+/// Held-out points at most (each keeps its position, SH and its error state).
+inline constexpr size_t kMaxGreedyHeldOutPoints = 4000000;
+/// Greedy's dense field by default: the light's detail (a point light's fall-off) refines to
+/// depth 4, the geometry only to depth 2; boundary samples fill the layer along the walls.
+inline constexpr int kGreedyFieldDepth = 4;
+inline constexpr int kGreedyFieldSurfaceDepth = 2;
+
+/// greedy's parameters (PlaceParameters names in brackets) with their defaults.
+struct GreedyMethodSettings {
+  double maxError = 0;  ///< stop at this held-out (or field) error, >= 0; 0: off [maxError]
+  /// The dense field [fieldSpacingMeters, fieldSurfaceDepth, fieldSamplesPerProbe, prefilter,
+  /// fieldMaxSamples]; its seed and importance volumes come from the run.
+  DenseFieldSettings field;
+  int fieldDepth = -1;  ///< refinement levels, 0 to 8; -1: kGreedyFieldDepth [fieldDepth]
+  /// Points per probe of the budget (a budget below 64, or none, counts as 64) drawn in the
+  /// domain of interest and captured at the field's samples per probe; the error greedy lowers
+  /// is measured at them (drawGreedyHeldOut). 0: at the field's own samples. [heldOutPerProbe]
+  int heldOutPerProbe = kGreedyHeldOutPerProbe;
+  /// The share of the held-out points spread by volume, in [0, 1]; the rest go where the field
+  /// is bright. [heldOutUniformShare]
+  double heldOutUniformShare = 0.5;
+  /// Samples per probe of each candidate's own capture (GreedySettings::captureProbeValues);
+  /// at most field.samplesPerProbe: the field sample's capture. [candidateSamplesPerProbe]
+  int probeSpp = kGreedyProbeSpp;
+  int swapPasses = kGreedySwapPasses;          ///< >= 0; 0: none [swapPasses]
+  int swapNeighbours = kGreedySwapNeighbours;  ///< >= 0 [swapNeighbours]
+};
+
+/// Throws ps::ParameterError naming the parameter when a setting is out of range for `budget`
+/// (0: none) and `keptCount` kept probes.
+void checkGreedyMethodSettings(const GreedyMethodSettings& settings, int budget,
+                               size_t keptCount = 0);
+
+/// The dense field greedy builds for `settings` and `seed` (its importance volumes are left to
+/// the caller).
+DenseFieldSettings greedyFieldSettings(const GreedyMethodSettings& settings, uint64_t seed = 1);
+
+/// How many held-out points greedy draws for `settings` and `budget`.
+size_t greedyHeldOutPoints(const GreedyMethodSettings& settings, int budget);
+
+/// Greedy's held-out points (GreedySettings::heldOut): about greedyHeldOutPoints() points of the
+/// domain of interest, outside geometry and the light clearance as eval's queries are, each
+/// captured at the field's samples per probe (also when the field is pre-filtered).
+/// Stratified: the domain's bounding box is cut into about cubic cells (about 8 points each on
+/// average); a cell gets heldOutUniformShare of its points by its volume and the rest by the
+/// field's squared irradiance there (the largest mean over the 14 normals of the samples whose
+/// octree cells overlap it), at least one; each point weighs its cell's volume over the cell's
+/// count. The weighted sums estimate eval's uniform sums without bias, with more points where
+/// the light is bright, where rel_rmse's absolute errors are largest. Deterministic for `seed`;
+/// throws ps::ParameterError for bad settings or importance volumes without volume.
+std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const LightingRig& rig,
+                                             const GreedyMethodSettings& settings, int budget,
+                                             uint64_t seed,
+                                             std::span<const ImportanceVolume> importanceVolumes,
+                                             const DenseField& field,
+                                             const ProgressFn& progress = {});
+
+}  // namespace ps

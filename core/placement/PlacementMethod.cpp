@@ -1,0 +1,173 @@
+#include "core/placement/PlacementMethod.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <limits>
+
+#include "core/common/Error.h"
+#include "core/placement/Uniform.h"
+
+namespace ps {
+
+double PlaceParameters::number(const std::string& name, double fallback) const {
+  const auto it = values_.find(name);
+  if (it == values_.end()) return fallback;
+  if (!std::isfinite(it->second))
+    throw ParameterError(name, "expected a finite number, got " + std::to_string(it->second));
+  return it->second;
+}
+
+int PlaceParameters::integer(const std::string& name, int fallback) const {
+  const double v = number(name, fallback);
+  if (v != std::floor(v) || v < double(std::numeric_limits<int>::min()) ||
+      v > double(std::numeric_limits<int>::max()))
+    throw ParameterError(name, "expected a whole number, got " + std::to_string(v));
+  return int(v);
+}
+
+bool PlaceParameters::flag(const std::string& name, bool fallback) const {
+  const double v = number(name, fallback ? 1.0 : 0.0);
+  if (v != 0 && v != 1) throw ParameterError(name, "expected 0 or 1, got " + std::to_string(v));
+  return v == 1;
+}
+
+double PlaceContext::defaultSpacingMeters() const {
+  return std::max(0.25, tracer.scene().bounds.diagonal() / 10);
+}
+
+std::span<const PlacementMethod> placementMethodTable() {
+  static const PlacementMethod kTable[] = {
+      ascentPlacementMethod(),     chajdasPlacementMethod(), greedyPlacementMethod(),
+      spawnMergePlacementMethod(), uniformPlacementMethod(),
+  };
+  return kTable;
+}
+
+const PlacementMethod& findPlacementMethod(std::string_view name) {
+  for (const PlacementMethod& m : placementMethodTable())
+    if (m.name == name) return m;
+  std::string names;
+  for (const PlacementMethod& m : placementMethodTable())
+    names += (names.empty() ? "" : ", ") + std::string(m.name);
+  throw ParameterError("method",
+                       "unknown method \"" + std::string(name) + "\" (available: " + names + ")");
+}
+
+std::unique_ptr<Placer> createPlacer(const PlacementMethod& method,
+                                     const PlaceParameters& parameters, const PlaceBasics& basics) {
+  for (const auto& [name, value] : parameters.values())
+    if (std::find(method.parameters.begin(), method.parameters.end(), name) ==
+        method.parameters.end())
+      throw ParameterError(name, "not a parameter of method " + std::string(method.name));
+  if (basics.budget < 0)
+    throw ParameterError(
+        "budget", "expected 0 (none) or a probe count, got " + std::to_string(basics.budget));
+  return method.create(parameters, basics);
+}
+
+std::vector<std::string> placementMethods() {
+  std::vector<std::string> names;
+  for (const PlacementMethod& m : placementMethodTable()) names.emplace_back(m.name);
+  return names;
+}
+
+std::string formatNote(const char* fmt, ...) {
+  char buf[512];
+  va_list args;
+  va_start(args, fmt);
+  std::vsnprintf(buf, sizeof buf, fmt, args);
+  va_end(args);
+  return buf;
+}
+
+std::vector<PlacedProbe> awayFromKept(const PlaceContext& c, std::vector<PlacedProbe> in,
+                                      double spacing) {
+  std::erase_if(in, [&](const PlacedProbe& p) {
+    return std::any_of(c.kept.begin(), c.kept.end(), [&](const Probe& k) {
+      return length(k.position - p.position) < 0.5 * spacing;
+    });
+  });
+  return in;
+}
+
+FieldParameters readFieldParameters(const PlaceParameters& p) {
+  FieldParameters out;
+  DenseFieldSettings& f = out.field;
+  f.baseSpacingMeters = p.number("fieldSpacingMeters", f.baseSpacingMeters);
+  if (f.baseSpacingMeters < 0)
+    throw ParameterError("fieldSpacingMeters",
+                         "expected 0 (the default) or a positive number of metres, got " +
+                             std::to_string(f.baseSpacingMeters));
+  out.depth = p.integer("fieldDepth", -1);
+  if (out.depth < -1 || out.depth > 8)
+    throw ParameterError("fieldDepth",
+                         "expected 0 to 8 refinement levels (or -1: the method's "
+                         "default), got " +
+                             std::to_string(out.depth));
+  f.maxSurfaceDepth = p.integer("fieldSurfaceDepth", f.maxSurfaceDepth);
+  if (f.maxSurfaceDepth < -1 || f.maxSurfaceDepth > 8)
+    throw ParameterError("fieldSurfaceDepth",
+                         "expected 0 to 8 levels (or -1: the method's default), got " +
+                             std::to_string(f.maxSurfaceDepth));
+  f.samplesPerProbe = p.integer("fieldSamplesPerProbe", f.samplesPerProbe);
+  if (f.samplesPerProbe < 1)
+    throw ParameterError("fieldSamplesPerProbe", "expected at least 1 sample per probe, got " +
+                                                     std::to_string(f.samplesPerProbe));
+  f.prefilter = p.flag("prefilter", f.prefilter);
+  const double maxSamples = p.number("fieldMaxSamples", double(f.maxSamples));
+  if (!(maxSamples >= 1) || maxSamples != std::floor(maxSamples) || maxSamples > 1e12)
+    throw ParameterError(
+        "fieldMaxSamples",
+        "expected a whole number of samples from 1 to 1e12, got " + std::to_string(maxSamples));
+  f.maxSamples = size_t(maxSamples);
+  return out;
+}
+
+double readGridSpacing(const PlaceParameters& p, const PlaceBasics& b) {
+  const double spacing = p.number("spacingMeters", 0.0);
+  if (spacing < 0)
+    throw ParameterError(
+        "spacingMeters",
+        "expected 0 (the default) or a positive number of metres, got " + std::to_string(spacing));
+  if (spacing != 0 && b.budget != 0)
+    throw ParameterError("spacingMeters", "give a spacing or a budget, not both");
+  return spacing;
+}
+
+void checkUniformGridBudget(const PlaceBasics& b) {
+  if (b.budget != 0 && b.keptCount > 0 && b.budget - int(b.keptCount) < 4)
+    throw ParameterError("budget", std::to_string(b.budget) + " leaves fewer than 4 new probes " +
+                                       "beside the " + std::to_string(b.keptCount) + " kept ones");
+}
+
+PlaceOutcome placeUniformGrid(const PlaceContext& c, double spacingMeters) {
+  UniformSettings us;
+  us.seed = c.seed;
+  std::vector<Vec3> points;
+  PlaceOutcome out;
+  if (c.budget != 0) {
+    const int budget = c.budget - int(c.kept.size());
+    UniformBudgetResult b = placeUniformBudget(c.tracer, budget, us, c.stage("place"));
+    points = std::move(b.points);
+    us.spacingMeters = b.spacingMeters;
+    // Methods are compared at equal probe counts: say when the grid is not one (a box whose
+    // grids of the budget are far from cubic may get no grid within 10 %).
+    if (std::abs(double(points.size()) - budget) > 0.1 * budget)
+      out.notes.push_back(
+          formatNote("uniform: no grid of the search has %d valid points within 10 %%; "
+                     "the closest has %zu",
+                     budget, points.size()));
+  } else {
+    us.spacingMeters = spacingMeters != 0 ? spacingMeters : c.defaultSpacingMeters();
+    points = placeUniform(c.tracer, us, c.stage("place"));
+  }
+  out.spacingMeters = us.spacingMeters;
+  std::vector<PlacedProbe> probes;
+  for (const Vec3& p : points) probes.push_back({p, 0.0});
+  out.probes = awayFromKept(c, std::move(probes), us.spacingMeters);
+  return out;
+}
+
+}  // namespace ps
