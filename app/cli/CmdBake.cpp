@@ -71,8 +71,8 @@ void registerBake(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--leak-cut-probes", o->leakCutProbes,
                 "Also add probes where the cuts cannot end a leak, at points they leave leaking "
-                "(fewer leaks, more probes; on two-rooms a higher rel_rmse at 32 greedy probes; "
-                "BENCHMARKS.md). The cuts then count the leaks alone (--over-cut-weight 0) unless "
+                "(fewer leaks, more probes; rel_rmse may rise at small probe counts). The cuts "
+                "then count the leaks alone (--over-cut-weight 0) unless "
                 "--over-cut-weight is given: fewer leaks are left for probes to end");
   cmd->add_flag("--fit", o->fit,
                 "Least-squares probe values: fit the volume's interpolation to captures at random "
@@ -118,9 +118,8 @@ void registerBake(CLI::App& app) {
     bs.leakCuts = !o->noLeakCuts;
     bs.leakCutProbes = o->leakCutProbes;
     bs.leakRefineProbes = !o->leakCutsOnly;
-    // With probes for what the cuts leave, cuts for the leaks alone: on two-rooms' greedy sets
-    // (32 to 512) they leave fewer leaks for probes to end (80 probes instead of 242 at 32, 200
-    // instead of 550 at 64), and rel_rmse is lower at 32 and 64 and within 0.001 at 128 to 512
+    // With probes for what the cuts leave, cuts for the leaks alone: they leave fewer leaks for
+    // probes to end, so far fewer probes are added, at about the same rel_rmse or a lower one
     // (BENCHMARKS.md, "A hull sliver's faces, and the cuts' weight with --leak-cut-probes").
     bs.leakCutSettings.overCutWeight =
         o->leakCutProbes && !cmd->count("--over-cut-weight") ? 0.0 : o->overCutWeight;

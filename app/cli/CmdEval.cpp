@@ -113,7 +113,7 @@ void registerEval(CLI::App& app) {
         es.cacheDir = fs::path(o->cacheDir);  // a folder asked for must work (else an error)
       } else {
         // The default folder is a convenience: where it cannot be made (a read-only folder),
-        // eval works as it did without a cache.
+        // eval runs without one.
         const fs::path folder = fs::absolute(o->input).parent_path();
         es.cacheDir = defaultReferenceCacheDir(folder);
         if (!es.cacheDir)

@@ -41,9 +41,9 @@ struct BakeSettings {
   bool leakCuts = true;
   /// With the cuts: probes where they cannot end a leak (refineForLeakCuts); off by default
   /// (`bake --leak-cut-probes`, which also sets leakCutSettings.overCutWeight to 0 unless
-  /// `--over-cut-weight` is given): on two-rooms they end nearly every leak the cuts leave, but
-  /// raise rel_rmse at 32 greedy probes (BENCHMARKS.md, "A hull sliver's faces, and the cuts'
-  /// weight with --leak-cut-probes").
+  /// `--over-cut-weight` is given). Off by default because they end nearly every leak the cuts
+  /// leave but can raise rel_rmse at small probe counts (BENCHMARKS.md, "A hull sliver's faces,
+  /// and the cuts' weight with --leak-cut-probes").
   bool leakCutProbes = false;
   LeakRefineSettings leakRefineSettings;
   LeakCutSettings leakCutSettings;

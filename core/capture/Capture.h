@@ -104,15 +104,15 @@ void captureProbesInChunks(const Tracer& tracer, const LightingRig& rig,
 /// tol::kDefaultInvalidBackfaceFraction, except within a few centimetres of a large sheet,
 /// where it nears 0.25 and the ray sample decides; inside a closed double-sided object nearly
 /// all rays see back faces.
-/// Every asset of the shared real scenes is double-sided: counting those back faces as nothing
-/// left 14 % of dream-apartment's eval queries inside walls and furniture, at zero irradiance
-/// (BENCHMARKS.md). Where two solids share a face (a wall standing on a floor slab, two slabs
-/// meeting), a ray that reaches the shared face counts its back face: Embree reports either of
-/// the two coincident triangles, and counting the front one let points inside the solids there
-/// through (BENCHMARKS.md, "Where the leaks are"). A sheet made of two triangles back to back
-/// is told apart by what lies past it: a ray that crosses a shared face is inside the other
-/// solid (its next hit is a back face), one that crosses a sheet is not. The capture's own
-/// ProbeCapture::backfaceFraction takes the first hit as it is. Deterministic for a given seed.
+/// Every asset of the shared real scenes is double-sided: were those back faces counted as nothing,
+/// points inside walls and furniture would pass as valid, at zero irradiance. Where two solids
+/// share a face (a wall standing on a floor slab, two slabs meeting), a ray that reaches the shared
+/// face counts its back face: Embree reports either of the two coincident triangles, and counting
+/// the front one would let points inside the solids there pass (BENCHMARKS.md, "Where the leaks
+/// are"). A sheet made of two triangles back to back is told apart by what lies past it: a ray that
+/// crosses a shared face is inside the other solid (its next hit is a back face), one that crosses
+/// a sheet is not. The capture's own ProbeCapture::backfaceFraction takes the first hit as it is.
+/// Deterministic for a given seed.
 double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed);
 
 /// Radiance path-traced along a ray leaving point `origin` in unit direction `dir`; exposed for

@@ -40,17 +40,18 @@ uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig,
   h = foldEnvironmentTexels(h, rig);
   const std::string r = rigToJson(rig).dump();  // shortest round-trip doubles: exact
   h = fnv1a64(r.data(), r.size(), h);
-  for (const Bounds3& b : domain) {  // one box hashes as before there could be several
+  for (const Bounds3& b : domain) {  // in order, no count: one box hashes as the box alone
     const double box[6] = {b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z};
     h = fnv1a64(box, sizeof box, h);
   }
   const int32_t counts[2] = {s.queries, s.referenceSpp};
   h = fnv1a64(counts, sizeof counts, h);
-  // The clearance from punctual lights moves the queries only where there are such lights:
-  // other scenes keep their entries.
+  // The clearance from punctual lights moves the queries only where there are such lights, so
+  // only those scenes' keys include it.
   if (hasPunctualLights && s.lightClearanceRelative > 0)
     h = fnv1a64(&s.lightClearanceRelative, sizeof s.lightClearanceRelative, h);
-  // Queries moved only in scenes with double-sided geometry: other scenes keep their entries.
+  // The double-sided validity rule moves queries only in scenes with double-sided geometry, so
+  // only those scenes' keys include its version.
   if (hasDoubleSided)
     h = fnv1a64(&kDoubleSidedValidityVersion, sizeof kDoubleSidedValidityVersion, h);
   return fnv1a64(&s.seed, sizeof s.seed, h);

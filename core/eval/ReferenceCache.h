@@ -29,11 +29,11 @@ class ReferenceCache {
 
   /// The key of one reference. Changes with any bit of the scene hash, the rig (its JSON and its
   /// environment map's texels), the domain the queries are drawn from (its boxes in order: the
-  /// scene bounds, or the importance volumes),
-  /// queries, referenceSpp or seed, the light clearance when `hasPunctualLights` (the scene or
-  /// rig has a point or spot light), and with kAlgorithmVersion or the capture integrator's
-  /// CaptureCache::kAlgorithmVersion; when `hasDoubleSided` (Scene::hasDoubleSidedSurfaces),
-  /// with kDoubleSidedValidityVersion too (only there did the validity of a query change).
+  /// scene bounds, or the importance volumes), queries, referenceSpp or seed, the light
+  /// clearance when `hasPunctualLights` (the scene or rig has a point or spot light), and with
+  /// kAlgorithmVersion or the capture integrator's CaptureCache::kAlgorithmVersion; when
+  /// `hasDoubleSided` (Scene::hasDoubleSidedSurfaces), with kDoubleSidedValidityVersion too (the
+  /// only scenes whose queries' validity it decides).
   /// Throws ps::FileError when the rig's map cannot be read.
   static uint64_t key(uint64_t sceneHash, const LightingRig& rig, std::span<const Bounds3> domain,
                       const EvalSettings& settings, bool hasPunctualLights,

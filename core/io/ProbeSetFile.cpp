@@ -56,7 +56,7 @@ uint64_t hashFromHex(const JsonField& f) {
   return std::stoull(s, nullptr, 16);
 }
 
-// Version 1 -> 2: version 2 added the scene hash, importance volumes and the per-capture scene
+// Version 1 -> 2: version 2 has the scene hash, importance volumes and the per-capture scene
 // hash. A version-1 file has none of them: its captures are of an unknown scene state.
 void migrateV1ToV2(ojson& j) {
   j["version"] = 2;

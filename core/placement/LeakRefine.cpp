@@ -373,9 +373,8 @@ class TetCutter {
   /// clamped to it. `perVolume`: points per cubic metre, for the count drawn beyond it.
   /// `inside`: a point inside the hull (the mean of the probes), which gives the face its outward
   /// side. Not the opposite vertex: a sliver on the hull, flat once its corners are floats, has
-  /// that vertex in the face's plane, and its face's prism then ran inwards across the whole
-  /// domain (two-rooms, greedy 512 with `bake --leak-cut-probes --over-cut-weight 0` and 2^20
-  /// cut points: 169,211 points drawn for one such tet at x = -6.05 left leaking, up to x = 6.05).
+  /// that vertex in the face's plane, which would turn the face's prism inwards across the whole
+  /// domain and draw points far from the face.
   void addHullFace(int opposite, double perVolume, Vec3 inside) {
     Face face{opposite, {0, 0, 0}, {}, 0};
     for (int k = 0, m = 0; k < 4; ++k)
@@ -705,7 +704,8 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
   double totalVolume = 0;
   for (size_t t = 0; t < v.tets.size(); ++t) {
     const auto& tet = v.tets[t];
-    // From vertex 3, as the barycentric matrices are (the expression the volumes had before).
+    // From vertex 3, as the barycentric matrices are: the operand order fixes the rounding of
+    // the volumes, and with it the points each tet draws.
     volume[t] =
         tetVolume(v.position(tet[3]), v.position(tet[0]), v.position(tet[1]), v.position(tet[2]));
     totalVolume += volume[t];
@@ -718,10 +718,8 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
   };
   // Beyond an edge or a corner of the hull, queries are clamped onto it (two probes or one
   // interpolated) and lie in no face's prism: where the hull is small against the domain, most
-  // of the domain is there (two-rooms, greedy at 32 probes: 84 % of eval's queries outside the
-  // hull, and each of 8 of its leaking queries drawn at random clamped to an edge or a corner).
-  // Points uniform in the domain are located as queries are and given to the tet they clamp
-  // into.
+  // of the domain is there. Points uniform in the domain are located as queries are and given
+  // to the tet they clamp into.
   // locate() as the uncut volume: its cuts are put aside, and back if this throws.
   struct CutsAside {
     ProbeVolume& v;

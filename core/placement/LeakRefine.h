@@ -104,12 +104,11 @@ struct LeakCutSettings {
   int maxPlanesPerTet = 8;
   /// What a cut costs, in leaking points, per unit of weight it moves at a point that sees every
   /// probe it interpolates (beyond a hull face: the face's three; the total variation of its
-  /// weights, 0 to 1): a plane is infinite,
-  /// and one through a pillar's face hides probes from points in plain view of them too. 0
-  /// counts the leaks alone. At 0.25, against 0, the share of eval's queries that see all their
-  /// probes but have their weights moved by more than 0.05 falls from 0.144 to 0.023 on
-  /// two-rooms' greedy-64 volume, rel_rmse holds or falls on the 12 bundled volumes measured,
-  /// and a few more queries leak (0.0047 to 0.0078 there; BENCHMARKS.md, "Over-cut").
+  /// weights, 0 to 1): a plane is infinite, and one through a pillar's face hides probes from
+  /// points in plain view of them too. Non-negative; 0 counts the leaks alone. The default 0.25
+  /// spares most queries that see all their probes from having their weights moved, at the
+  /// cost of a few more leaking queries, and holds or lowers rel_rmse (BENCHMARKS.md,
+  /// "Over-cut").
   double overCutWeight = 0.25;
   /// Validity of a point that sees a vertex hidden (Kontkanen & Laine sec. 5).
   int validityRays = 16;

@@ -140,7 +140,7 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
   const Vec3 e = b.extent();
 
   // The grid closest to `budget` points whose axes each have at least `least` points (1: any
-  // grid, the search as it always was).
+  // grid, no axis held).
   auto search = [&](int least) {
     UniformBudgetResult best;
     double bestMiss = std::numeric_limits<double>::infinity();

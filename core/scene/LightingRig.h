@@ -34,8 +34,7 @@ std::vector<Light> allLights(const Scene& scene, const LightingRig& rig);
 /// away from point and spot lights. A point light's irradiance grows as 1 / r^2, so the squared
 /// error of an interpolation next to it grows as 1 / r^4, whose integral over the volume around the
 /// light diverges: without a clearance, rel_rmse is the relative error at whichever query lands
-/// nearest to the light, and changes by a factor of 3 with the seed (two-rooms, 32768 queries:
-/// BENCHMARKS.md). No real object sits inside a lamp.
+/// nearest to the light, and varies strongly with the seed. No real object sits inside a lamp.
 inline constexpr double kDefaultLightClearanceRelative = 0.02;
 
 /// The punctual lights (point and spot) of a scene and rig: their positions.

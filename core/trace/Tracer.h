@@ -71,7 +71,7 @@ class Tracer {
 
  private:
   // The ray as eight scalars, which the calling convention passes in registers: a Ray in
-  // memory, written by the caller field by field and read back here in 16-byte pairs, stalled
+  // memory, written by the caller field by field and read back here in 16-byte pairs, stalls
   // on store forwarding (a measurable share of the capture's time).
   std::optional<Hit> intersect(double ox, double oy, double oz, double dx, double dy, double dz,
                                double tMin, double tMax) const;
