@@ -1,5 +1,5 @@
 #pragma once
-// Autosave to a recovery file, offered at the next start after a crash (issue 6, "Files").
+// Autosave to a recovery file, offered at the next start after a crash.
 // Each editor session owns three files in the recovery folder, named after a random session id:
 //   session-ID.lock         a QLockFile held while the session runs
 //   session-ID.probes.json  the probe set as the user last had it (core probe-set format)

@@ -1,8 +1,8 @@
 #pragma once
-// The evaluation dock (issue 6, "a plot (Qt Charts) of error against probe count"): Evaluate runs
-// core/eval in the background on the baked volume (or the accepted probes' preview volume); each
-// run adds a point to the plot of relative RMS and 95th-percentile irradiance error (in %)
-// against the volume's probe count, and a row to the table below it.
+// The evaluation dock, a plot (Qt Charts) of error against probe count: Evaluate runs core/eval in
+// the background on the baked volume (or the accepted probes' preview volume); each run adds a
+// point to the plot of relative RMS and 95th-percentile irradiance error (in %) against the
+// volume's probe count, and a row to the table below it.
 #include <QWidget>
 
 class QChart;

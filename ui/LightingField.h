@@ -52,13 +52,13 @@ struct PreviewCuts {
 };
 
 /// Above this many tetrahedra the preview gets no cuts: their time grows with the tetrahedra and
-/// the scene (on two cores, 0.52 s for 26,155 tetrahedra in two-rooms, 0.76 s for 9,078 in
-/// dream-apartment; BENCHMARKS.md), and the fields wait for them after every edit.
+/// the scene, and the fields wait for them after every edit, so the limit bounds that wait
+/// (BENCHMARKS.md, "Leak cuts in the preview").
 inline constexpr size_t kMaxPreviewCutTets = 30000;
 
 /// Bake's leak-cut settings with a quarter of its points (8 per tetrahedron at least, 2^16 in
-/// all): on two-rooms' greedy-64 volume they leave 0.80 % of eval's queries leaking against
-/// bake's 0.78 %, in a quarter of the time (BENCHMARKS.md).
+/// all): nearly as few leaking queries as bake's cuts, in about a quarter of the time
+/// (BENCHMARKS.md, "Leak cuts in the preview").
 LeakCutSettings previewLeakCutSettings();
 
 /// Cuts `volume` as bake would (computeLeakCuts with previewLeakCutSettings()) for queries in

@@ -1,7 +1,7 @@
 #pragma once
-// The lighting dock (issue 6, "a lighting panel to add and edit the sun, sky and lights of the
-// rig"): the probe set's LightingRig, edited as one undoable step per change
-// (Document::setRig). Conventions as the command line's --sun / --env / --point (README):
+// The lighting dock, to add and edit the sun, sky and lights of the rig: the probe set's
+// LightingRig, edited as one undoable step per change (Document::setRig). Conventions as the
+// command line's --sun / --env / --point (README):
 //   sun: azimuth and elevation of the direction from the scene towards the sun, irradiance E
 //        (W/m^2) on a surface facing it, and a colour; stored as a Directional light named "sun"
 //        whose direction is the one the light travels (the negation);

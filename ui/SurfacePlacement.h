@@ -1,6 +1,6 @@
 #pragma once
-// Where a probe goes when the artist clicks a surface (issue 6, "add a probe by clicking a
-// surface"): a ray through the cursor, traced by the core's Embree tracer.
+// Where a probe goes when the artist clicks a surface: a ray through the cursor, traced by the
+// core's Embree tracer.
 #include <optional>
 
 #include "core/trace/Tracer.h"

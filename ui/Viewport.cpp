@@ -905,7 +905,7 @@ void Viewport::paintGL() {
     glEnable(GL_BLEND);
     // "Over" on alpha too: the framebuffer stays opaque. With plain glBlendFunc its alpha drops
     // under translucent strokes and the window composes (and grabs) them as invalid
-    // premultiplied colour: orange lines came out green in the window screenshot.
+    // premultiplied colour (orange lines would show green in a window screenshot).
     glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
     glUseProgram(probeProgram_);
     glUniformMatrix4fv(glGetUniformLocation(probeProgram_, "uViewProj"), 1, GL_FALSE,

@@ -1,8 +1,8 @@
-// The viewport's lighting preview and overlays (issue 6, "Viewport"): the "probe lighting"
-// preview, gradient glyphs (Chajdas et al. 2011 Fig. 2), the slice plane coloured by luminance
-// distance to the selected probe (their Fig. 11) or by interpolation error, the tetrahedral mesh
-// with leaking edges, and the test object. The data comes from LightingField.h; this file only
-// turns it into GL buffers and draws it.
+// The viewport's lighting preview and overlays: the "probe lighting" preview, gradient glyphs
+// (Chajdas et al. 2011 Fig. 2), the slice plane coloured by luminance distance to the selected
+// probe (their Fig. 11) or by interpolation error, the tetrahedral mesh with leaking edges, and the
+// test object. The data comes from LightingField.h; this file only turns it into GL buffers and
+// draws it.
 #include <QImage>
 #include <QtConcurrent/QtConcurrentRun>
 #include <QtMath>
