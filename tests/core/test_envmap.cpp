@@ -325,7 +325,7 @@ TEST(EnvironmentMap, ProbeSetStoresThePathRelativeToTheSet) {
   EXPECT_EQ(fs::path(back.rig.envMapPath), map.lexically_normal());
   EXPECT_FALSE(back.rig.envMap);  // loaded when a capture needs it
   EXPECT_FALSE(back.rig.empty());
-  // A rig without a map writes no env_map field (files stay as they were).
+  // A rig without a map writes no env_map field.
   ProbeSet plain;
   plain.rig.skyRadiance = {1, 1, 1};
   saveProbeSet(plain, file);

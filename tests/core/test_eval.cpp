@@ -200,8 +200,8 @@ TEST(Eval, TheLightClearanceKeysOnlyScenesWithPunctualLights) {
 }
 
 TEST(Eval, TheDoubleSidedValidityKeysOnlyScenesWithDoubleSidedSurfaces) {
-  // Counting double-sided back faces moved queries only in scenes that have such surfaces:
-  // the other scenes keep their cache entries.
+  // Counting double-sided back faces moves queries only in scenes that have such surfaces, so
+  // only their keys include the double-sided validity version.
   const EvalSettings es;
   const Bounds3 box{{0, 0, 0}, {1, 1, 1}};
   const LightingRig rig;
@@ -220,8 +220,8 @@ TEST(Eval, TheDoubleSidedValidityKeysOnlyScenesWithDoubleSidedSurfaces) {
 
 TEST(Eval, NoQueryInsideAClosedDoubleSidedObject) {
   // A glowing 4 x 2 x 4 m room with a closed double-sided block (clear of the walls) filling a
-  // fifth of it. Every asset of the shared real scenes is double-sided, and their insides used
-  // to be drawn as queries (14 % of dream-apartment's, at zero irradiance).
+  // fifth of it. Every asset of the shared real scenes is double-sided: no query may be drawn
+  // inside such an object, where the irradiance is zero.
   Scene scene;
   ps::testing::addBox(scene, {-2, 0, -2}, {2, 2, 2},
                       ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}, {1, 1, 1}),

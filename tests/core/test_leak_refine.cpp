@@ -442,11 +442,11 @@ TEST(LeakCuts, BadSettingsThrowParameterError) {
 
 // The probes added for the cuts are outside geometry. Two-rooms' floor and ceiling are one slab
 // per room, meeting under the shared wall, whose top is the ceiling's underside: there a ray
-// may hit either of two coincident faces, and when the front one counted, points inside the
-// slabs showed back-face fractions of 0.3 to 0.4 and the cuts' 16 validity rays passed them.
-// Seeing none of their tetrahedron's probes, they were just what refineForLeakCuts looks for,
-// and became probes (backfaceFraction now finds such pairs and tells a shared face from a
-// back-to-back sheet by what lies past it).
+// may hit either of two coincident faces. Were the front one counted, points inside the slabs
+// would show back-face fractions near the threshold, which the cuts' 16 validity rays can
+// pass; seeing none of their tetrahedron's probes, they are just what refineForLeakCuts looks
+// for, and would become probes. backfaceFraction finds such pairs and tells a shared face from
+// a back-to-back sheet by what lies past it.
 TEST(LeakCuts, ProbesAddedForTheCutsAreOutsideGeometry) {
   const Tracer& tracer = twoRooms().tracer;
   const std::vector<Vec3> probes = coarseSet(tracer);
@@ -475,9 +475,7 @@ TEST(LeakCuts, ProbesAddedForTheCutsAreOutsideGeometry) {
 // A sliver on the hull that is flat once its corners are floats (the volume's positions): its
 // opposite vertex lies in the plane of its hull faces, so it cannot tell their outside. The
 // points drawn beyond those faces must stay beyond them, not run inwards across the domain and
-// through the shared wall (found on two-rooms, greedy 512 with `bake --leak-cut-probes
-// --over-cut-weight 0` and 2^20 cut points: 169,211 points of one such tet left leaking; after
-// the fix, 1 point in all).
+// through the shared wall, where they would leave many points leaking.
 TEST(LeakCuts, AHullSliverFlatInFloatDrawsBeyondItsFacesOutwards) {
   const Tracer& tracer = twoRooms().tracer;
   auto cutsOf = [&](double bulge, int* flatOnHull) {
@@ -512,8 +510,8 @@ TEST(LeakCuts, AHullSliverFlatInFloatDrawsBeyondItsFacesOutwards) {
   ASSERT_GT(flat, 0) << "the set must hold a hull sliver that is flat in floats";
   EXPECT_EQ(flatWithout, 0);
   // The strip beyond the west faces is 0.15 m deep: about as many points as without the sliver
-  // (other tets, other leaks), not a prism as deep as the building. Inwards, the sliver's faces
-  // drew 644,353 points and left 180,966 leaking, against 133,360 and 669.
+  // (other tets, other leaks), not a prism as deep as the building, which would draw several
+  // times as many points and leave most of them leaking.
   EXPECT_LT(sliver.samples, plain.samples * 11 / 10);
   EXPECT_LT(sliver.hiddenSamplesAfter, 2 * plain.hiddenSamplesAfter + 100);
 }

@@ -844,8 +844,8 @@ TEST(Uniform, BudgetGivesTheProbeCountWithinTenPercent) {
 
 TEST(Uniform, BudgetGridsSpanThreeDimensionsInAFlatRoom) {
   // A 10 x 1.2 x 10 m room: the cubic spacing for 32 points (about 1.5 m) fits one layer in its
-  // height, a flat grid no volume can be made of (dream-apartment's uniform 32 and 64 were). The
-  // budget's grids keep at least two points along each axis.
+  // height, a flat grid no volume can be made of (as dream-apartment's cubic grids at 32 and 64
+  // are). The budget's grids keep at least two points along each axis.
   Scene scene;
   ps::testing::addBox(scene, {-5, 0, -5}, {5, 1.2, 5},
                       ps::testing::addMaterial(scene, {0.5, 0.5, 0.5}), /*inward=*/true);

@@ -1,5 +1,5 @@
-// Frame time of the editor's viewport (issue 6: "stays interactive with 10k probes and 100k
-// glyphs"). Needs a display with OpenGL 3.3: run under Xvfb with Mesa's software renderer, e.g.
+// Frame time of the editor's viewport, which is to stay interactive with 10k probes and 100k
+// glyphs. Needs a display with OpenGL 3.3: run under Xvfb with Mesa's software renderer, e.g.
 //   LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a -s "-screen 0 1280x1024x24" build/tests/ui/bench_viewport
 // Each frame is paintGL into the widget's framebuffer followed by glFinish (no readback).
 // The probes are 10,000 captured-looking probes spread through two-rooms.gltf (random positions,
@@ -154,8 +154,7 @@ void BM_OverlayRebuild10kProbes100kGlyphs(benchmark::State& state) {
 // Real time: the GPU work (Mesa's llvmpipe runs it on its own threads) is in the frame.
 /// The preview volume after one probe of 10k moves (keeping its SH): the editor's
 /// PreviewVolumeMirror (a diff of the probes, then one local move in an EditableProbeVolume)
-/// against buildPreviewVolume() from scratch, which the editor did before. Arg 0: mirror, 1:
-/// rebuild. No GL.
+/// against buildPreviewVolume() from scratch. Arg 0: mirror, 1: rebuild. No GL.
 void BM_PreviewVolumeAfterMove10k(benchmark::State& state) {
   const bool mirror = state.range(0) == 0;
   std::mt19937 rng(7);

@@ -293,7 +293,7 @@ class TestEditing : public QObject {
     QCOMPARE(ray.origin.y(), vp->cutHeight());
     {
       // Here the whole ray meets geometry the cut-away hides (y 3.2 above the 2.35 m cut):
-      // a probe the artist cannot see, which is where the click used to put it.
+      // a probe there is one the artist cannot see, so the click must not put it there.
       const PickRay full = vp->pickRay(centre);
       const auto above = placeOnSurface(*w.document()->tracer(), toV(full.origin),
                                         toV(full.direction), w.surfaceOffsetMeters());
