@@ -1,5 +1,5 @@
 #pragma once
-// The placement and bake dock (issue 6): method, spacing, budget, quick-capture samples; Run
+// The placement and bake dock: method, spacing, budget, quick-capture samples; Run
 // places in the background and replaces the unlocked candidates (Document::runPlacement); Bake
 // captures the accepted probes at final quality and saves the volume beside the probe set
 // (Document::bake). The importance volumes (boxes the artist adds around a selection and edits in

@@ -120,7 +120,7 @@ void registerBake(CLI::App& app) {
     bs.leakRefineProbes = !o->leakCutsOnly;
     // With probes for what the cuts leave, cuts for the leaks alone: they leave fewer leaks for
     // probes to end, so far fewer probes are added, at about the same rel_rmse or a lower one
-    // (BENCHMARKS.md, "A hull sliver's faces, and the cuts' weight with --leak-cut-probes").
+    // (BENCHMARKS.md, "Leaks").
     bs.leakCutSettings.overCutWeight =
         o->leakCutProbes && !cmd->count("--over-cut-weight") ? 0.0 : o->overCutWeight;
     if (o->fit) {

@@ -42,8 +42,7 @@ struct BakeSettings {
   /// With the cuts: probes where they cannot end a leak (refineForLeakCuts); off by default
   /// (`bake --leak-cut-probes`, which also sets leakCutSettings.overCutWeight to 0 unless
   /// `--over-cut-weight` is given). Off by default because they end nearly every leak the cuts
-  /// leave but can raise rel_rmse at small probe counts (BENCHMARKS.md, "A hull sliver's faces,
-  /// and the cuts' weight with --leak-cut-probes").
+  /// leave but can raise rel_rmse at small probe counts (BENCHMARKS.md, "Leaks").
   bool leakCutProbes = false;
   LeakRefineSettings leakRefineSettings;
   LeakCutSettings leakCutSettings;

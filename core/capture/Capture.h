@@ -108,11 +108,10 @@ void captureProbesInChunks(const Tracer& tracer, const LightingRig& rig,
 /// points inside walls and furniture would pass as valid, at zero irradiance. Where two solids
 /// share a face (a wall standing on a floor slab, two slabs meeting), a ray that reaches the shared
 /// face counts its back face: Embree reports either of the two coincident triangles, and counting
-/// the front one would let points inside the solids there pass (BENCHMARKS.md, "Where the leaks
-/// are"). A sheet made of two triangles back to back is told apart by what lies past it: a ray that
-/// crosses a shared face is inside the other solid (its next hit is a back face), one that crosses
-/// a sheet is not. The capture's own ProbeCapture::backfaceFraction takes the first hit as it is.
-/// Deterministic for a given seed.
+/// the front one would let points inside the solids there pass. A sheet made of two triangles back
+/// to back is told apart by what lies past it: a ray that crosses a shared face is inside the other
+/// solid (its next hit is a back face), one that crosses a sheet is not. The capture's own
+/// ProbeCapture::backfaceFraction takes the first hit as it is. Deterministic for a given seed.
 double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed);
 
 /// Radiance path-traced along a ray leaving point `origin` in unit direction `dir`; exposed for

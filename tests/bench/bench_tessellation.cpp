@@ -1,7 +1,7 @@
 // Tessellation and traversal (Sukys 3.2.1): construction against a bare CGAL
 // Delaunay_triangulation_3 insertion of the same points, and point location (warm walk from the
 // last tet, cold start from the locator, brute-force scan, CGAL's locate), all in the same
-// process, ratios reported as counters. Figures: BENCHMARKS.md, "Tessellation and traversal".
+// process, ratios reported as counters. Figures: BENCHMARKS.md, "Tessellation and queries".
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <benchmark/benchmark.h>
