@@ -12,6 +12,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/eval/Evaluate.h"
+#include "core/eval/PerceptualError.h"
 #include "core/eval/ReferenceCache.h"
 #include "core/io/JsonFields.h"
 #include "core/io/ProbeSetFile.h"
@@ -65,8 +66,9 @@ void registerEval(CLI::App& app) {
       ->check(CLI::Range(0, 1 << 24));
   cmd->add_option("--per-query", o->perQuery,
                   "Write every query to this CSV: x,y,z,nx,ny,nz,reference,reference_std,"
-                  "interpolated,rel_error,leaking,outside (luminance of the irradiance; "
-                  "rel_error as for p95; outside: clamped to the probes' hull)");
+                  "interpolated,rel_error,leaking,outside,stops (luminance of the irradiance; "
+                  "rel_error as for p95; outside: clamped to the probes' hull; stops: the "
+                  "perceptual error, |log2| of interpolated over reference above the floor)");
   cmd->callback([o] {
     // Absurd requests get a message before anything is allocated or traced.
     if (o->queries > 10'000'000)
@@ -78,19 +80,23 @@ void registerEval(CLI::App& app) {
     LightingRig rig;
     ProbeVolume volume;
     std::optional<ProbeSet> set;
-    std::vector<Bounds3> domain;  // the set's importance volumes: where the queries go
+    std::vector<Bounds3> domain;           // the set's importance volumes: where the queries go
+    std::vector<std::string> regionNames;  // their names (a volume keeps their boxes only)
     if (isVolumePath(o->input)) {
       VolumeFile vf = loadVolume(o->input);
       const VolumeSource src = volumeSource(vf, o->input);
       scenePath = src.scenePath;
       rig = src.rig;
       domain = src.domain;
+      for (size_t i = 0; i < domain.size(); ++i)
+        regionNames.push_back("importance volume " + std::to_string(i + 1));
       volume = std::move(vf.volume);
     } else {
       set = loadProbeSet(o->input);
       scenePath = set->scenePath;
       rig = set->rig;
       domain = importanceBoxes(set->importanceVolumes);
+      for (const ImportanceVolume& v : set->importanceVolumes) regionNames.push_back(v.name);
     }
     const Scene scene = loadScene(scenePath);
     for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
@@ -123,15 +129,23 @@ void registerEval(CLI::App& app) {
       }
     }
     const EvalResult r = evaluateVolume(tracer, rig, volume, es, terminalProgress("eval"));
+    // The perceptual error (core/eval/PerceptualError.h), over all queries and per importance
+    // volume, all against the floor of the whole domain.
+    const double stopsFloor = adaptationFloor(r.perQuery);
+    const std::vector<double> stops = queryStops(r.perQuery, stopsFloor);
+    const EvalStops allStops = summarizeStops(stops);
+    const std::vector<RegionError> regions = regionErrors(r.perQuery, stops, domain, regionNames);
     if (!o->perQuery.empty()) {
       std::string csv =
-          "x,y,z,nx,ny,nz,reference,reference_std,interpolated,rel_error,leaking,outside\n";
+          "x,y,z,nx,ny,nz,reference,reference_std,interpolated,rel_error,leaking,outside,stops\n";
       char line[512];
-      for (const EvalQuery& q : r.perQuery) {
-        std::snprintf(
-            line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d,%d\n",
-            q.point.x, q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z, q.reference,
-            q.referenceStd, q.interpolated, q.relError, q.leaking ? 1 : 0, q.outside ? 1 : 0);
+      for (size_t i = 0; i < r.perQuery.size(); ++i) {
+        const EvalQuery& q = r.perQuery[i];
+        std::snprintf(line, sizeof line,
+                      "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d,%d,%.6g\n", q.point.x,
+                      q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z, q.reference,
+                      q.referenceStd, q.interpolated, q.relError, q.leaking ? 1 : 0,
+                      q.outside ? 1 : 0, stops[i]);
         csv += line;
       }
       writeFileAtomic(o->perQuery, csv);
@@ -158,6 +172,26 @@ void registerEval(CLI::App& app) {
         j["sh_floor_rel_rmse"] = *r.shFloorRelRmse;
         j["floor_spp"] = o->floorSpp;
       }
+      auto stopsJson = [](const EvalStops& s) {
+        ojson js;
+        js["queries"] = s.queries;
+        js["rms"] = s.rms;
+        js["median"] = s.median;
+        js["p90"] = s.p90;
+        js["beyond_third_stop"] = s.beyondThirdStop;
+        return js;
+      };
+      j["stops"] = stopsJson(allStops);
+      j["stops"]["floor"] = stopsFloor;
+      j["regions"] = ojson::array();
+      for (const RegionError& region : regions) {
+        ojson jr;
+        jr["name"] = region.name;
+        jr["stops"] = stopsJson(region.stops);
+        jr["rel_rmse"] = region.relRmse;
+        jr["mean_reference"] = region.meanReference;
+        j["regions"].push_back(jr);
+      }
       std::cout << j.dump(2) << "\n";
     } else {
       std::printf(
@@ -177,6 +211,16 @@ void registerEval(CLI::App& app) {
             "spp: its SH part no placement removes, on average over the normals; it holds that "
             "capture's noise, which a blend of probes lowers, and the reference's)\n",
             *r.shFloorRelRmse, o->floorSpp);
+      std::printf(
+          "perceptual error (stops, floor %.4g = 5 %% of the median reference): RMS %.3f, "
+          "median %.3f, p90 %.3f; %.4f of the queries off by a third of a stop or more\n",
+          stopsFloor, allStops.rms, allStops.median, allStops.p90, allStops.beyondThirdStop);
+      for (const RegionError& region : regions)
+        std::printf(
+            "  %s: %zu queries, mean reference %.4g: stops RMS %.3f, median %.3f, p90 "
+            "%.3f, beyond a third %.4f; rel_rmse %.4f\n",
+            region.name.c_str(), region.stops.queries, region.meanReference, region.stops.rms,
+            region.stops.median, region.stops.p90, region.stops.beyondThirdStop, region.relRmse);
     }
   });
 }

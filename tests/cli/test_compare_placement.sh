@@ -17,7 +17,8 @@ assert [r["method"] for r in rows] == ["uniform", "greedy"], rows
 for r in rows:
     assert list(r) == ["scene", "method", "budget", "probes", "place_seconds", "rel_rmse", "p95",
                        "max", "reference_noise", "rel_rmse_std_error", "leaking_fraction",
-                       "leaking_outside_hull", "outside_hull", "sh_floor"], r
+                       "leaking_outside_hull", "outside_hull", "sh_floor", "rms_stops",
+                       "p90_stops", "beyond_third_stop"], r
     assert all(r[k] for k in r), r
     assert 0 <= float(r["leaking_fraction"]) <= 1, r
     assert 0 <= float(r["leaking_outside_hull"]) <= float(r["leaking_fraction"]), r
@@ -28,6 +29,10 @@ for r in rows:
     assert abs(int(r["probes"]) - 16) <= 3, r  # the uniform grid's count is coarse at 16
     # The scene's SH floor, from the first row's eval, in every row (at 64 spp, mostly noise).
     assert float(r["sh_floor"]) > 0 and r["sh_floor"] == rows[0]["sh_floor"], r
+    # The perceptual error in stops: positive and finite (this tiny run is mostly noise, and
+    # the floor bounds a dark query's error at log2 of the brightest estimate over the floor).
+    assert 0 < float(r["p90_stops"]) < 20 and 0 < float(r["rms_stops"]) < 20, r
+    assert 0 <= float(r["beyond_third_stop"]) <= 1, r
 PY
 [ ! -e "$tmp/p-error-vs-probes.png" ]
 # The floor is captured once per scene (its first row's eval), through a probestudio that logs

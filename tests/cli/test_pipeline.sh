@@ -58,7 +58,7 @@ import csv
 rows = list(csv.DictReader(open(f"{tmp}/eval.csv")))
 assert len(rows) == 32 and list(rows[0]) == ["x", "y", "z", "nx", "ny", "nz", "reference",
                                              "reference_std", "interpolated", "rel_error",
-                                             "leaking", "outside"], rows[0]
+                                             "leaking", "outside", "stops"], rows[0]
 num = sum((float(r["interpolated"]) - float(r["reference"])) ** 2 for r in rows)
 den = sum(float(r["reference"]) ** 2 for r in rows)
 assert abs(math.sqrt(num / den) - e["rel_rmse"]) < 1e-6 * e["rel_rmse"] + 1e-9, (num, den, e)
@@ -78,6 +78,20 @@ assert abs(rel[math.ceil(0.95 * 32) - 1] - e["p95_rel_error"]) <= 1e-5 * e["p95_
 assert abs(rel[-1] - e["max_rel_error"]) <= 1e-5 * e["max_rel_error"], (rel, e)
 for r in rows:
     assert abs(math.hypot(float(r["nx"]), float(r["ny"]), float(r["nz"])) - 1) < 1e-4, r
+# The perceptual error: each query's stops against the JSON's floor, summarised as the JSON says.
+floor = e["stops"]["floor"]
+refs = sorted(float(r["reference"]) for r in rows)
+assert abs(floor - 0.05 * refs[math.ceil(0.5 * 32) - 1]) <= 1e-6 * floor, (floor, refs)
+stops = []
+for r in rows:
+    want = abs(math.log2(max(float(r["interpolated"]), floor) / max(float(r["reference"]), floor)))
+    assert abs(float(r["stops"]) - want) < 1e-4 * want + 1e-5, (r, want)
+    stops.append(want)
+assert abs(math.sqrt(sum(x * x for x in stops) / 32) - e["stops"]["rms"]) < 1e-4, e["stops"]
+assert e["stops"]["queries"] == 32 and e["regions"] == [], e
+stops.sort()
+assert abs(stops[math.ceil(0.9 * 32) - 1] - e["stops"]["p90"]) < 1e-4, (stops, e["stops"])
+assert e["stops"]["beyond_third_stop"] == sum(x >= 1 / 3 for x in stops) / 32, e["stops"]
 q = json.load(open(f"{tmp}/q.json"))[0]
 assert q["tet"] >= 0 and abs(sum(q["weights"]) - 1) < 1e-5
 assert all(c > 0 for c in q["irradiance"]), q

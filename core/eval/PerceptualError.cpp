@@ -1,0 +1,95 @@
+#include "core/eval/PerceptualError.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/common/Check.h"
+
+namespace ps {
+
+double errorStops(double estimate, double reference, double floorLuminance) {
+  PS_CHECK_LT(0.0, floorLuminance);
+  return std::abs(
+      std::log2(std::max(estimate, floorLuminance) / std::max(reference, floorLuminance)));
+}
+
+namespace {
+
+/// The nearest-rank percentile `q` (0 to 1) of sorted values.
+double percentile(const std::vector<double>& sorted, double q) {
+  if (sorted.empty()) return 0;
+  const size_t rank = size_t(std::ceil(q * double(sorted.size())));
+  return sorted[std::clamp(rank, size_t(1), sorted.size()) - 1];
+}
+
+}  // namespace
+
+double adaptationFloor(std::span<const EvalQuery> queries) {
+  std::vector<double> refs;
+  refs.reserve(queries.size());
+  double sum = 0;
+  for (const EvalQuery& q : queries) {
+    refs.push_back(std::max(q.reference, 0.0));
+    sum += refs.back();
+  }
+  std::sort(refs.begin(), refs.end());
+  double level = percentile(refs, 0.5);
+  if (!(level > 0) && !refs.empty()) level = sum / double(refs.size());
+  return level > 0 ? kAdaptationFloorFraction * level : 1e-12;
+}
+
+EvalStops summarizeStops(std::span<const double> stops) {
+  EvalStops s;
+  s.queries = stops.size();
+  if (stops.empty()) return s;
+  std::vector<double> sorted(stops.begin(), stops.end());
+  std::sort(sorted.begin(), sorted.end());
+  double sq = 0;
+  size_t visible = 0;
+  for (double e : sorted) {
+    sq += e * e;
+    visible += e >= kVisibleStops ? 1 : 0;
+  }
+  s.rms = std::sqrt(sq / double(sorted.size()));
+  s.median = percentile(sorted, 0.5);
+  s.p90 = percentile(sorted, 0.9);
+  s.beyondThirdStop = double(visible) / double(sorted.size());
+  return s;
+}
+
+std::vector<double> queryStops(std::span<const EvalQuery> queries, double floorLuminance) {
+  std::vector<double> out;
+  out.reserve(queries.size());
+  for (const EvalQuery& q : queries)
+    out.push_back(errorStops(q.interpolated, q.reference, floorLuminance));
+  return out;
+}
+
+std::vector<RegionError> regionErrors(std::span<const EvalQuery> queries,
+                                      std::span<const double> stops, std::span<const Bounds3> boxes,
+                                      std::span<const std::string> names) {
+  PS_CHECK_EQ(queries.size(), stops.size());
+  PS_CHECK_EQ(boxes.size(), names.size());
+  std::vector<RegionError> out;
+  for (size_t b = 0; b < boxes.size(); ++b) {
+    std::vector<double> inside;
+    double errSq = 0, refSq = 0, refSum = 0;
+    for (size_t i = 0; i < queries.size(); ++i) {
+      if (!boxes[b].contains(queries[i].point)) continue;
+      inside.push_back(stops[i]);
+      const double e = queries[i].interpolated - queries[i].reference;
+      errSq += e * e;
+      refSq += queries[i].reference * queries[i].reference;
+      refSum += queries[i].reference;
+    }
+    RegionError r;
+    r.name = names[b];
+    r.stops = summarizeStops(inside);
+    r.relRmse = refSq > 0 ? std::sqrt(errSq / refSq) : 0.0;
+    r.meanReference = inside.empty() ? 0.0 : refSum / double(inside.size());
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+}  // namespace ps
