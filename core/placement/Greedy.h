@@ -1,5 +1,5 @@
 #pragma once
-// `greedy` placement (ours, error-driven; issue 5 "Methods"): start from a few field samples
+// `greedy` placement (ours, error-driven): start from a few field samples
 // spanning the domain, tetrahedralize, and repeatedly add the dense-field sample where the
 // tetrahedral interpolation of the current probes is worst, until a probe budget or an error
 // target is reached. Answers "with N probes, how wrong is the lighting, and where?".
@@ -42,9 +42,9 @@ struct GreedySettings {
   /// Held-out points: when given, the error is measured at them alone (with their weights) and
   /// the field's samples are only the candidates. A field sample that becomes a
   /// probe has error 0 from then on, and few samples lie between probes, so the error on the
-  /// field's own samples falls faster than the error between the probes does. Cornell at 512
-  /// probes, field seed 1: greedy's error 0.144 on the field where eval measures 0.219; with
-  /// 65,536 held-out points, 0.249 where eval measures 0.196.
+  /// field's own samples falls faster than the error between the probes does, and tracks
+  /// eval's rel_rmse less closely than the error at held-out points (BENCHMARKS.md,
+  /// "Placement").
   std::vector<HeldOutSample> heldOut;
   /// When set, a candidate's value as a probe is its capture by this function (the bake's
   /// samples per probe) rather than its field sample's cheap capture, whose noise the
@@ -84,13 +84,12 @@ struct GreedyResult {
   std::vector<double> errorHistory;
   double fieldError = 0;  ///< at the end
   /// True when, at some point, no candidate lowered the field error (the field's noise, or error
-  /// its samples do not resolve: on cornell 4x the field spp moved this from 77 to 113 probes
-  /// and did not lower eval's error):
+  /// its samples do not resolve; a field of more samples per probe moves that point but does
+  /// not lower eval's error: BENCHMARKS.md, "Placement"):
   /// without a budget placement stops there; with one it goes on, adding the least harmful
   /// candidate whenever none lowers the error and the best one otherwise, so errorHistory is
   /// non-increasing only up to probesAtNoImprovement (on the real scenes the field error still
-  /// falls overall: japanese-bridge-garden 0.185 at 40 probes, 0.104 at 512, first dead end at
-  /// 35).
+  /// falls overall).
   bool noImprovement = false;
   size_t probesAtNoImprovement = 0;  ///< probe count (kept included) when that first happened
   size_t trials = 0;                 ///< meshes tried (candidates evaluated)
