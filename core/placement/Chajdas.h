@@ -31,9 +31,10 @@ struct ChajdasSettings {
   /// Point and spot light positions, and the clearance a probe keeps from them (0: none). The
   /// field's sinks lie on the lights (f points at the brightest direction), so a cluster of
   /// samples around a bulb would put its representative on it: a capture of the 1/r^2
-  /// singularity that the volume then spreads over tetrahedra metres across (on pillar-room at
-  /// 16 probes, one probe 0.1 m from the light made rel_rmse 23). A representative is chosen
-  /// among samples at least this far from every light; a cluster with none gets no probe.
+  /// singularity that the volume then spreads over tetrahedra metres across, so that a single
+  /// probe next to a light can dominate eval's error (BENCHMARKS.md, "Placement"). A
+  /// representative is chosen among samples at least this far from every light; a cluster
+  /// with none gets no probe.
   std::vector<Vec3> punctualLights;
   double lightClearanceMeters = 0;
   uint64_t seed = 1;  ///< k-means initialisation
