@@ -69,8 +69,9 @@ class GreedySearch {
   GreedySearch(const DenseField& field, std::span<const KeptProbe> kept,
                const GreedySettings& settings, const ProgressFn& progress);
 
-  /// Adds the field samples nearest to the corners of the field's bounding box: 8 corners, or
-  /// the 4 alternate ones when the budget leaves fewer than 8 new probes. O(8 samples).
+  /// Adds the free field samples nearest to the corners of the field's bounding box: 8
+  /// corners, or the 4 alternate ones when the budget leaves fewer than 8 new probes (stopping
+  /// at a corner with no free sample). Captures their values. O(8 x samples).
   void addInitialSamples();
   /// The points' weights (weighErrorPoints); throws as it does.
   void weighPoints() { weighErrorPoints(points_, field_, s_); }
