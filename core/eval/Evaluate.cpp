@@ -115,19 +115,18 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   return ref;
 }
 
-EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const ProbeVolume& volume,
-                          const EvalSettings& s, const ProgressFn& progress) {
-  if (s.queries < 1) throw ParameterError("queries: expected at least 1");
-  // Before the cache, whose key leaves the clearance out for some scenes.
-  checkLightClearance(s.lightClearanceRelative);
-  if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
-  if (s.floorSpp < 0) throw ParameterError("floor-spp: expected 0 (off) or more samples");
-  const auto start = std::chrono::steady_clock::now();
-  EvalResult r;
-  const size_t M = size_t(s.queries);
-  const bool hasPunctualLights = !punctualLightPositions(tracer.scene(), rig).empty();
+namespace {
 
-  // The reference: from the cache when it has one, else traced (and stored).
+/// The reference for `s` with M = s.queries points: read from the cache when s.cacheDir and
+/// s.sceneHash give one and it holds an entry, else traced (computeReference) and stored there.
+/// Sets r.referenceCached; adds a note to r.notes for a damaged entry (recomputed) and for a
+/// reference that could not be stored (kept all the same). `progress` sees the tracing only,
+/// scaled to [0, referenceShare]. Throws as computeReference (ps::ParameterError, ps::Cancelled)
+/// and ps::Error when a cache folder asked for cannot be used.
+EvalReference obtainReference(const Tracer& tracer, const LightingRig& rig, const EvalSettings& s,
+                              bool hasPunctualLights, double referenceShare,
+                              const ProgressFn& progress, EvalResult& r) {
+  const size_t M = size_t(s.queries);
   std::optional<ReferenceCache> cache;
   uint64_t key = 0;
   std::optional<EvalReference> reference;
@@ -143,8 +142,6 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
       r.notes.push_back("damaged reference cache entry " + problem + "; recomputing it");
   }
   r.referenceCached = reference.has_value();
-  // Progress: the reference (when traced), the floor's captures (when asked for), the volume.
-  const double referenceShare = s.floorSpp > 0 ? 0.5 : 0.95;
   if (!reference) {
     ProgressFn refProgress;
     if (progress) refProgress = [&](double f) { return progress(referenceShare * f); };
@@ -157,89 +154,145 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
       }
     }
   }
-  const std::vector<Vec3>& points = reference->points;
-  const std::vector<Vec3>& normals = reference->normals;
+  return std::move(*reference);
+}
 
-  // The volume at each query, and whether it interpolates a probe the query cannot see. With leak
-  // cuts, also the weights without them (the same tet), to see what the cuts moved.
+/// The SH floor: a probe captured at each query point at s.floorSpp samples, read at that point
+/// (no interpolation) for the query's normal. Returns the luminance of that irradiance (W/m^2)
+/// per query; empty when s.floorSpp is 0. Captures in chunks of 4096, keeping only each
+/// capture's luminance. `progress` sees [referenceShare, 0.95]. Throws ps::Cancelled when it
+/// returns false.
+std::vector<double> floorLuminance(const Tracer& tracer, const LightingRig& rig,
+                                   const EvalSettings& s, const EvalReference& reference,
+                                   double referenceShare, const ProgressFn& progress) {
+  std::vector<double> floorGot(s.floorSpp > 0 ? reference.points.size() : 0);
+  if (s.floorSpp <= 0) return floorGot;
+  CaptureSettings cs;
+  cs.samplesPerProbe = s.floorSpp;
+  cs.seed = s.seed ^ 0xF100Du;  // not the reference's streams
+  ProgressFn floorProgress;
+  if (progress)
+    floorProgress = [&](double f) {
+      return progress(referenceShare + (0.95 - referenceShare) * f);
+    };
+  captureProbesInChunks(
+      tracer, rig, reference.points, cs, 4096,
+      [&](size_t q, const ProbeCapture& c) {
+        floorGot[q] = luminance(c.sh.irradiance(reference.normals[q]));
+      },
+      floorProgress);
+  return floorGot;
+}
+
+/// The volume against the reference at each query, in the reference's order (M entries each).
+struct QueryMeasures {
+  std::vector<double> ref;    ///< luminance of the reference irradiance (W/m^2)
+  std::vector<double> got;    ///< luminance of the volume's irradiance (W/m^2)
+  std::vector<char> leaking;  ///< 1: interpolates, with weight, a probe the query cannot see
+  /// 1: sees every probe its tet interpolates without the cuts, and the cuts move more than
+  /// kOverCutWeightChange of its weight
+  std::vector<char> overCut;
+  std::vector<char> outside;  ///< 1: outside the probes' hull, clamped to it
+};
+
+/// Query q of `reference` in `volume`: writes entry q of each of m's vectors (sized M by the
+/// caller; no other entry, so queries may run in parallel). `uncut`: the volume without its leak
+/// cuts, or null when it has none. One ray per probe of the query's tet.
+void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVolume* uncut,
+                  const EvalReference& reference, size_t q, QueryMeasures& m) {
+  const Vec3 point = reference.points[q];
+  m.ref[q] = luminance(reference.irradiance[q]);
+  // locate() is the uncut location with the cuts applied: the same tet for both.
+  const VolumeLocation before = locate(uncut ? *uncut : volume, point);
+  VolumeLocation loc = before;
+  if (uncut && loc.tet >= 0) applyCuts(volume, point, loc);
+  m.got[q] = luminance(interpolate(volume, loc).irradiance(reference.normals[q]));
+  m.outside[q] = loc.outside ? 1 : 0;
+  if (loc.tet < 0) return;
+  // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
+  // weight 0 (cut off by a leak cut, or opposite the face a query outside the hull is
+  // clamped to) is not interpolated.
+  bool seesAll = true;  // every probe it interpolates without the cuts
+  for (int k = 0; k < 4; ++k) {
+    if (!(loc.weights[k] > 0) && !(before.weights[k] > 0)) continue;
+    const int32_t vi = volume.tets[size_t(loc.tet)][k];
+    const Vec3 d = volume.position(vi) - point;
+    const double len = length(d);
+    if (len <= 2 * tracer.rayEpsilon()) continue;
+    if (tracer.occluded(
+            Ray{point, d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len})) {
+      if (loc.weights[k] > 0) m.leaking[q] = 1;
+      if (before.weights[k] > 0) seesAll = false;
+    }
+  }
+  // A cut is a plane: it can take weight from probes in plain view (over-cut).
+  if (uncut && seesAll) {
+    double moved = 0;
+    for (int k = 0; k < 4; ++k) moved += std::abs(double(loc.weights[k]) - before.weights[k]);
+    m.overCut[q] = 0.5 * moved > kOverCutWeightChange;
+  }
+}
+
+/// Every query of `reference` in `volume` (measureQuery), in parallel; deterministic, as each
+/// query writes only its own entries.
+QueryMeasures measureQueries(const Tracer& tracer, const ProbeVolume& volume,
+                             const EvalReference& reference) {
+  const size_t M = reference.points.size();
+  // With leak cuts, also the weights without them (the same tet), to see what the cuts moved.
   std::optional<ProbeVolume> uncut;
   if (!volume.cutPlanes.empty()) {
     uncut = volume;
     uncut->cutStart.clear();
     uncut->cutPlanes.clear();
   }
-  // The SH floor: a probe captured at each query point, read at that point (no interpolation).
-  // In chunks, keeping only each capture's luminance for the query's normal.
-  std::vector<double> floorGot(s.floorSpp > 0 ? M : 0);
-  if (s.floorSpp > 0) {
-    CaptureSettings cs;
-    cs.samplesPerProbe = s.floorSpp;
-    cs.seed = s.seed ^ 0xF100Du;  // not the reference's streams
-    ProgressFn floorProgress;
-    if (progress)
-      floorProgress = [&](double f) {
-        return progress(referenceShare + (0.95 - referenceShare) * f);
-      };
-    captureProbesInChunks(
-        tracer, rig, points, cs, 4096,
-        [&](size_t q, const ProbeCapture& c) {
-          floorGot[q] = luminance(c.sh.irradiance(normals[q]));
-        },
-        floorProgress);
-  }
-  std::vector<double> ref(M), got(M);
-  std::vector<char> leaking(M, 0), overCut(M, 0), outside(M, 0);
+  QueryMeasures m{std::vector<double>(M), std::vector<double>(M), std::vector<char>(M, 0),
+                  std::vector<char>(M, 0), std::vector<char>(M, 0)};
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
-    ref[q] = luminance(reference->irradiance[q]);
-    // locate() is the uncut location with the cuts applied: the same tet for both.
-    const VolumeLocation before = locate(uncut ? *uncut : volume, points[q]);
-    VolumeLocation loc = before;
-    if (uncut && loc.tet >= 0) applyCuts(volume, points[q], loc);
-    got[q] = luminance(interpolate(volume, loc).irradiance(normals[q]));
-    outside[q] = loc.outside ? 1 : 0;
-    if (loc.tet < 0) return;
-    // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
-    // weight 0 (cut off by a leak cut, or opposite the face a query outside the hull is
-    // clamped to) is not interpolated.
-    bool seesAll = true;  // every probe it interpolates without the cuts
-    for (int k = 0; k < 4; ++k) {
-      if (!(loc.weights[k] > 0) && !(before.weights[k] > 0)) continue;
-      const int32_t vi = volume.tets[size_t(loc.tet)][k];
-      const Vec3 d = volume.position(vi) - points[q];
-      const double len = length(d);
-      if (len <= 2 * tracer.rayEpsilon()) continue;
-      if (tracer.occluded(
-              Ray{points[q], d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len})) {
-        if (loc.weights[k] > 0) leaking[q] = 1;
-        if (before.weights[k] > 0) seesAll = false;
-      }
-    }
-    // A cut is a plane: it can take weight from probes in plain view (over-cut).
-    if (uncut && seesAll) {
-      double moved = 0;
-      for (int k = 0; k < 4; ++k) moved += std::abs(double(loc.weights[k]) - before.weights[k]);
-      overCut[q] = 0.5 * moved > kOverCutWeightChange;
-    }
+    measureQuery(tracer, volume, uncut ? &*uncut : nullptr, reference, q, m);
   });
-  if (progress && !progress(1.0)) throw Cancelled();
+  return m;
+}
 
-  r.probes = volume.probeCount();
-  r.queries = M;
-  double num = 0, den = 0, mean = 0, noise = 0;
+/// Sums over the queries, in query order (the order fixes their rounding).
+struct ErrorSums {
+  double num = 0;    ///< sum of (got - ref)^2
+  double den = 0;    ///< sum of ref^2
+  double mean = 0;   ///< mean of ref (W/m^2)
+  double noise = 0;  ///< sum of the reference's variances
+};
+
+/// The sums of m over its M >= 1 queries, with the reference's variances.
+ErrorSums sumErrors(const QueryMeasures& m, const std::vector<double>& variance) {
+  const size_t M = m.ref.size();
+  const std::vector<double>& ref = m.ref;
+  const std::vector<double>& got = m.got;
+  ErrorSums e;
   for (size_t q = 0; q < M; ++q) {
-    num += (got[q] - ref[q]) * (got[q] - ref[q]);
-    den += ref[q] * ref[q];
-    mean += ref[q];
-    noise += reference->variance[q];
+    e.num += (got[q] - ref[q]) * (got[q] - ref[q]);
+    e.den += ref[q] * ref[q];
+    e.mean += ref[q];
+    e.noise += variance[q];
   }
-  mean /= M;
+  e.mean /= M;
+  return e;
+}
+
+/// Sets r.relRmse, r.shFloorRelRmse (when `floorGot`, the floor's luminance per query, is not
+/// empty), r.referenceRelNoise and r.relRmseStdError from the sums `e` of m. Each is 0 when the
+/// reference is black (den 0); the standard error also with one query or no error.
+void setRelativeErrors(const ErrorSums& e, const QueryMeasures& m,
+                       const std::vector<double>& floorGot, EvalResult& r) {
+  const size_t M = m.ref.size();
+  const std::vector<double>& ref = m.ref;
+  const std::vector<double>& got = m.got;
+  const double num = e.num, den = e.den;
   r.relRmse = den > 0 ? std::sqrt(num / den) : 0.0;
-  if (s.floorSpp > 0) {
+  if (!floorGot.empty()) {
     double floorNum = 0;
     for (size_t q = 0; q < M; ++q) floorNum += (floorGot[q] - ref[q]) * (floorGot[q] - ref[q]);
     r.shFloorRelRmse = den > 0 ? std::sqrt(floorNum / den) : 0.0;
   }
-  r.referenceRelNoise = den > 0 ? std::sqrt(noise / den) : 0.0;
+  r.referenceRelNoise = den > 0 ? std::sqrt(e.noise / den) : 0.0;
   // The standard error of relRmse from drawing M queries (the delta method on the ratio of the
   // means of e^2 and E_ref^2): var(R) ~ var(e^2 - R E_ref^2) / (M mean(E_ref^2)^2), R = relRmse^2,
   // and sd(sqrt R) = sd(R) / (2 sqrt R).
@@ -254,6 +307,17 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
     const double meanRefSq = den / double(M);
     r.relRmseStdError = std::sqrt(v / double(M)) / meanRefSq / (2 * r.relRmse);
   }
+}
+
+/// Sets r.perQuery (in the reference's order), the per-query relative error's percentiles
+/// (r.maxRelError, r.p95RelError) and the fractions of the M >= 1 queries that leak, are
+/// over-cut, lie outside the hull, and both leak and lie outside. `mean`: the reference's mean
+/// luminance (W/m^2). O(M log M).
+void setPerQuery(const QueryMeasures& m, const EvalReference& reference, double mean,
+                 EvalResult& r) {
+  const size_t M = m.ref.size();
+  const std::vector<double>& ref = m.ref;
+  const std::vector<double>& got = m.got;
   // Per-query relative error, with the denominator floored at a tenth of the mean so that dark
   // corners do not dominate.
   std::vector<double> rel(M);
@@ -262,24 +326,55 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   r.perQuery.resize(M);
   for (size_t q = 0; q < M; ++q) {
     EvalQuery& e = r.perQuery[q];
-    e.point = points[q];
-    e.normal = normals[q];
+    e.point = reference.points[q];
+    e.normal = reference.normals[q];
     e.reference = ref[q];
-    e.referenceStd = std::sqrt(reference->variance[q]);
+    e.referenceStd = std::sqrt(reference.variance[q]);
     e.interpolated = got[q];
     e.relError = rel[q];
-    e.leaking = leaking[q] != 0;
-    e.outside = outside[q] != 0;
+    e.leaking = m.leaking[q] != 0;
+    e.outside = m.outside[q] != 0;
   }
   std::sort(rel.begin(), rel.end());
   r.maxRelError = rel.back();
-  r.leakingFraction = double(std::count(leaking.begin(), leaking.end(), 1)) / double(M);
-  r.overCutFraction = double(std::count(overCut.begin(), overCut.end(), 1)) / double(M);
-  r.outsideHullFraction = double(std::count(outside.begin(), outside.end(), 1)) / double(M);
+  const auto fraction = [M](const std::vector<char>& flags) {
+    return double(std::count(flags.begin(), flags.end(), 1)) / double(M);
+  };
+  r.leakingFraction = fraction(m.leaking);
+  r.overCutFraction = fraction(m.overCut);
+  r.outsideHullFraction = fraction(m.outside);
   size_t leakingOutside = 0;
-  for (size_t q = 0; q < M; ++q) leakingOutside += leaking[q] && outside[q] ? 1 : 0;
+  for (size_t q = 0; q < M; ++q) leakingOutside += m.leaking[q] && m.outside[q] ? 1 : 0;
   r.leakingOutsideHullFraction = double(leakingOutside) / double(M);
   r.p95RelError = rel[std::min(M - 1, size_t(std::ceil(0.95 * M)) - 1)];
+}
+
+}  // namespace
+
+EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const ProbeVolume& volume,
+                          const EvalSettings& s, const ProgressFn& progress) {
+  if (s.queries < 1) throw ParameterError("queries: expected at least 1");
+  // Before the cache, whose key leaves the clearance out for some scenes.
+  checkLightClearance(s.lightClearanceRelative);
+  if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
+  if (s.floorSpp < 0) throw ParameterError("floor-spp: expected 0 (off) or more samples");
+  const auto start = std::chrono::steady_clock::now();
+  EvalResult r;
+  const bool hasPunctualLights = !punctualLightPositions(tracer.scene(), rig).empty();
+  // Progress: the reference (when traced), the floor's captures (when asked for), the volume.
+  const double referenceShare = s.floorSpp > 0 ? 0.5 : 0.95;
+  const EvalReference reference =
+      obtainReference(tracer, rig, s, hasPunctualLights, referenceShare, progress, r);
+  const std::vector<double> floorGot =
+      floorLuminance(tracer, rig, s, reference, referenceShare, progress);
+  const QueryMeasures measures = measureQueries(tracer, volume, reference);
+  if (progress && !progress(1.0)) throw Cancelled();
+
+  r.probes = volume.probeCount();
+  r.queries = size_t(s.queries);
+  const ErrorSums sums = sumErrors(measures, reference.variance);
+  setRelativeErrors(sums, measures, floorGot, r);
+  setPerQuery(measures, reference, sums.mean, r);
   r.lightClearanceMeters =
       hasPunctualLights ? lightClearanceMeters(tracer, s.domain, s.lightClearanceRelative) : 0.0;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
