@@ -674,13 +674,9 @@ class TetCutter {
   size_t samples_ = 0;
 };
 
-}  // namespace
-
-// Sukys 3.2.2 detects the leaks (edges crossing geometry); refinement alone cannot end them, as
-// any tetrahedralization of probes on both sides of a wall has tetrahedra across it. The cuts
-// split those tetrahedra along the surfaces that hide a vertex.
-LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<const Bounds3> domain,
-                              const LeakCutSettings& s) {
+/// Throws ps::ParameterError unless samplesPerTet, validityRays and denseFactor are >= 1,
+/// maxPlanesPerTet is in [1, ProbeVolume::kMaxCutsPerTet] and overCutWeight is finite and >= 0.
+void checkLeakCutSettings(const LeakCutSettings& s) {
   if (s.samplesPerTet < 1 || s.maxPlanesPerTet < 1 ||
       s.maxPlanesPerTet > int(ProbeVolume::kMaxCutsPerTet) || s.validityRays < 1 ||
       s.denseFactor < 1 || !(s.overCutWeight >= 0) || !std::isfinite(s.overCutWeight))
@@ -688,107 +684,164 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
         "leak cuts: samples per tetrahedron, validity rays and the dense factor must be >= 1, "
         "planes per tetrahedron in [1, " +
         std::to_string(ProbeVolume::kMaxCutsPerTet) + "], the over-cut weight finite and >= 0");
-  if (domain.empty()) domain = std::span<const Bounds3>(&tracer.scene().bounds, 1);
-  // Planes closer than this (and parallel) are one surface's.
-  const double samePlane = 1e-5 * tracer.scene().bounds.diagonal();
-  const auto start = std::chrono::steady_clock::now();
-  // Hull faces by tet: queries outside the hull are clamped to them (locate()).
+}
+
+/// Per tet of v, the local indices of the vertices opposite its hull faces (empty for an inner
+/// tet): queries outside the hull are clamped to those faces (locate()).
+std::vector<std::vector<int>> hullFacesByTet(const ProbeVolume& v) {
   std::vector<std::vector<int>> hullFacesOf(v.tets.size());
   for (const auto& [t, opposite] : v.hullFaces) hullFacesOf[size_t(t)].push_back(opposite);
-  // A convex combination of the probes, so inside their convex hull (strictly, unless it is flat).
+  return hullFacesOf;
+}
+
+/// The mean of v's probe positions (the origin when it has none): a convex combination of the
+/// probes, so inside their convex hull (strictly, unless it is flat).
+Vec3 meanProbePosition(const ProbeVolume& v) {
   Vec3 inside;
   for (size_t i = 0; i < v.probeCount(); ++i) inside += v.position(int32_t(i));
-  inside = inside / double(std::max<size_t>(v.probeCount(), 1));
-  // Points per cubic metre: the total shared out by volume (a tet gets at least samplesPerTet).
+  return inside / double(std::max<size_t>(v.probeCount(), 1));
+}
+
+/// Each tet's volume (m^3), and in `total` their sum in tet order. From vertex 3, as the
+/// barycentric matrices are: the operand order fixes the rounding of the volumes, and with it
+/// the points each tet draws.
+std::vector<double> tetVolumes(const ProbeVolume& v, double& total) {
   std::vector<double> volume(v.tets.size());
-  double totalVolume = 0;
+  total = 0;
   for (size_t t = 0; t < v.tets.size(); ++t) {
     const auto& tet = v.tets[t];
-    // From vertex 3, as the barycentric matrices are: the operand order fixes the rounding of
-    // the volumes, and with it the points each tet draws.
     volume[t] =
         tetVolume(v.position(tet[3]), v.position(tet[0]), v.position(tet[1]), v.position(tet[2]));
-    totalVolume += volume[t];
+    total += volume[t];
   }
-  const double perVolume = totalVolume > 0 ? double(s.samplesTotal) / totalVolume : 0.0;
-  struct TetCuts {
-    std::vector<ProbeVolume::CutPlane> planes;
-    size_t samples = 0, hiddenBefore = 0, hiddenAfter = 0;
-    std::vector<Vec3> unresolved;
-  };
-  // Beyond an edge or a corner of the hull, queries are clamped onto it (two probes or one
-  // interpolated) and lie in no face's prism: where the hull is small against the domain, most
-  // of the domain is there. Points uniform in the domain are located as queries are and given
-  // to the tet they clamp into.
-  // locate() as the uncut volume: its cuts are put aside, and back if this throws.
-  struct CutsAside {
-    ProbeVolume& v;
-    std::vector<uint32_t> start;
-    std::vector<ProbeVolume::CutPlane> planes;
-    bool replaced = false;
-    ~CutsAside() {
-      if (replaced) return;
-      v.cutStart = std::move(start);
-      v.cutPlanes = std::move(planes);
-    }
-  } aside{v, std::move(v.cutStart), std::move(v.cutPlanes)};
-  v.cutStart.clear();
-  v.cutPlanes.clear();
+  return volume;
+}
+
+/// Puts a volume's leak cuts aside while it lives, so that locate() gives the uncut location,
+/// and puts them back when it ends (also through an exception) unless the caller has stored new
+/// ones (keepReplacement).
+class CutsAside {
+ public:
+  explicit CutsAside(ProbeVolume& v)
+      : v_(v), start_(std::move(v.cutStart)), planes_(std::move(v.cutPlanes)) {
+    v_.cutStart.clear();
+    v_.cutPlanes.clear();
+  }
+  CutsAside(const CutsAside&) = delete;
+  CutsAside& operator=(const CutsAside&) = delete;
+  ~CutsAside() {
+    if (replaced_) return;
+    v_.cutStart = std::move(start_);
+    v_.cutPlanes = std::move(planes_);
+  }
+  /// The cuts put aside are dropped: the volume keeps the ones it holds when this ends.
+  void keepReplacement() { replaced_ = true; }
+
+ private:
+  ProbeVolume& v_;
+  std::vector<uint32_t> start_;
+  std::vector<ProbeVolume::CutPlane> planes_;
+  bool replaced_ = false;
+};
+
+/// Per tet of v (which must hold no cuts: locate() is the uncut volume's), the points of
+/// `domain` (boxes, not empty) outside the hull that locate() clamps into it onto an edge or a
+/// corner of the hull (two or one weighted vertices; those clamped onto a face are left to the
+/// face's prism, TetCutter::draw). They are drawn uniformly over the domain at the tets'
+/// density `perVolume` (points per cubic metre), but at most s.samplesTotal and
+/// kMaxClampedDraws of them, each weighing as many points of that density as it stands for
+/// (at least 1). Empty lists when v has no hull faces or the density or the domain's volume is
+/// 0. In parallel, one seeded stream per draw, gathered in draw order: deterministic. Each draw
+/// costs a locate().
+std::vector<std::vector<ClampedPoint>> clampedPointsByTet(const Tracer& tracer,
+                                                          const ProbeVolume& v,
+                                                          std::span<const Bounds3> domain,
+                                                          const LeakCutSettings& s,
+                                                          double perVolume) {
   std::vector<std::vector<ClampedPoint>> clampedOf(v.tets.size());
   double domainVolume = 0;
   for (const Bounds3& b : domain) domainVolume += b.volume();
-  if (!v.hullFaces.empty() && perVolume > 0 && domainVolume > 0) {
-    const DomainPoints boxes(tracer, LightingRig{}, domain, 0.0);
-    const HullClamp hullClamp(v);  // locate()'s own clamp, faster
-    // The tets' density over the domain, but at most samplesTotal points (as many again as the
-    // tets get; each costs a locate(), and rays only where it clamps to an edge or a corner),
-    // each then weighing more.
-    const size_t count = size_t(
-        std::min({perVolume * domainVolume, double(s.samplesTotal), double(kMaxClampedDraws)}));
-    // Each stands for as many points of the nominal density (perVolume, that of the tets'
-    // draws and the faces' prisms before their minimums and the denser draw where a leak
-    // shows) as its own is lower (CutSample::weight).
-    const double clampedWeight =
-        count > 0 ? std::max(1.0, perVolume * domainVolume / double(count)) : 1.0;
-    std::vector<ClampedPoint> drawn(count);
-    std::vector<int32_t> tetOf(count, -1);
-    tbb::parallel_for(size_t(0), count, [&](size_t i) {
-      uint64_t rng = streamSeed(s.seed ^ 0x636c616d70ull, i);
-      const std::optional<Vec3> p = boxes.drawInBoxes(rng);
-      if (!p) return;
-      const VolumeLocation loc = locate(v, *p, -1, &hullClamp);
-      if (!loc.outside || loc.tet < 0) return;
-      int weighted = 0;
-      for (float w : loc.weights) weighted += w > 0 ? 1 : 0;
-      if (weighted > 2) return;  // on a face: its prism's points stand for it
-      drawn[i] = {*p, loc.weights, clampedWeight};
-      tetOf[i] = loc.tet;
-    });
-    for (size_t i = 0; i < count; ++i)
-      if (tetOf[i] >= 0) clampedOf[size_t(tetOf[i])].push_back(drawn[i]);
-  }
-  std::vector<TetCuts> out(v.tets.size());
-  tbb::parallel_for(size_t(0), v.tets.size(), [&](size_t t) {
-    Vec3 corner[4];
-    for (int k = 0; k < 4; ++k) corner[k] = v.position(v.tets[t][k]);
-    TetCutter cutter(tracer, s, domain, samePlane, corner, streamSeed(s.seed, t));
-    for (int opposite : hullFacesOf[t]) cutter.addHullFace(opposite, perVolume, inside);
-    const int count = int(
-        std::clamp(std::round(perVolume * volume[t]), double(s.samplesPerTet), double(1 << 20)));
-    cutter.draw(count, 1.0);
-    cutter.testClamped(clampedOf[t]);
-    // Where a leak shows, look closer: the cut must hold for the whole tet, not only the
-    // points that found it.
-    if (cutter.hiddenSamples() > 0)
-      cutter.draw(count, std::max(1.0, double(s.samplesPerTet) * s.denseFactor / count) - 1.0);
-    TetCuts& r = out[t];
-    r.hiddenBefore = cutter.leakingCount();
-    r.hiddenAfter = cutter.choose(r.planes);
-    r.samples = cutter.samples();
-    if (r.hiddenAfter > 0) r.unresolved = cutter.leakingPoints(s.unresolvedPerTet);
+  if (v.hullFaces.empty() || !(perVolume > 0) || !(domainVolume > 0)) return clampedOf;
+  const DomainPoints boxes(tracer, LightingRig{}, domain, 0.0);
+  const HullClamp hullClamp(v);  // locate()'s own clamp, faster
+  // The tets' density over the domain, but at most samplesTotal points (as many again as the
+  // tets get; each costs a locate(), and rays only where it clamps to an edge or a corner),
+  // each then weighing more.
+  const size_t count = size_t(
+      std::min({perVolume * domainVolume, double(s.samplesTotal), double(kMaxClampedDraws)}));
+  // Each stands for as many points of the nominal density (perVolume, that of the tets'
+  // draws and the faces' prisms before their minimums and the denser draw where a leak
+  // shows) as its own is lower (CutSample::weight).
+  const double clampedWeight =
+      count > 0 ? std::max(1.0, perVolume * domainVolume / double(count)) : 1.0;
+  std::vector<ClampedPoint> drawn(count);
+  std::vector<int32_t> tetOf(count, -1);
+  tbb::parallel_for(size_t(0), count, [&](size_t i) {
+    uint64_t rng = streamSeed(s.seed ^ 0x636c616d70ull, i);
+    const std::optional<Vec3> p = boxes.drawInBoxes(rng);
+    if (!p) return;
+    const VolumeLocation loc = locate(v, *p, -1, &hullClamp);
+    if (!loc.outside || loc.tet < 0) return;
+    int weighted = 0;
+    for (float w : loc.weights) weighted += w > 0 ? 1 : 0;
+    if (weighted > 2) return;  // on a face: its prism's points stand for it
+    drawn[i] = {*p, loc.weights, clampedWeight};
+    tetOf[i] = loc.tet;
   });
-  LeakCutResult result;
-  aside.replaced = true;
+  for (size_t i = 0; i < count; ++i)
+    if (tetOf[i] >= 0) clampedOf[size_t(tetOf[i])].push_back(drawn[i]);
+  return clampedOf;
+}
+
+/// What every tet's cuts share.
+struct CutShared {
+  const Tracer& tracer;
+  const LeakCutSettings& s;
+  std::span<const Bounds3> domain;  ///< where queries can be (not empty)
+  double samePlane;                 ///< parallel planes closer than this (m) are one surface's
+  double perVolume;                 ///< points drawn per cubic metre
+  Vec3 inside;                      ///< a point inside the probes' hull
+};
+
+/// One tet's cuts, and what its points found.
+struct TetCuts {
+  std::vector<ProbeVolume::CutPlane> planes;
+  size_t samples = 0, hiddenBefore = 0, hiddenAfter = 0;
+  std::vector<Vec3> unresolved;  ///< up to unresolvedPerTet points still leaking
+};
+
+/// Tet t of v's cuts (TetCutter, seeded by s.seed and t): points in the tet (by its `volume` in
+/// m^3 at the shared density, within [samplesPerTet, 2^20]), beyond its `hullFaces` (the local
+/// indices of the vertices opposite them) and the domain's `clamped` points; where a point
+/// finds a hidden vertex, more: up to samplesPerTet x denseFactor in the tet, and beyond its
+/// faces in proportion. Reads only v's positions and tets: tets may be cut in parallel.
+TetCuts cutTet(const CutShared& in, const ProbeVolume& v, size_t t, std::span<const int> hullFaces,
+               double volume, std::span<const ClampedPoint> clamped) {
+  const LeakCutSettings& s = in.s;
+  Vec3 corner[4];
+  for (int k = 0; k < 4; ++k) corner[k] = v.position(v.tets[t][k]);
+  TetCutter cutter(in.tracer, s, in.domain, in.samePlane, corner, streamSeed(s.seed, t));
+  for (int opposite : hullFaces) cutter.addHullFace(opposite, in.perVolume, in.inside);
+  const int count =
+      int(std::clamp(std::round(in.perVolume * volume), double(s.samplesPerTet), double(1 << 20)));
+  cutter.draw(count, 1.0);
+  cutter.testClamped(clamped);
+  // Where a leak shows, look closer: the cut must hold for the whole tet, not only the points
+  // that found it.
+  if (cutter.hiddenSamples() > 0)
+    cutter.draw(count, std::max(1.0, double(s.samplesPerTet) * s.denseFactor / count) - 1.0);
+  TetCuts r;
+  r.hiddenBefore = cutter.leakingCount();
+  r.hiddenAfter = cutter.choose(r.planes);
+  r.samples = cutter.samples();
+  if (r.hiddenAfter > 0) r.unresolved = cutter.leakingPoints(s.unresolvedPerTet);
+  return r;
+}
+
+/// Stores the tets' cuts (`out`, one per tet of v, in tet order) in v.cutStart and v.cutPlanes,
+/// both left empty when no tet has a plane, and adds their counts and unresolved points (in tet
+/// order) to `result`.
+void storeCuts(const std::vector<TetCuts>& out, ProbeVolume& v, LeakCutResult& result) {
   v.cutStart.assign(v.tets.size() + 1, 0);
   v.cutPlanes.clear();
   for (size_t t = 0; t < out.size(); ++t) {
@@ -804,6 +857,41 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
   }
   result.planes = v.cutPlanes.size();
   if (v.cutPlanes.empty()) v.cutStart.clear();
+}
+
+}  // namespace
+
+// Sukys 3.2.2 detects the leaks (edges crossing geometry); refinement alone cannot end them, as
+// any tetrahedralization of probes on both sides of a wall has tetrahedra across it. The cuts
+// split those tetrahedra along the surfaces that hide a vertex.
+LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<const Bounds3> domain,
+                              const LeakCutSettings& s) {
+  checkLeakCutSettings(s);
+  if (domain.empty()) domain = std::span<const Bounds3>(&tracer.scene().bounds, 1);
+  // Planes closer than this (and parallel) are one surface's.
+  const double samePlane = 1e-5 * tracer.scene().bounds.diagonal();
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<std::vector<int>> hullFacesOf = hullFacesByTet(v);
+  const Vec3 inside = meanProbePosition(v);
+  // Points per cubic metre: the total shared out by volume (a tet gets at least samplesPerTet).
+  double totalVolume = 0;
+  const std::vector<double> volume = tetVolumes(v, totalVolume);
+  const double perVolume = totalVolume > 0 ? double(s.samplesTotal) / totalVolume : 0.0;
+  // Beyond an edge or a corner of the hull, queries are clamped onto it (two probes or one
+  // interpolated) and lie in no face's prism: where the hull is small against the domain, most
+  // of the domain is there. Points uniform in the domain are located as queries are and given
+  // to the tet they clamp into, by locate() as the uncut volume.
+  CutsAside aside(v);
+  const std::vector<std::vector<ClampedPoint>> clampedOf =
+      clampedPointsByTet(tracer, v, domain, s, perVolume);
+  const CutShared shared{tracer, s, domain, samePlane, perVolume, inside};
+  std::vector<TetCuts> out(v.tets.size());
+  tbb::parallel_for(size_t(0), v.tets.size(), [&](size_t t) {
+    out[t] = cutTet(shared, v, t, hullFacesOf[t], volume[t], clampedOf[t]);
+  });
+  LeakCutResult result;
+  aside.keepReplacement();
+  storeCuts(out, v, result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
