@@ -6,6 +6,8 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <span>
+#include <vector>
 
 #include "app/cli/Common.h"
 #include "core/bake/Bake.h"
@@ -25,6 +27,111 @@ namespace ps::cli {
 
 namespace fs = std::filesystem;
 using ojson = nlohmann::ordered_json;
+
+namespace {
+
+/// What eval reports beside EvalResult: the perceptual error (core/eval/PerceptualError.h).
+struct EvalReport {
+  double floor = 0;           ///< the adaptation floor the stops are measured against
+  std::vector<double> stops;  ///< per query, in EvalResult::perQuery's order
+  EvalStops all;
+  std::vector<RegionError> regions;  ///< per importance volume
+};
+
+/// --per-query: one CSV line per query (header in the option's help), written atomically.
+void writePerQueryCsv(const std::string& path, const EvalResult& r, std::span<const double> stops) {
+  std::string csv =
+      "x,y,z,nx,ny,nz,reference,reference_std,interpolated,rel_error,leaking,outside,stops\n";
+  char line[512];
+  for (size_t i = 0; i < r.perQuery.size(); ++i) {
+    const EvalQuery& q = r.perQuery[i];
+    std::snprintf(
+        line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d,%d,%.6g\n",
+        q.point.x, q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z, q.reference,
+        q.referenceStd, q.interpolated, q.relError, q.leaking ? 1 : 0, q.outside ? 1 : 0, stops[i]);
+    csv += line;
+  }
+  writeFileAtomic(path, csv);
+}
+
+ojson stopsJson(const EvalStops& s) {
+  ojson js;
+  js["queries"] = s.queries;
+  js["rms"] = s.rms;
+  js["median"] = s.median;
+  js["p90"] = s.p90;
+  js["beyond_third_stop"] = s.beyondThirdStop;
+  return js;
+}
+
+/// --json: every figure of the result and the report (docs/evaluation.md names them).
+ojson evalJson(const EvalResult& r, const EvalReport& report, int floorSpp) {
+  ojson j;
+  j["probes"] = r.probes;
+  j["queries"] = r.queries;
+  j["rel_rmse"] = r.relRmse;
+  j["rel_rmse_std_error"] = r.relRmseStdError;
+  j["reference_rel_noise"] = r.referenceRelNoise;
+  j["p95_rel_error"] = r.p95RelError;
+  j["max_rel_error"] = r.maxRelError;
+  j["leaking_fraction"] = r.leakingFraction;
+  j["leaking_outside_hull_fraction"] = r.leakingOutsideHullFraction;
+  j["outside_hull_fraction"] = r.outsideHullFraction;
+  j["over_cut_fraction"] = r.overCutFraction;
+  j["seconds"] = r.seconds;
+  j["reference_cached"] = r.referenceCached;
+  j["light_clearance_m"] = r.lightClearanceMeters;
+  if (r.shFloorRelRmse) {
+    j["sh_floor_rel_rmse"] = *r.shFloorRelRmse;
+    j["floor_spp"] = floorSpp;
+  }
+  j["stops"] = stopsJson(report.all);
+  j["stops"]["floor"] = report.floor;
+  j["regions"] = ojson::array();
+  for (const RegionError& region : report.regions) {
+    ojson jr;
+    jr["name"] = region.name;
+    jr["stops"] = stopsJson(region.stops);
+    jr["rel_rmse"] = region.relRmse;
+    jr["mean_reference"] = region.meanReference;
+    j["regions"].push_back(jr);
+  }
+  return j;
+}
+
+/// The text report: the same figures as evalJson, in sentences.
+void printEval(const EvalResult& r, const EvalReport& report, int floorSpp) {
+  std::printf(
+      "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
+      "leaking %.4f, over-cut %.4f (%.2f s%s)\n"
+      "rel_rmse's standard error from the queries drawn %.4f; reference noise %.4f (the "
+      "relative RMS error of a perfect volume against this reference)\n"
+      "outside the probes' hull (clamped to it) %.4f of the queries; leaking there %.4f, "
+      "inside %.4f\n",
+      r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
+      r.overCutFraction, r.seconds, r.referenceCached ? ", reference from the cache" : "",
+      r.relRmseStdError, r.referenceRelNoise, r.outsideHullFraction, r.leakingOutsideHullFraction,
+      r.leakingFraction - r.leakingOutsideHullFraction);
+  if (r.shFloorRelRmse)
+    std::printf(
+        "SH floor %.4f (the relative RMS error of a probe at every query, captured at %d "
+        "spp: its SH part no placement removes, on average over the normals; it holds that "
+        "capture's noise, which a blend of probes lowers, and the reference's)\n",
+        *r.shFloorRelRmse, floorSpp);
+  std::printf(
+      "perceptual error (stops, floor %.4g = %.0f %% of the median reference): RMS %.3f, "
+      "median %.3f, p90 %.3f; %.4f of the queries off by a third of a stop or more\n",
+      report.floor, 100 * kAdaptationFloorFraction, report.all.rms, report.all.median,
+      report.all.p90, report.all.beyondThirdStop);
+  for (const RegionError& region : report.regions)
+    std::printf(
+        "  %s: %zu queries, mean reference %.4g: stops RMS %.3f, median %.3f, p90 "
+        "%.3f, beyond a third %.4f; rel_rmse %.4f\n",
+        region.name.c_str(), region.stops.queries, region.meanReference, region.stops.rms,
+        region.stops.median, region.stops.p90, region.stops.beyondThirdStop, region.relRmse);
+}
+
+}  // namespace
 
 void registerEval(CLI::App& app) {
   struct Opts {
@@ -131,97 +238,18 @@ void registerEval(CLI::App& app) {
     const EvalResult r = evaluateVolume(tracer, rig, volume, es, terminalProgress("eval"));
     // The perceptual error (core/eval/PerceptualError.h), over all queries and per importance
     // volume, all against the floor of the whole domain.
-    const double stopsFloor = adaptationFloor(r.perQuery);
-    const std::vector<double> stops = queryStops(r.perQuery, stopsFloor);
-    const EvalStops allStops = summarizeStops(stops);
-    const std::vector<RegionError> regions = regionErrors(r.perQuery, stops, domain, regionNames);
-    if (!o->perQuery.empty()) {
-      std::string csv =
-          "x,y,z,nx,ny,nz,reference,reference_std,interpolated,rel_error,leaking,outside,stops\n";
-      char line[512];
-      for (size_t i = 0; i < r.perQuery.size(); ++i) {
-        const EvalQuery& q = r.perQuery[i];
-        std::snprintf(line, sizeof line,
-                      "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d,%d,%.6g\n", q.point.x,
-                      q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z, q.reference,
-                      q.referenceStd, q.interpolated, q.relError, q.leaking ? 1 : 0,
-                      q.outside ? 1 : 0, stops[i]);
-        csv += line;
-      }
-      writeFileAtomic(o->perQuery, csv);
-    }
+    EvalReport report;
+    report.floor = adaptationFloor(r.perQuery);
+    report.stops = queryStops(r.perQuery, report.floor);
+    report.all = summarizeStops(report.stops);
+    report.regions = regionErrors(r.perQuery, report.stops, domain, regionNames);
+    if (!o->perQuery.empty()) writePerQueryCsv(o->perQuery, r, report.stops);
     // Notes go to stderr: with --json, stdout holds the JSON only.
     for (const std::string& n : r.notes) std::cerr << "note: " << n << "\n";
-    if (o->json) {
-      ojson j;
-      j["probes"] = r.probes;
-      j["queries"] = r.queries;
-      j["rel_rmse"] = r.relRmse;
-      j["rel_rmse_std_error"] = r.relRmseStdError;
-      j["reference_rel_noise"] = r.referenceRelNoise;
-      j["p95_rel_error"] = r.p95RelError;
-      j["max_rel_error"] = r.maxRelError;
-      j["leaking_fraction"] = r.leakingFraction;
-      j["leaking_outside_hull_fraction"] = r.leakingOutsideHullFraction;
-      j["outside_hull_fraction"] = r.outsideHullFraction;
-      j["over_cut_fraction"] = r.overCutFraction;
-      j["seconds"] = r.seconds;
-      j["reference_cached"] = r.referenceCached;
-      j["light_clearance_m"] = r.lightClearanceMeters;
-      if (r.shFloorRelRmse) {
-        j["sh_floor_rel_rmse"] = *r.shFloorRelRmse;
-        j["floor_spp"] = o->floorSpp;
-      }
-      auto stopsJson = [](const EvalStops& s) {
-        ojson js;
-        js["queries"] = s.queries;
-        js["rms"] = s.rms;
-        js["median"] = s.median;
-        js["p90"] = s.p90;
-        js["beyond_third_stop"] = s.beyondThirdStop;
-        return js;
-      };
-      j["stops"] = stopsJson(allStops);
-      j["stops"]["floor"] = stopsFloor;
-      j["regions"] = ojson::array();
-      for (const RegionError& region : regions) {
-        ojson jr;
-        jr["name"] = region.name;
-        jr["stops"] = stopsJson(region.stops);
-        jr["rel_rmse"] = region.relRmse;
-        jr["mean_reference"] = region.meanReference;
-        j["regions"].push_back(jr);
-      }
-      std::cout << j.dump(2) << "\n";
-    } else {
-      std::printf(
-          "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
-          "leaking %.4f, over-cut %.4f (%.2f s%s)\n"
-          "rel_rmse's standard error from the queries drawn %.4f; reference noise %.4f (the "
-          "relative RMS error of a perfect volume against this reference)\n"
-          "outside the probes' hull (clamped to it) %.4f of the queries; leaking there %.4f, "
-          "inside %.4f\n",
-          r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
-          r.overCutFraction, r.seconds, r.referenceCached ? ", reference from the cache" : "",
-          r.relRmseStdError, r.referenceRelNoise, r.outsideHullFraction,
-          r.leakingOutsideHullFraction, r.leakingFraction - r.leakingOutsideHullFraction);
-      if (r.shFloorRelRmse)
-        std::printf(
-            "SH floor %.4f (the relative RMS error of a probe at every query, captured at %d "
-            "spp: its SH part no placement removes, on average over the normals; it holds that "
-            "capture's noise, which a blend of probes lowers, and the reference's)\n",
-            *r.shFloorRelRmse, o->floorSpp);
-      std::printf(
-          "perceptual error (stops, floor %.4g = 5 %% of the median reference): RMS %.3f, "
-          "median %.3f, p90 %.3f; %.4f of the queries off by a third of a stop or more\n",
-          stopsFloor, allStops.rms, allStops.median, allStops.p90, allStops.beyondThirdStop);
-      for (const RegionError& region : regions)
-        std::printf(
-            "  %s: %zu queries, mean reference %.4g: stops RMS %.3f, median %.3f, p90 "
-            "%.3f, beyond a third %.4f; rel_rmse %.4f\n",
-            region.name.c_str(), region.stops.queries, region.meanReference, region.stops.rms,
-            region.stops.median, region.stops.p90, region.stops.beyondThirdStop, region.relRmse);
-    }
+    if (o->json)
+      std::cout << evalJson(r, report, o->floorSpp).dump(2) << "\n";
+    else
+      printEval(r, report, o->floorSpp);
   });
 }
 
