@@ -90,7 +90,16 @@ void registerBake(CLI::App& app) {
     if (!o->fit && (cmd->count("--fit-points") || cmd->count("--fit-spp") ||
                     cmd->count("--fit-regularization")))
       throw ParameterError("--fit-points, --fit-spp, --fit-regularization: give --fit too");
-    checkFitSettings(o->fitSettings);
+    try {
+      checkFitSettings(o->fitSettings);
+    } catch (const ParameterError& e) {  // under the flag of the parameter it names
+      const std::string flag = e.parameter() == "pointsPerProbe"    ? "--fit-points"
+                               : e.parameter() == "samplesPerPoint" ? "--fit-spp"
+                               : e.parameter() == "regularization"  ? "--fit-regularization"
+                                                                    : e.parameter();
+      if (flag.empty()) throw;
+      throw ParameterError(flag, e.problem());
+    }
     if (!std::isfinite(o->overCutWeight))
       throw ParameterError("--over-cut-weight: expected a finite number >= 0");
     if (cmd->count("--over-cut-weight") && (o->noLeakRefine || o->noLeakCuts))

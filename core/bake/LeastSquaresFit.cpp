@@ -173,13 +173,13 @@ std::vector<float> leastSquaresValues(const ProbeVolume& volume, std::span<const
 
 void checkFitSettings(const FitSettings& s, size_t probes) {
   if (s.pointsPerProbe < 1 || s.pointsPerProbe > 4096)
-    throw ParameterError("--fit-points: expected 1 to 4096 points per probe, got " +
-                         std::to_string(s.pointsPerProbe));
+    throw ParameterError("pointsPerProbe", "expected 1 to 4096 points per probe, got " +
+                                               std::to_string(s.pointsPerProbe));
   if (s.samplesPerPoint < 1 || s.samplesPerPoint > (1 << 20))
-    throw ParameterError("--fit-spp: expected 1 to 1048576 samples per point, got " +
-                         std::to_string(s.samplesPerPoint));
+    throw ParameterError("samplesPerPoint", "expected 1 to 1048576 samples per point, got " +
+                                                std::to_string(s.samplesPerPoint));
   if (!(s.regularization > 0) || !std::isfinite(s.regularization))
-    throw ParameterError("--fit-regularization: expected a positive number");
+    throw ParameterError("regularization", "expected a positive number");
   checkLightClearance(s.lightClearanceRelative);
   if (probes * size_t(s.pointsPerProbe) > kMaxFitPoints)
     throw ParameterError("fit: " + std::to_string(probes) + " probes x " +

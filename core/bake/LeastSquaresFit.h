@@ -52,7 +52,8 @@ struct FitResult {
   double seconds = 0;
 };
 
-/// Throws ps::ParameterError naming the setting out of range (by its `bake` option), or when
+/// Throws ps::ParameterError naming the setting out of range (ParameterError::parameter():
+/// its field name here), or when
 /// `probes` probes would need more than 5 million fit points (fitProbeValues checks too; the
 /// bake and the CLI call it before their capture).
 void checkFitSettings(const FitSettings& settings, size_t probes = 0);

@@ -595,7 +595,7 @@ double greedySampleWeight(const FieldSample& f) {
 
 void checkGreedySettings(const GreedySettings& s, size_t keptCount) {
   if (s.budget == 0 && !(s.maxError > 0))
-    throw ParameterError("greedy: give --budget N or --max-error E (or both)");
+    throw ParameterError("budget", "greedy needs a budget, an error target or both");
   if (s.budget != 0 && s.budget < 4)
     throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(s.budget));
   if (s.budget != 0 && size_t(s.budget) < keptCount + 4)
