@@ -52,10 +52,9 @@ struct FitResult {
   double seconds = 0;
 };
 
-/// Throws ps::ParameterError naming the setting out of range (ParameterError::parameter():
-/// its field name here), or when
-/// `probes` probes would need more than 5 million fit points (fitProbeValues checks too; the
-/// bake and the CLI call it before their capture).
+/// Throws ps::ParameterError naming the setting out of range (parameter(): its field name
+/// here), or when `probes` probes would need more than 5 million fit points (fitProbeValues
+/// checks too; the bake and the CLI call it before their capture).
 void checkFitSettings(const FitSettings& settings, size_t probes = 0);
 
 /// The least-squares values (ProbeVolume::sh layout) for SH `targets` at points located at `at`
