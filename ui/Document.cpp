@@ -671,6 +671,8 @@ bool Document::evaluate(const EvalRequest& request) {
     e.leakingFraction = r.leakingFraction;
     e.leakingOutsideHullFraction = r.leakingOutsideHullFraction;
     e.outsideHullFraction = r.outsideHullFraction;
+    e.stopsFloor = adaptationFloor(r.perQuery);
+    e.stops = summarizeStops(queryStops(r.perQuery, e.stopsFloor));
     e.source = evaluated;
     e.referenceCached = r.referenceCached;
     e.seconds = r.seconds;

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/eval/PerceptualError.h"
 #include "core/io/ProbeSet.h"
 #include "core/placement/GreedyMethod.h"
 #include "core/placement/Place.h"
@@ -85,6 +86,10 @@ struct EvaluationPoint {
   /// Queries that interpolate a probe they cannot see, those of them outside the probes' hull,
   /// and the queries outside the hull (EvalResult).
   double leakingFraction = 0, leakingOutsideHullFraction = 0, outsideHullFraction = 0;
+  /// The perceptual error in stops (core/eval/PerceptualError.h) and the floor it is measured
+  /// against (luminance, W/m²).
+  EvalStops stops;
+  double stopsFloor = 0;
   QString source;                ///< "baked volume" or "preview (accepted probes[, leak cuts])"
   bool referenceCached = false;  ///< the reference came from the eval reference cache
   double seconds = 0;            ///< wall time of the evaluation

@@ -73,9 +73,9 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   view_->setMinimumHeight(220);
   layout->addWidget(view_, 1);
 
-  table_ = new QTableWidget(0, 6);
-  table_->setHorizontalHeaderLabels(
-      {tr("probes"), tr("rel. RMS"), tr("p95"), tr("leaking"), tr("reference"), tr("source")});
+  table_ = new QTableWidget(0, 7);
+  table_->setHorizontalHeaderLabels({tr("probes"), tr("rel. RMS"), tr("stops (RMS / p90)"),
+                                     tr("p95"), tr("leaking"), tr("reference"), tr("source")});
   table_->verticalHeader()->hide();
   table_->horizontalHeader()->setStretchLastSection(true);
   table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
@@ -139,7 +139,23 @@ void EvaluationPanel::refresh() {
             .arg(100 * e.relRmseStdError, 0, 'f', 2)
             .arg(100 * e.referenceRelNoise, 0, 'f', 2));
     table_->setItem(int(i), 1, rmseItem);
-    table_->setItem(int(i), 2, new QTableWidgetItem(QString::number(b, 'f', 2) + " %"));
+    // The error as the eye sees it: ratios, so that a dim room counts as much as a bright one.
+    auto* stopsItem =
+        new QTableWidgetItem(QString::number(e.stops.rms, 'f', 2) + QStringLiteral(" / ") +
+                             QString::number(e.stops.p90, 'f', 2));
+    stopsItem->setToolTip(
+        tr("Error in stops: |log2| of the interpolated over the reference irradiance, both "
+           "floored at %1 W/m² (%6 % of the median reference).\n"
+           "RMS %2, median %3, 90th percentile %4; %5 % of the queries are off by a third of a "
+           "stop or more (visible).")
+            .arg(e.stopsFloor, 0, 'g', 3)
+            .arg(e.stops.rms, 0, 'f', 3)
+            .arg(e.stops.median, 0, 'f', 3)
+            .arg(e.stops.p90, 0, 'f', 3)
+            .arg(100 * e.stops.beyondThirdStop, 0, 'f', 1)
+            .arg(100 * kAdaptationFloorFraction, 0, 'f', 0));
+    table_->setItem(int(i), 2, stopsItem);
+    table_->setItem(int(i), 3, new QTableWidgetItem(QString::number(b, 'f', 2) + " %"));
     // Light leaking through walls, and where: outside the probes' hull a probe placed near the
     // leaking queries ends it; inside, a tetrahedron spans a wall.
     auto* leakItem = new QTableWidgetItem(QString::number(100 * e.leakingFraction, 'f', 2) + " %");
@@ -152,12 +168,12 @@ void EvaluationPanel::refresh() {
             .arg(100 * e.leakingOutsideHullFraction, 0, 'f', 2)
             .arg(100 * e.outsideHullFraction, 0, 'f', 2)
             .arg(100 * (e.leakingFraction - e.leakingOutsideHullFraction), 0, 'f', 2));
-    table_->setItem(int(i), 3, leakItem);
+    table_->setItem(int(i), 4, leakItem);
     table_->setItem(
-        int(i), 4,
+        int(i), 5,
         new QTableWidgetItem((e.referenceCached ? tr("cached, %1 s") : tr("traced, %1 s"))
                                  .arg(e.seconds, 0, 'f', 2)));
-    table_->setItem(int(i), 5, new QTableWidgetItem(e.source));
+    table_->setItem(int(i), 6, new QTableWidgetItem(e.source));
   }
   for (const auto& [n, errs] : best) {
     rmseLine_->append(double(n), errs.first);

@@ -552,7 +552,14 @@ class TestPanels : public QObject {
       QVERIFY(e.leakingOutsideHullFraction <= e.leakingFraction);
       QVERIFY(e.leakingOutsideHullFraction <= e.outsideHullFraction);
       QVERIFY(e.outsideHullFraction > 0 && e.outsideHullFraction < 1);
-      const QTableWidgetItem* leak = panel->table()->item(i, 3);
+      // The error in stops: RMS and p90, the rest on hover.
+      QVERIFY(e.stops.queries > 0 && e.stopsFloor > 0 && e.stops.p90 >= e.stops.median);
+      QCOMPARE(panel->table()->item(i, 2)->text(), QString::number(e.stops.rms, 'f', 2) +
+                                                       QStringLiteral(" / ") +
+                                                       QString::number(e.stops.p90, 'f', 2));
+      QVERIFY(panel->table()->item(i, 2)->toolTip().contains(
+          QStringLiteral("median %1").arg(e.stops.median, 0, 'f', 3)));
+      const QTableWidgetItem* leak = panel->table()->item(i, 4);
       QCOMPARE(leak->text(), QString::number(100 * e.leakingFraction, 'f', 2) + " %");
       QVERIFY(leak->toolTip().contains(
           QStringLiteral("Outside the probes' hull: %1 % (%2 % of all queries")
@@ -565,8 +572,8 @@ class TestPanels : public QObject {
     QVERIFY(!evals[0].referenceCached);
     QVERIFY(evals[1].referenceCached);
     QVERIFY(QFileInfo(dir.filePath("eval-reference-cache")).isDir());
-    QVERIFY(panel->table()->item(0, 4)->text().startsWith("traced"));
-    QVERIFY(panel->table()->item(1, 4)->text().startsWith("cached"));
+    QVERIFY(panel->table()->item(0, 5)->text().startsWith("traced"));
+    QVERIFY(panel->table()->item(1, 5)->text().startsWith("cached"));
     // The preview is evaluated as it is drawn: with the leak cuts, unless View turns them off.
     QCOMPARE(evals[1].source, QStringLiteral("preview (accepted probes, leak cuts)"));
     QAction* cuts = win.w.findChild<QAction*>("leakCutsAction");
