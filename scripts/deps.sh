@@ -30,7 +30,7 @@ ps_install_deps() {
     libgtest-dev libgmock-dev libbenchmark-dev
     qt6-base-dev libqt6opengl6-dev qt6-charts-dev qt6-qpa-plugins
     xvfb xauth libgl1-mesa-dri libglx-mesa0
-    clang libclang-rt-14-dev
+    clang libclang-rt-14-dev clang-format
   )
   ps_install_packages "${pkgs[@]}"
 }
