@@ -595,26 +595,30 @@ double greedySampleWeight(const FieldSample& f) {
 
 void checkGreedySettings(const GreedySettings& s, size_t keptCount) {
   if (s.budget == 0 && !(s.maxError > 0))
-    throw ParameterError("budget", "greedy needs a budget, an error target or both");
+    throw ParameterError("budget",
+                         "expected a probe count: greedy needs a budget, an error target or both");
   if (s.budget != 0 && s.budget < 4)
-    throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(s.budget));
+    throw ParameterError("budget", "expected at least 4 probes, got " + std::to_string(s.budget));
   if (s.budget != 0 && size_t(s.budget) < keptCount + 4)
-    throw ParameterError("budget: " + std::to_string(s.budget) + " probes leave room for fewer " +
-                         "than 4 new ones beside the " + std::to_string(keptCount) +
-                         " kept probes; expected at least " + std::to_string(keptCount + 4));
-  if (!(s.maxError >= 0) || !std::isfinite(s.maxError))
-    throw ParameterError("max-error: expected a non-negative relative error");
-  if (s.swapPasses < 0)
-    throw ParameterError("swap-passes: expected 0 or more passes, got " +
-                         std::to_string(s.swapPasses));
-  if (s.swapNeighbours < 0)
-    throw ParameterError("swap-neighbours: expected 0 or more samples, got " +
-                         std::to_string(s.swapNeighbours));
-  if (!(s.swapMinGain >= 0 && s.swapMinGain < 1))
-    throw ParameterError("greedy: swapMinGain must be in [0, 1)");
+    throw ParameterError("budget", std::to_string(s.budget) +
+                                       " probes leave room for fewer than 4 new ones beside the " +
+                                       std::to_string(keptCount) +
+                                       " kept probes; expected at least " +
+                                       std::to_string(keptCount + 4));
   if (s.budget > int(kMaxProbes))
-    throw ParameterError("budget: at most 65535 probes for greedy, got " +
-                         std::to_string(s.budget));
+    throw ParameterError("budget",
+                         "at most 65535 probes for greedy, got " + std::to_string(s.budget));
+  if (!(s.maxError >= 0) || !std::isfinite(s.maxError))
+    throw ParameterError(
+        "maxError", "expected a non-negative relative error, got " + std::to_string(s.maxError));
+  if (s.swapPasses < 0)
+    throw ParameterError("swapPasses",
+                         "expected 0 or more passes, got " + std::to_string(s.swapPasses));
+  if (s.swapNeighbours < 0)
+    throw ParameterError("swapNeighbours",
+                         "expected 0 or more samples, got " + std::to_string(s.swapNeighbours));
+  if (!(s.swapMinGain >= 0 && s.swapMinGain < 1))
+    throw ParameterError("swapMinGain", "expected a share in [0, 1)");
 }
 
 GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,

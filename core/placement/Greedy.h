@@ -114,7 +114,9 @@ std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh);
 /// (cell face area times slab / 2).
 double greedySampleWeight(const FieldSample& sample);
 
-/// The parameter checks of placeGreedy, to run before building a dense field for it.
+/// The parameter checks of placeGreedy, to run before building a dense field for it: throws
+/// ps::ParameterError naming the setting (budget, maxError, swapPasses, swapNeighbours,
+/// swapMinGain).
 void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 
 /// Greedy placement over `field`. The squared error of a sample is the mean over the 14 fixed

@@ -30,23 +30,8 @@ GreedySettings greedySettings(const GreedyMethodSettings& r, int budget) {
 }  // namespace
 
 void checkGreedyMethodSettings(const GreedyMethodSettings& r, int budget, size_t keptCount) {
-  if (budget == 0 && r.maxError == 0)
-    throw ParameterError("budget",
-                         "expected a probe count: greedy needs a budget, an error "
-                         "target or both");
-  if (budget != 0 && budget < 4)
-    throw ParameterError("budget", "expected at least 4 probes, got " + std::to_string(budget));
-  if (budget != 0 && size_t(budget) < keptCount + 4)
-    throw ParameterError("budget", std::to_string(budget) + " probes leave room for fewer than 4 " +
-                                       "new ones beside the " + std::to_string(keptCount) +
-                                       " kept probes; expected at least " +
-                                       std::to_string(keptCount + 4));
-  if (budget > 65535)
-    throw ParameterError("budget",
-                         "at most 65535 probes for greedy, got " + std::to_string(budget));
-  if (!(r.maxError >= 0) || !std::isfinite(r.maxError))
-    throw ParameterError(
-        "maxError", "expected a non-negative relative error, got " + std::to_string(r.maxError));
+  // The budget, maxError and the swaps: the algorithm's own checks, which name them.
+  checkGreedySettings(greedySettings(r, budget), keptCount);
   if (!(r.heldOutUniformShare >= 0 && r.heldOutUniformShare <= 1))
     throw ParameterError("heldOutUniformShare", "expected a share from 0 to 1, got " +
                                                     std::to_string(r.heldOutUniformShare));
@@ -62,15 +47,6 @@ void checkGreedyMethodSettings(const GreedyMethodSettings& r, int budget, size_t
   if (r.probeSpp < 0)
     throw ParameterError("candidateSamplesPerProbe",
                          "expected 0 or more samples per probe, got " + std::to_string(r.probeSpp));
-  if (r.swapPasses < 0)
-    throw ParameterError("swapPasses",
-                         "expected 0 or more passes, got " + std::to_string(r.swapPasses));
-  if (r.swapNeighbours < 0)
-    throw ParameterError("swapNeighbours",
-                         "expected 0 or more samples, got " + std::to_string(r.swapNeighbours));
-  // What only the algorithm's own settings hold (its precondition; the checks above come first
-  // so that each names its parameter).
-  checkGreedySettings(greedySettings(r, budget), keptCount);
 }
 
 DenseFieldSettings greedyFieldSettings(const GreedyMethodSettings& r, uint64_t seed) {
