@@ -33,6 +33,7 @@ namespace {
 /// What eval reports beside EvalResult: the perceptual error (core/eval/PerceptualError.h).
 struct EvalReport {
   double floor = 0;           ///< the adaptation floor the stops are measured against
+  double referenceNoise = 0;  ///< referenceNoiseStops: the reference's noise in stops
   std::vector<double> stops;  ///< per query, in EvalResult::perQuery's order
   EvalStops all;
   std::vector<RegionError> regions;  ///< per importance volume
@@ -87,6 +88,7 @@ ojson evalJson(const EvalResult& r, const EvalReport& report, int floorSpp) {
   }
   j["stops"] = stopsJson(report.all);
   j["stops"]["floor"] = report.floor;
+  j["stops"]["reference_noise"] = report.referenceNoise;
   j["regions"] = ojson::array();
   for (const RegionError& region : report.regions) {
     ojson jr;
@@ -120,9 +122,10 @@ void printEval(const EvalResult& r, const EvalReport& report, int floorSpp) {
         *r.shFloorRelRmse, floorSpp);
   std::printf(
       "perceptual error (stops, floor %.4g = %.0f %% of the median reference): RMS %.3f, "
-      "median %.3f, p90 %.3f; %.4f of the queries off by a third of a stop or more\n",
+      "median %.3f, p90 %.3f; %.4f of the queries off by a third of a stop or more; the "
+      "reference's own noise %.3f stops RMS\n",
       report.floor, 100 * kAdaptationFloorFraction, report.all.rms, report.all.median,
-      report.all.p90, report.all.beyondThirdStop);
+      report.all.p90, report.all.beyondThirdStop, report.referenceNoise);
   for (const RegionError& region : report.regions)
     std::printf(
         "  %s: %zu queries, mean reference %.4g: stops RMS %.3f, median %.3f, p90 "
@@ -242,6 +245,7 @@ void registerEval(CLI::App& app) {
     report.floor = adaptationFloor(r.perQuery);
     report.stops = queryStops(r.perQuery, report.floor);
     report.all = summarizeStops(report.stops);
+    report.referenceNoise = referenceNoiseStops(r.perQuery, report.floor);
     report.regions = regionErrors(r.perQuery, report.stops, domain, regionNames);
     if (!o->perQuery.empty()) writePerQueryCsv(o->perQuery, r, report.stops);
     // Notes go to stderr: with --json, stdout holds the JSON only.

@@ -19,20 +19,28 @@ namespace fs = std::filesystem;
 namespace {
 
 /// A method parameter's flag (PlacementMethod::parameters), with its help. A flag without a
-/// value (`isSwitch`) sets the parameter to 1.
+/// value (`isSwitch`) sets the parameter to 1; one whose value is a word (`isText`) passes it
+/// on as given, for the method to check.
 struct ParameterFlag {
   const char* flag;
   const char* parameter;
   const char* help;
   bool isSwitch = false;
+  bool isText = false;
 };
 
 const ParameterFlag kParameterFlags[] = {
+    {"--objective", "objective",
+     "greedy: the error it lowers: perceptual (default: the RMS of |log2| of interpolated over "
+     "reference irradiance, in stops, floored at 5 % of the median; a dim room counts as much "
+     "as a bright one) or energy (rel_rmse, dominated by the bright places)",
+     false, true},
     {"--spacing", "spacingMeters",
      "Grid spacing in metres (uniform, and the start grid of ascent and spawn-merge; default: "
      "the scene diagonal / 10, at least 0.25 m)"},
     {"--max-error", "maxError",
-     "greedy: stop once the held-out (or dense field) relative RMS irradiance error is this low"},
+     "greedy: stop once the held-out (or dense field) error is this low (RMS stops with "
+     "--objective perceptual, relative RMS irradiance with energy)"},
     {"--field-spacing", "fieldSpacingMeters",
      "Dense field base grid spacing in metres (default: domain diagonal / 12)"},
     {"--field-depth", "fieldDepth",
@@ -55,8 +63,9 @@ const ParameterFlag kParameterFlags[] = {
      "at --field-spp, where the error is measured (default 128; 0: on the dense field's own "
      "samples)"},
     {"--held-out-uniform", "heldOutUniformShare",
-     "greedy: the share of the held-out points spread by volume, 0 to 1 (default 0.5); the rest "
-     "go where the dense field is bright, weighted accordingly"},
+     "greedy: the share of the held-out points spread by volume, 0 to 1 (default: 1 with "
+     "--objective perceptual, 0.5 with energy); the rest go where the dense field is bright, "
+     "weighted accordingly"},
     {"--probe-spp", "candidateSamplesPerProbe",
      "greedy: samples per probe of each candidate's own capture (default 1024, the bake's; at "
      "most --field-spp: the field sample's capture)"},
@@ -127,6 +136,11 @@ void registerPlace(CLI::App& app) {
     if (f.isSwitch)
       cmd->add_flag_function(
           f.flag, [o, parameter](int64_t) { o->request.parameters.set(parameter, 1.0); }, f.help);
+    else if (f.isText)
+      cmd->add_option_function<std::string>(
+          f.flag,
+          [o, parameter](const std::string& v) { o->request.parameters.setText(parameter, v); },
+          f.help);
     else
       cmd->add_option_function<double>(
           f.flag, [o, parameter](double v) { o->request.parameters.set(parameter, v); }, f.help);

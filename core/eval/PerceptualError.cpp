@@ -7,12 +7,6 @@
 
 namespace ps {
 
-double errorStops(double estimate, double reference, double floorLuminance) {
-  PS_CHECK_LT(0.0, floorLuminance);
-  return std::abs(
-      std::log2(std::max(estimate, floorLuminance) / std::max(reference, floorLuminance)));
-}
-
 namespace {
 
 /// The nearest-rank percentile `q` (0 to 1) of sorted values.
@@ -36,6 +30,16 @@ double adaptationFloor(std::span<const EvalQuery> queries) {
   double level = percentile(refs, 0.5);
   if (!(level > 0) && !refs.empty()) level = sum / double(refs.size());
   return level > 0 ? kAdaptationFloorFraction * level : 1e-12;
+}
+
+double referenceNoiseStops(std::span<const EvalQuery> queries, double floorLuminance) {
+  if (queries.empty()) return 0;
+  double sq = 0;
+  for (const EvalQuery& q : queries) {
+    const double n = q.referenceStd / (std::max(q.reference, floorLuminance) * std::log(2.0));
+    sq += n * n;
+  }
+  return std::sqrt(sq / double(queries.size()));
 }
 
 EvalStops summarizeStops(std::span<const double> stops) {

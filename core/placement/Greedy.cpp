@@ -97,9 +97,9 @@ class GreedySearch {
     return error_.evaluate(pos_, vals_, isProbe_, extraProbe, absent, scope);
   }
   double currentWeightedErrSq() const { return error_.committed().weightedErrSq; }
-  /// The current error of field sample i as a probe's score: relative to the RMS irradiance.
+  /// The current error of field sample i as a probe's score (ErrorPoints::scoreUnit).
   double scoreOf(size_t i) const {
-    return std::sqrt(error_.committed().state[i].errSq) / points_.refRms;
+    return std::sqrt(error_.committed().state[i].errSq) / points_.scoreUnit;
   }
   Trial complete(Trial trial);
   void commit(const Trial& trial, bool record = true);
@@ -263,7 +263,7 @@ Trial GreedySearch::complete(Trial trial) {
 /// error goes into errorHistory.
 void GreedySearch::commit(const Trial& trial, bool record) {
   const double sum = error_.commit(trial);
-  result_.fieldError = std::sqrt(sum / points_.weightedRefSq);
+  result_.fieldError = std::sqrt(sum / points_.errorNorm);
   if (record) result_.errorHistory.push_back(result_.fieldError);
   if (s_.verifyState) verify();
 }
@@ -580,6 +580,10 @@ void GreedySearch::swapUntilDone() {
 }
 
 }  // namespace
+
+const char* greedyObjectiveName(GreedyObjective objective) {
+  return objective == GreedyObjective::kPerceptual ? "perceptual" : "energy";
+}
 
 std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh) {
   const std::array<Vec3, kNormals>& normals = greedy::errorNormals();

@@ -24,14 +24,34 @@ struct HeldOutSample {
   double weight = 1;  ///< the volume it stands for (any unit, the same for all)
 };
 
+/// What greedy lowers at its points (GreedySettings::objective).
+enum class GreedyObjective {
+  /// The error as the eye sees it: per point, the mean over the 14 normals of the squared
+  /// errorStops (core/eval/PerceptualError.h: |log2| of interpolated over reference, both
+  /// floored at kAdaptationFloorFraction of the points' median luminance); fieldError is the
+  /// weighted RMS in stops, eval's rms stops. A dim room weighs as much as a bright one.
+  kPerceptual,
+  /// The error's energy: per point, the mean squared difference of the irradiance; fieldError
+  /// is sqrt(sum w err^2 / sum w |E|^2), eval's rel_rmse. The bright places dominate it.
+  kEnergy,
+};
+
+/// "perceptual" or "energy".
+const char* greedyObjectiveName(GreedyObjective objective);
+
 struct GreedySettings {
+  /// The error lowered. The placement method (GreedyMethodSettings) defaults to kPerceptual;
+  /// the algorithm alone, to kEnergy.
+  GreedyObjective objective = GreedyObjective::kEnergy;
   /// Total probes in the result, kept probes included; 0 = no budget (maxError must be set).
   int budget = 0;
-  /// Stop once the field error (GreedyResult::fieldError) is at or below this; 0 = off.
+  /// Stop once the field error (GreedyResult::fieldError: relative for kEnergy, stops for
+  /// kPerceptual) is at or below this; 0 = off.
   double maxError = 0;
   /// When > 0, a sample's error counts at most this many times the field's RMS irradiance (next
   /// to a light the irradiance, and any interpolation's error, grows without bound over a tiny
-  /// volume). Off by default: eval's rel_rmse is dominated by exactly those places.
+  /// volume). Off by default: eval's rel_rmse is dominated by exactly those places. kEnergy
+  /// only: a ratio in stops stays bounded next to a light.
   double errorCapRelative = 0;
   /// Samples within avoidRadius of one of these points (the punctual lights) take no part: no
   /// error, no probe. The same ball eval keeps its queries out of (EvalSettings::
@@ -120,14 +140,16 @@ double greedySampleWeight(const FieldSample& sample);
 void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 
 /// Greedy placement over `field`. The squared error of a sample is the mean over the 14 fixed
-/// normals of the squared difference between the irradiance luminance interpolated from the
+/// normals of the squared error (GreedyObjective: a difference of irradiance luminance, or a
+/// log2 ratio in stops) between the irradiance interpolated from the
 /// probes (Delaunay tetrahedra, barycentric weights, clamped to the hull outside it:
 /// core/traversal) and the sample's own, less the variance of the sample's capture noise
-/// (from shStdError), floored at 0 and capped by errorCapRelative when set. Samples are
-/// weighted by greedySampleWeight (uniform weights when the field records no cell sizes), and
-/// fieldError = sqrt(sum w err^2 / sum w |E|^2): eval's rel_rmse on the field, as a volume average.
-/// With held-out points (GreedySettings::heldOut) the same sums run over them instead, with their
-/// weights: eval's rel_rmse on points that are never probes.
+/// (from shStdError, in the objective's unit), floored at 0 and capped by errorCapRelative when
+/// set. Samples are weighted by greedySampleWeight (uniform weights when the field records no
+/// cell sizes). kEnergy: fieldError = sqrt(sum w err^2 / sum w |E|^2), eval's rel_rmse on the
+/// field as a volume average; kPerceptual: fieldError = sqrt(sum w err^2 / sum w), eval's RMS
+/// stops. With held-out points (GreedySettings::heldOut) the same sums run over them instead,
+/// with their weights: eval's figure on points that are never probes.
 /// The initial probes: the kept ones, plus the field samples nearest to the 8 corners of the
 /// field's bounding box (only the 4 alternate corners when the budget is smaller than
 /// kept + 8). Each addition tries candidates from the tetrahedra holding the most weighted

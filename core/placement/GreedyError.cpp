@@ -7,6 +7,7 @@
 
 #include "core/common/Check.h"
 #include "core/common/Error.h"
+#include "core/math/Stops.h"
 #include "core/tessellation/Tetrahedralization.h"
 #include "core/traversal/ProbeVolume.h"
 
@@ -211,7 +212,13 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
     }
     const IrrVec& ref = points.ref[i];
     double e = 0;
-    for (int k = 0; k < kNormals; ++k) e += (interp[k] - ref[k]) * (interp[k] - ref[k]);
+    if (points.objective == GreedyObjective::kPerceptual)
+      for (int k = 0; k < kNormals; ++k) {
+        const double stops = errorStops(interp[k], ref[k], points.floorLuminance);
+        e += stops * stops;
+      }
+    else
+      for (int k = 0; k < kNormals; ++k) e += (interp[k] - ref[k]) * (interp[k] - ref[k]);
     SampleState& st = trial.changedState[q];
     st.errSq = (isProbe[i] || i == extraProbe)
                    ? 0.0
@@ -233,6 +240,29 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
         }
     }
   });
+}
+
+/// kAdaptationFloorFraction times the weighted median of the points' mean luminance over the
+/// normals (the weights are volumes: the median luminance of the domain, as eval's floor is
+/// its queries'); 1e-12 when that is 0.
+double perceptualFloor(const ErrorPoints& pts) {
+  std::vector<std::pair<double, double>> lum;  // (mean luminance, weight)
+  double total = 0;
+  for (size_t i = 0; i < pts.count; ++i) {
+    if (!(pts.weight[i] > 0)) continue;
+    double m = 0;
+    for (double r : pts.ref[i]) m += r;
+    lum.emplace_back(m / kNormals, pts.weight[i]);
+    total += pts.weight[i];
+  }
+  std::sort(lum.begin(), lum.end());
+  double below = 0, median = 0;
+  for (const auto& [l, w] : lum) {
+    below += w;
+    median = l;
+    if (below >= 0.5 * total) break;
+  }
+  return std::max(kAdaptationFloorFraction * median, 1e-12);
 }
 
 }  // namespace
@@ -345,10 +375,30 @@ void weighErrorPoints(ErrorPoints& pts, const DenseField& field, const GreedySet
   for (double w : weight) weightSum += w;
   pts.weightedRefSq = weightedRefSq;
   pts.refRms = std::sqrt(weightedRefSq / weightSum);
+  pts.objective = s.objective;
+  if (s.objective == GreedyObjective::kPerceptual) {
+    pts.errorNorm = weightSum;
+    pts.scoreUnit = 1;
+    pts.floorLuminance = perceptualFloor(pts);
+    // The noise in stops, to first order: d log2(E) = dE / (E ln 2), with E floored as
+    // errorStops floors it (below the floor, noise moves nothing: bounded by the floor's).
+    for (size_t i = 0; i < N; ++i) {
+      double gain = 0;
+      for (double r : pts.ref[i]) {
+        const double g = 1 / (std::max(r, pts.floorLuminance) * std::log(2.0));
+        gain += g * g;
+      }
+      pts.noiseVar[i] *= gain / kNormals;
+    }
+  } else {
+    pts.errorNorm = weightedRefSq;
+    pts.scoreUnit = pts.refRms;
+    pts.floorLuminance = 0;
+  }
   // Next to a light the irradiance (and any interpolation's error) grows without bound, over a
   // volume so small that it would otherwise draw probe after probe while the rest of the domain
   // stays wrong: errorCapRelative bounds a point's share.
-  pts.errSqCap = s.errorCapRelative > 0
+  pts.errSqCap = s.errorCapRelative > 0 && s.objective == GreedyObjective::kEnergy
                      ? (s.errorCapRelative * pts.refRms) * (s.errorCapRelative * pts.refRms)
                      : std::numeric_limits<double>::infinity();
 }
@@ -428,7 +478,7 @@ double GreedyErrorState::commit(const Trial& trial) {
 
 size_t GreedyErrorState::countMismatches(const Trial& full) const {
   size_t mismatches = 0;
-  const double refRms = points_.refRms;
+  const double unit = points_.scoreUnit;
   for (size_t q = 0; q < full.changed.size(); ++q) {
     const SampleState& want = full.changedState[q];
     const SampleState& have = mesh_.state[full.changed[q]];
@@ -448,7 +498,7 @@ size_t GreedyErrorState::countMismatches(const Trial& full) const {
     const bool same =
         (sameTet || std::binary_search(full.tets.begin(), full.tets.end(), have.tet)) &&
         have.outside == want.outside && clampRight &&
-        std::abs(have.errSq - want.errSq) <= tolerance * want.errSq + 1e-12 * refRms * refRms;
+        std::abs(have.errSq - want.errSq) <= tolerance * want.errSq + 1e-12 * unit * unit;
     mismatches += same ? 0 : 1;
   }
   return mismatches;

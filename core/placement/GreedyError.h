@@ -45,9 +45,11 @@ struct ErrorPoints {
   std::vector<Vec3> position;
   /// Reference irradiance of each point: its own capture's (greedyErrorNormalsIrradiance).
   std::vector<IrrVec> ref;
-  /// The variance of each point's irradiance from its capture noise (the SH coefficients'
+  /// The variance of each point's error from its capture noise (the SH coefficients'
   /// standard errors, taken as independent, through E(n) = sum A_l c_lm Y_lm(n)), averaged over
-  /// the normals: a point's squared error less this estimates its true squared error, so that
+  /// the normals, in the objective's unit squared (irradiance^2; stops^2 once weighErrorPoints
+  /// has converted it for kPerceptual): a point's squared error less this estimates its true
+  /// squared error, so that
   /// greedy does not chase the cheap capture's noise. (The probes' own noise, carried into the
   /// interpolation, is not subtracted: next to a light it is so large that it would hide the
   /// harm a bright probe does to its whole fan of tetrahedra.)
@@ -56,8 +58,19 @@ struct ErrorPoints {
   std::vector<char> avoided;
   /// The volume each point stands for in the error (weighErrorPoints); 0: no part in it.
   std::vector<double> weight;
-  double weightedRefSq = 0;  ///< sum of weight |ref|^2 / kNormals: the error's denominator
+  GreedyObjective objective = GreedyObjective::kEnergy;
+  double weightedRefSq = 0;  ///< sum of weight |ref|^2 / kNormals
   double refRms = 0;         ///< sqrt(weightedRefSq / sum of weights): the RMS irradiance
+  /// fieldError = sqrt(sum weight errSq / errorNorm): weightedRefSq for kEnergy, the sum of the
+  /// weights for kPerceptual.
+  double errorNorm = 0;
+  /// A point's error as a score is sqrt(errSq) / scoreUnit: refRms for kEnergy (relative to the
+  /// RMS irradiance), 1 for kPerceptual (stops).
+  double scoreUnit = 1;
+  /// kPerceptual: the luminance below which values count as the floor (errorStops), the
+  /// weighted median of the points' mean luminance over the normals times
+  /// kAdaptationFloorFraction; 0 for kEnergy.
+  double floorLuminance = 0;
   /// A point's squared error counts at most this (GreedySettings::errorCapRelative; infinite
   /// when off).
   double errSqCap = std::numeric_limits<double>::infinity();
@@ -72,7 +85,8 @@ struct ErrorPoints {
 /// irradiance and noise in parallel.
 ErrorPoints gatherErrorPoints(const DenseField& field, const GreedySettings& settings);
 
-/// Sets the weights, weightedRefSq, refRms and errSqCap of `points`: a field sample stands for
+/// Sets the objective, weights, weightedRefSq, refRms, errorNorm, scoreUnit, floorLuminance and
+/// errSqCap of `points`, and converts noiseVar to the objective's unit: a field sample stands for
 /// greedySampleWeight (uniform weights when the field records no cell sizes, or when those leave
 /// no lit sample outside the light clearance); with held-out points, they alone carry weight
 /// (theirs), unless they are all black or in the clearance. Throws ps::ParameterError when every
@@ -81,7 +95,8 @@ void weighErrorPoints(ErrorPoints& points, const DenseField& field, const Greedy
 
 /// A point's interpolation from a mesh.
 struct SampleState {
-  double errSq = 0;     ///< mean over the normals of the squared difference, noise and cap applied
+  /// Mean over the normals of the squared error (the objective's), noise and cap applied.
+  double errSq = 0;
   uint64_t tet = 0;     ///< tetKey of the point's tetrahedron
   bool outside = true;  ///< outside the hull (clamped), or never interpolated
   /// Outside: the hull face it is clamped to (as in Trial::hull; 0 when not known) and its

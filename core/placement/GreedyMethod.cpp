@@ -20,6 +20,7 @@ namespace {
 /// GreedySettings for the method's settings and `budget`.
 GreedySettings greedySettings(const GreedyMethodSettings& r, int budget) {
   GreedySettings gs;
+  gs.objective = r.objective;
   gs.budget = budget;
   gs.maxError = r.maxError;
   gs.swapPasses = r.swapPasses;
@@ -32,9 +33,10 @@ GreedySettings greedySettings(const GreedyMethodSettings& r, int budget) {
 void checkGreedyMethodSettings(const GreedyMethodSettings& r, int budget, size_t keptCount) {
   // The budget, maxError and the swaps: the algorithm's own checks, which name them.
   checkGreedySettings(greedySettings(r, budget), keptCount);
-  if (!(r.heldOutUniformShare >= 0 && r.heldOutUniformShare <= 1))
-    throw ParameterError("heldOutUniformShare", "expected a share from 0 to 1, got " +
-                                                    std::to_string(r.heldOutUniformShare));
+  if (!(r.heldOutUniformShare == -1 || (r.heldOutUniformShare >= 0 && r.heldOutUniformShare <= 1)))
+    throw ParameterError("heldOutUniformShare",
+                         "expected a share from 0 to 1 (or -1: by the objective), got " +
+                             std::to_string(r.heldOutUniformShare));
   if (r.heldOutPerProbe < 0)
     throw ParameterError("heldOutPerProbe", "expected 0 or more points per probe, got " +
                                                 std::to_string(r.heldOutPerProbe));
@@ -57,6 +59,11 @@ DenseFieldSettings greedyFieldSettings(const GreedyMethodSettings& r, uint64_t s
   if (fs.maxSurfaceDepth < 0)
     fs.maxSurfaceDepth = std::clamp(fs.maxDepth, 0, kGreedyFieldSurfaceDepth);
   return fs;
+}
+
+double greedyHeldOutUniformShare(const GreedyMethodSettings& r) {
+  if (r.heldOutUniformShare != -1) return r.heldOutUniformShare;
+  return r.objective == GreedyObjective::kPerceptual ? 1.0 : 0.5;
 }
 
 size_t greedyHeldOutPoints(const GreedyMethodSettings& r, int budget) {
@@ -135,7 +142,7 @@ std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const Lightin
   }
   double brightSum = 0;
   for (double b : bright) brightSum += b;
-  const double uniformShare = brightSum > 0 ? r.heldOutUniformShare : 1.0;
+  const double uniformShare = brightSum > 0 ? greedyHeldOutUniformShare(r) : 1.0;
   const uint64_t drawSeed = seed ^ 0x4E1D0C7ull;
   std::vector<std::vector<std::pair<Vec3, double>>> perCell(cells);
   tbb::parallel_for(size_t(0), cells, [&](size_t k) {
@@ -266,7 +273,8 @@ class GreedyPlacer : public Placer {
   GreedyMethodSettings s_;
 };
 
-constexpr std::string_view kParameters[] = {"maxError",
+constexpr std::string_view kParameters[] = {"objective",
+                                            "maxError",
                                             "fieldSpacingMeters",
                                             "fieldDepth",
                                             "fieldSurfaceDepth",
@@ -281,6 +289,10 @@ constexpr std::string_view kParameters[] = {"maxError",
 
 std::unique_ptr<Placer> create(const PlaceParameters& p, const PlaceBasics& b) {
   GreedyMethodSettings s;
+  constexpr std::string_view kObjectives[] = {"perceptual", "energy"};
+  s.objective = p.choice("objective", greedyObjectiveName(s.objective), kObjectives) == "energy"
+                    ? GreedyObjective::kEnergy
+                    : GreedyObjective::kPerceptual;
   s.maxError = p.number("maxError", s.maxError);
   const FieldParameters field = readFieldParameters(p);
   s.field = field.field;

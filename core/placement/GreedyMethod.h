@@ -37,7 +37,11 @@ inline constexpr int kGreedyFieldSurfaceDepth = 2;
 
 /// greedy's parameters (PlaceParameters names in brackets) with their defaults.
 struct GreedyMethodSettings {
-  double maxError = 0;  ///< stop at this held-out (or field) error, >= 0; 0: off [maxError]
+  /// The error lowered: perceptual (stops, the default) or energy (rel_rmse). [objective]
+  GreedyObjective objective = GreedyObjective::kPerceptual;
+  /// Stop at this held-out (or field) error, >= 0, in the objective's unit (RMS stops, or
+  /// relative RMS); 0: off [maxError]
+  double maxError = 0;
   /// The dense field [fieldSpacingMeters, fieldSurfaceDepth, fieldSamplesPerProbe, prefilter,
   /// fieldMaxSamples]; its seed and importance volumes come from the run.
   DenseFieldSettings field;
@@ -47,8 +51,10 @@ struct GreedyMethodSettings {
   /// is measured at them (drawGreedyHeldOut). 0: at the field's own samples. [heldOutPerProbe]
   int heldOutPerProbe = kGreedyHeldOutPerProbe;
   /// The share of the held-out points spread by volume, in [0, 1]; the rest go where the field
-  /// is bright. [heldOutUniformShare]
-  double heldOutUniformShare = 0.5;
+  /// is bright (where the energy objective's errors are largest). -1: by the objective, all of
+  /// them for perceptual (a ratio weighs as much in a dim place as in a bright one), half for
+  /// energy (greedyHeldOutUniformShare). [heldOutUniformShare]
+  double heldOutUniformShare = -1;
   /// Samples per probe of each candidate's own capture (GreedySettings::captureProbeValues);
   /// at most field.samplesPerProbe: the field sample's capture. [candidateSamplesPerProbe]
   int probeSpp = kGreedyProbeSpp;
@@ -65,6 +71,10 @@ void checkGreedyMethodSettings(const GreedyMethodSettings& settings, int budget,
 /// the caller).
 DenseFieldSettings greedyFieldSettings(const GreedyMethodSettings& settings, uint64_t seed = 1);
 
+/// The share of held-out points spread by volume that `settings` asks for (resolving -1 by its
+/// objective).
+double greedyHeldOutUniformShare(const GreedyMethodSettings& settings);
+
 /// How many held-out points greedy draws for `settings` and `budget`.
 size_t greedyHeldOutPoints(const GreedyMethodSettings& settings, int budget);
 
@@ -72,7 +82,7 @@ size_t greedyHeldOutPoints(const GreedyMethodSettings& settings, int budget);
 /// domain of interest, outside geometry and the light clearance as eval's queries are, each
 /// captured at the field's samples per probe (also when the field is pre-filtered).
 /// Stratified: the domain's bounding box is cut into about cubic cells (about 8 points each on
-/// average); a cell gets heldOutUniformShare of its points by its volume and the rest by the
+/// average); a cell gets greedyHeldOutUniformShare of its points by its volume and the rest by the
 /// field's squared irradiance there (the largest mean over the 14 normals of the samples whose
 /// octree cells overlap it), at least one; each point weighs its cell's volume over the cell's
 /// count. The weighted sums estimate eval's uniform sums without bias, with more points where

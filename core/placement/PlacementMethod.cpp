@@ -33,6 +33,19 @@ bool PlaceParameters::flag(const std::string& name, bool fallback) const {
   return v == 1;
 }
 
+std::string PlaceParameters::choice(const std::string& name, std::string_view fallback,
+                                    std::span<const std::string_view> options) const {
+  std::string list;
+  for (std::string_view o : options) list += (list.empty() ? "" : ", ") + std::string(o);
+  if (values_.count(name) != 0)
+    throw ParameterError(name, "expected one of " + list + ", got a number");
+  const auto it = texts_.find(name);
+  if (it == texts_.end()) return std::string(fallback);
+  if (std::find(options.begin(), options.end(), it->second) == options.end())
+    throw ParameterError(name, "expected one of " + list + ", got \"" + it->second + "\"");
+  return it->second;
+}
+
 double PlaceContext::defaultSpacingMeters() const {
   return std::max(0.25, tracer.scene().bounds.diagonal() / 10);
 }
@@ -57,10 +70,13 @@ const PlacementMethod& findPlacementMethod(std::string_view name) {
 
 std::unique_ptr<Placer> createPlacer(const PlacementMethod& method,
                                      const PlaceParameters& parameters, const PlaceBasics& basics) {
-  for (const auto& [name, value] : parameters.values())
+  auto refuseForeign = [&](const std::string& name) {
     if (std::find(method.parameters.begin(), method.parameters.end(), name) ==
         method.parameters.end())
       throw ParameterError(name, "not a parameter of method " + std::string(method.name));
+  };
+  for (const auto& [name, value] : parameters.values()) refuseForeign(name);
+  for (const auto& [name, text] : parameters.texts()) refuseForeign(name);
   if (basics.budget < 0)
     throw ParameterError(
         "budget", "expected 0 (none) or a probe count, got " + std::to_string(basics.budget));

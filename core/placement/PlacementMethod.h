@@ -35,8 +35,13 @@ namespace ps {
 class PlaceParameters {
  public:
   void set(const std::string& name, double value) { values_[name] = value; }
-  bool has(const std::string& name) const { return values_.count(name) != 0; }
+  /// A parameter whose value is a word (choice()).
+  void setText(const std::string& name, const std::string& value) { texts_[name] = value; }
+  bool has(const std::string& name) const {
+    return values_.count(name) != 0 || texts_.count(name) != 0;
+  }
   const std::map<std::string, double>& values() const { return values_; }
+  const std::map<std::string, std::string>& texts() const { return texts_; }
 
   /// The value of `name`, or `fallback` when it is absent. Throws ps::ParameterError(name) when
   /// the value is not finite.
@@ -45,9 +50,15 @@ class PlaceParameters {
   int integer(const std::string& name, int fallback) const;
   /// As number(), for 0 (false) or 1 (true).
   bool flag(const std::string& name, bool fallback) const;
+  /// The word given for `name` (setText), or `fallback` when it is absent. Throws
+  /// ps::ParameterError(name) listing `options` when the word is not one of them, or when the
+  /// parameter was given as a number.
+  std::string choice(const std::string& name, std::string_view fallback,
+                     std::span<const std::string_view> options) const;
 
  private:
   std::map<std::string, double> values_;
+  std::map<std::string, std::string> texts_;
 };
 
 /// What every method is run with. `kept` are the probes that stay (the artist's locked and accepted

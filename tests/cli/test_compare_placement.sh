@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# scripts/compare-placement at one small budget on cornell: a row per method with every column,
+# scripts/compare-placement at one small budget on cornell: a row per method (a NAME:OBJECTIVE
+# method as greedy with that objective) with every column,
 # the reference's noise, the leaking fraction and the scene's SH floor among them, and no plots
 # (PLOTS=0); the floor captured once per scene; with LEAK_CUTS=1 on two-rooms, the same probe
 # counts and fewer leaking queries (and no floor, FLOOR=0).
@@ -7,18 +8,18 @@
 set -euo pipefail
 cli="$1"; root="$2"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-PROBESTUDIO="$cli" SCENES=cornell METHODS="uniform greedy" QUERIES=64 REFERENCE_SPP=256 \
+PROBESTUDIO="$cli" SCENES=cornell METHODS="uniform greedy:energy" QUERIES=64 REFERENCE_SPP=256 \
   BAKE_SPP=64 PLOTS=0 EVAL_CACHE="$tmp/cache" \
   "$root/scripts/compare-placement" "$tmp/p.csv" 16 >"$tmp/log" 2>&1 || { cat "$tmp/log"; exit 1; }
 python3 - "$tmp/p.csv" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
-assert [r["method"] for r in rows] == ["uniform", "greedy"], rows
+assert [r["method"] for r in rows] == ["uniform", "greedy:energy"], rows
 for r in rows:
     assert list(r) == ["scene", "method", "budget", "probes", "place_seconds", "rel_rmse", "p95",
                        "max", "reference_noise", "rel_rmse_std_error", "leaking_fraction",
                        "leaking_outside_hull", "outside_hull", "sh_floor", "rms_stops",
-                       "p90_stops", "beyond_third_stop"], r
+                       "p90_stops", "beyond_third_stop", "reference_noise_stops"], r
     assert all(r[k] for k in r), r
     assert 0 <= float(r["leaking_fraction"]) <= 1, r
     assert 0 <= float(r["leaking_outside_hull"]) <= float(r["leaking_fraction"]), r

@@ -89,6 +89,11 @@ for r in rows:
     stops.append(want)
 assert abs(math.sqrt(sum(x * x for x in stops) / 32) - e["stops"]["rms"]) < 1e-4, e["stops"]
 assert e["stops"]["queries"] == 32 and e["regions"] == [], e
+# The reference's noise in stops, from the same standard errors.
+want = math.sqrt(sum((float(r["reference_std"]) / (max(float(r["reference"]), floor) * math.log(2)))
+                     ** 2 for r in rows) / 32)
+assert abs(e["stops"]["reference_noise"] - want) < 1e-4 * want + 1e-6, (e["stops"], want)
+assert 0 < want < 5, want
 stops.sort()
 assert abs(stops[math.ceil(0.9 * 32) - 1] - e["stops"]["p90"]) < 1e-4, (stops, e["stops"])
 assert e["stops"]["beyond_third_stop"] == sum(x >= 1 / 3 for x in stops) / 32, e["stops"]

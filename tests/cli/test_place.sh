@@ -27,7 +27,9 @@ assert len(s["probes"]) == 24, len(s["probes"])
 assert s["placement"]["method"] == "greedy" and s["placement"]["budget"] == 24
 assert s["rig"]["sky_radiance"] == [0.1, 0.1, 0.1], s["rig"]
 assert all(p["method"] == "greedy" for p in s["probes"])
-assert sum(p["score"] > 0 for p in s["probes"]) >= 16, "greedy additions carry their error"
+# Additions and swaps carry their error in stops (0 for the initial probes that stayed, and for
+# a sample whose error is within its 32-sample capture's noise).
+assert sum(p["score"] > 0 for p in s["probes"]) >= 8, "greedy additions carry their error"
 for p in s["probes"]:  # inside the room, outside the pillar (scripts/make_scenes.py)
     x, y, z = p["position"]
     assert -4 < x < 4 and 0 < y < 3 and -4 < z < 4, p
@@ -82,14 +84,15 @@ expect_error() {  # expect_error "expected text" cmd...
   grep -qF -- "$expected" "$tmp/err" || { echo "FAIL: $*: $(cat "$tmp/err")"; fail=1; }
 }
 expect_error "--budget: expected a probe count: greedy needs a budget, an error target or both" "$cli" place "$scene" --method greedy -o "$tmp/x.json"
-expect_error "--spacing: not an option of --method greedy (its options: --budget, --max-error" "$cli" place "$scene" --method greedy --spacing 1 --max-error 0.2 -o "$tmp/x.json"
+expect_error "--spacing: not an option of --method greedy (its options: --budget, --objective, --max-error" "$cli" place "$scene" --method greedy --spacing 1 --max-error 0.2 -o "$tmp/x.json"
 expect_error "--max-error: not an option of --method uniform (its options: --budget, --spacing)" "$cli" place "$scene" --max-error 0.1 -o "$tmp/x.json"
+expect_error "--objective: expected one of perceptual, energy, got \"loudness\"" "$cli" place "$scene" --method greedy --budget 8 --objective loudness -o "$tmp/x.json"
 expect_error "budget: expected at least 4 probes, got 3" "$cli" place "$scene" --method greedy --budget 3 -o "$tmp/x.json"
 expect_error "beside the 2 kept probes" "$cli" place "$scene" --method greedy --budget 5 --keep "$tmp/locked.json" -o "$tmp/x.json"
 expect_error "base samples (limit 200000)" "$cli" place "$scene" --method greedy --budget 8 --field-spacing 0.01 -o "$tmp/x.json"
 expect_error "--held-out: expected 0 or more points per probe, got -1" "$cli" place "$scene" --method greedy --budget 8 --held-out -1 -o "$tmp/x.json"
 expect_error "above the limit of 4000000" "$cli" place "$scene" --method greedy --budget 40000 --held-out 128 -o "$tmp/x.json"
-expect_error "--held-out-uniform: expected a share from 0 to 1, got 2" "$cli" place "$scene" --method greedy --budget 8 --held-out-uniform 2 -o "$tmp/x.json"
+expect_error "--held-out-uniform: expected a share from 0 to 1 (or -1: by the objective), got 2" "$cli" place "$scene" --method greedy --budget 8 --held-out-uniform 2 -o "$tmp/x.json"
 expect_error "--probe-spp: expected 0 or more samples per probe, got -2" "$cli" place "$scene" --method greedy --budget 8 --probe-spp -2 -o "$tmp/x.json"
 expect_error "--swap-passes: expected 0 or more passes, got -1" "$cli" place "$scene" --method greedy --budget 8 --swap-passes -1 -o "$tmp/x.json"
 expect_error "--swap-neighbours: expected 0 or more samples, got -3" "$cli" place "$scene" --method greedy --budget 8 --swap-neighbours -3 -o "$tmp/x.json"

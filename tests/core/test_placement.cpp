@@ -15,7 +15,9 @@
 #include "core/common/Error.h"
 #include "core/domain/DomainPoints.h"
 #include "core/eval/Evaluate.h"
+#include "core/eval/PerceptualError.h"
 #include "core/math/Random.h"
+#include "core/math/Stops.h"
 #include "core/placement/Ascent.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
@@ -603,7 +605,11 @@ TEST(Greedy, HeldOutPointsGoWhereItIsBrightAndWeighTheirVolume) {
   GreedyMethodSettings r;
   const int budget = 64;  // 128 points per probe: 8192
   r.field.samplesPerProbe = kFieldSpp;
+  r.objective = GreedyObjective::kEnergy;  // half the points where it is bright
+  EXPECT_EQ(greedyHeldOutUniformShare(r), 0.5);
   const std::vector<HeldOutSample> bright = drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, {}, f);
+  r.objective = GreedyObjective::kPerceptual;  // all of them by volume
+  EXPECT_EQ(greedyHeldOutUniformShare(r), 1.0);
   r.heldOutUniformShare = 1;
   const std::vector<HeldOutSample> even = drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, {}, f);
   // The volume outside geometry, from a plain uniform draw.
@@ -770,6 +776,58 @@ TEST(Greedy, EveryRoomAndBothSidesOfThePillarGetProbes) {
   for (int side : sides) EXPECT_GE(side, 3);
 }
 
+TEST(Greedy, PerceptualObjectiveIsRmsStopsAndFillsBothRoomsByVolume) {
+  // two-rooms: room A (x < -0.05, a point light) and room B (x > 0.05, a sun patch and the
+  // light through the door, on average about a tenth of A's) have the same volume. Held-out
+  // points uniform over the domain, equal weights, no capture noise.
+  const DenseField& f = noiselessTwoRoomsField();
+  const TwoRoomsHeldOut& h = twoRoomsHeldOut();
+  GreedySettings s;
+  s.budget = 32;
+  s.heldOut = h.samples;
+  s.objective = GreedyObjective::kPerceptual;
+  const GreedyResult perceptual = placeGreedy(f, {}, s);
+  ASSERT_EQ(perceptual.positions.size(), 32u);
+  // The field error is the RMS in stops over the held-out points (core/math/Stops.h), with the
+  // floor at kAdaptationFloorFraction of their median mean luminance over the 14 normals.
+  std::vector<double> level;
+  for (const ShRgb& sh : h.sh) {
+    double m = 0;
+    for (double x : greedyErrorNormalsIrradiance(sh)) m += x;
+    level.push_back(m / 14);
+  }
+  std::vector<double> sorted = level;
+  std::sort(sorted.begin(), sorted.end());
+  const double floor = kAdaptationFloorFraction * sorted[(sorted.size() + 1) / 2 - 1];
+  const ProbeVolume v = volumeOfSamples(f, perceptual.sampleIndex);
+  double sq = 0;
+  for (size_t i = 0; i < h.points.size(); ++i) {
+    const auto ref = greedyErrorNormalsIrradiance(h.sh[i]);
+    const auto got = greedyErrorNormalsIrradiance(interpolate(v, locate(v, h.points[i])));
+    for (size_t k = 0; k < ref.size(); ++k) {
+      const double e = errorStops(got[k], ref[k], floor);
+      sq += e * e / double(ref.size());
+    }
+  }
+  const double rmsStops = std::sqrt(sq / double(h.points.size()));
+  EXPECT_NEAR(perceptual.fieldError, rmsStops, 1e-4 * rmsStops);
+  // Rooms of equal volume get probes within a factor of 2 of each other; the energy objective,
+  // led by room A's light, gives room B fewer.
+  auto roomCounts = [](const GreedyResult& r) {
+    std::pair<int, int> ab{0, 0};
+    for (const Vec3& p : r.positions) (p.x < 0 ? ab.first : ab.second) += 1;
+    return ab;
+  };
+  const auto [pa, pb] = roomCounts(perceptual);
+  s.objective = GreedyObjective::kEnergy;
+  const auto [ea, eb] = roomCounts(placeGreedy(f, {}, s));
+  std::printf("two-rooms, 32 probes: room A / room B %d / %d (perceptual), %d / %d (energy)\n", pa,
+              pb, ea, eb);
+  EXPECT_LE(pa, 2 * pb);
+  EXPECT_LE(pb, 2 * pa);
+  EXPECT_GT(pb, eb);
+}
+
 TEST(Greedy, KeepsLockedProbesAndBuildsAroundThem) {
   const DenseField& f = noiselessTwoRoomsField();
   // Two kept probes at field samples, with their SH, so that the error can be recomputed.
@@ -913,7 +971,8 @@ TEST(Greedy, DefaultFieldBeatsUniformAndKeepsOffTheLight) {
   // The place pipeline's greedy (the field refined to depth 4 by the light, to depth 2 by the
   // geometry, with boundary samples; no probe within the light clearance) against the uniform grid
   // at 64 probes, both captured at the same spp and measured against the same path-traced reference
-  // (which keeps the same clearance). The bound leaves room for the test's smaller capture.
+  // (which keeps the same clearance), each objective on its own figure. The bounds leave room for
+  // the test's smaller capture.
   const Loaded& l = loaded("two-rooms.gltf");
   PlaceRequest r;
   r.budget = 64;
@@ -921,8 +980,11 @@ TEST(Greedy, DefaultFieldBeatsUniformAndKeepsOffTheLight) {
   r.method = "uniform";
   const ProbeSet u = placeProbeSet(*l.tracer, {}, r).set;
   r.method = "greedy";
+  const ProbeSet p = placeProbeSet(*l.tracer, {}, r).set;  // the perceptual objective
+  r.parameters.setText("objective", "energy");
   const ProbeSet g = placeProbeSet(*l.tracer, {}, r).set;
   ASSERT_EQ(g.probes.size(), 64u);
+  ASSERT_EQ(p.probes.size(), 64u);
   CaptureSettings cs;
   cs.samplesPerProbe = 256;
   EvalSettings es;
@@ -930,21 +992,33 @@ TEST(Greedy, DefaultFieldBeatsUniformAndKeepsOffTheLight) {
   es.referenceSpp = 64;
   auto eval = [&](const ProbeSet& o) {
     std::vector<Vec3> pts;
-    for (const Probe& p : o.probes) pts.push_back(p.position);
+    for (const Probe& probe : o.probes) pts.push_back(probe.position);
     const auto caps = captureProbes(*l.tracer, {}, pts, cs);
     std::vector<ShRgb> sh;
     for (const auto& c : caps) sh.push_back(c.sh);
-    return evaluateVolume(*l.tracer, {}, volumeFromProbes(pts, sh), es).relRmse;
+    return evaluateVolume(*l.tracer, {}, volumeFromProbes(pts, sh), es);
   };
-  const double eu = eval(u), eg = eval(g);
+  const EvalResult vu = eval(u), vg = eval(g), vp = eval(p);
+  const double eu = vu.relRmse, eg = vg.relRmse;
   EXPECT_LT(eg, 0.85 * eu) << "greedy " << eg << ", uniform " << eu << " (" << u.probes.size()
                            << " probes)";
+  // In stops, against one floor (the queries and references are the same for all three).
+  const double floor = adaptationFloor(vu.perQuery);
+  auto rmsStops = [&](const EvalResult& v) {
+    return summarizeStops(queryStops(v.perQuery, floor)).rms;
+  };
+  const double su = rmsStops(vu), sg = rmsStops(vg), sp = rmsStops(vp);
+  EXPECT_LT(sp, 0.9 * su) << "greedy (perceptual) " << sp << " stops, uniform " << su;
+  EXPECT_LT(sp, sg) << "greedy (perceptual) " << sp << " stops, greedy (energy) " << sg;
   const double clearance = kDefaultLightClearanceRelative * l.tracer->scene().bounds.diagonal();
-  for (const Probe& p : g.probes)
-    for (const Vec3& light : punctualLightPositions(l.tracer->scene(), {}))
-      EXPECT_GE(length(p.position - light), clearance) << p.position;
-  std::printf("two-rooms, 64 probes: rel_rmse greedy %.4f, uniform %.4f (%zu probes)\n", eg, eu,
-              u.probes.size());
+  for (const ProbeSet* set : {&g, &p})
+    for (const Probe& probe : set->probes)
+      for (const Vec3& light : punctualLightPositions(l.tracer->scene(), {}))
+        EXPECT_GE(length(probe.position - light), clearance) << probe.position;
+  std::printf(
+      "two-rooms, 64 probes: rel_rmse greedy (energy) %.4f, greedy (perceptual) %.4f, uniform "
+      "%.4f (%zu probes); RMS stops %.3f, %.3f, %.3f\n",
+      eg, vp.relRmse, eu, u.probes.size(), sg, sp, su);
 }
 
 // --------------------------------------------------------------------- methods and pipeline
@@ -997,6 +1071,22 @@ TEST(PlacementMethods, RefusalsNameTheParameterInTheCoresTerms) {
   PlaceParameters share;
   share.set("heldOutUniformShare", 2);
   EXPECT_EQ(parameterOf("greedy", share, 64), "heldOutUniformShare");
+  // The objective is a word from a list, which the refusal gives.
+  PlaceParameters objective;
+  objective.setText("objective", "energy");
+  EXPECT_EQ(parameterOf("greedy", objective, 64), "(accepted)");
+  EXPECT_EQ(parameterOf("uniform", objective, 64), "objective");  // not uniform's
+  objective.setText("objective", "brightness");
+  try {
+    createPlacer(findPlacementMethod("greedy"), objective, {64, 0});
+    ADD_FAILURE() << "objective \"brightness\" accepted";
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.parameter(), "objective");
+    EXPECT_EQ(e.problem(), "expected one of perceptual, energy, got \"brightness\"");
+  }
+  PlaceParameters numericObjective;
+  numericObjective.set("objective", 1);
+  EXPECT_EQ(parameterOf("greedy", numericObjective, 64), "objective");
   PlaceParameters aggressiveness;
   aggressiveness.set("aggressiveness", 0);
   EXPECT_EQ(parameterOf("chajdas", aggressiveness, 0), "aggressiveness");
