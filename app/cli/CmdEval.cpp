@@ -13,6 +13,7 @@
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
+#include "core/domain/Rooms.h"
 #include "core/eval/Evaluate.h"
 #include "core/eval/PerceptualError.h"
 #include "core/eval/ReferenceCache.h"
@@ -37,6 +38,9 @@ struct EvalReport {
   std::vector<double> stops;  ///< per query, in EvalResult::perQuery's order
   EvalStops all;
   std::vector<RegionError> regions;  ///< per importance volume
+  /// Per room found in the domain (core/domain/Rooms.h), with its volume in cubic metres.
+  std::vector<RegionError> rooms;
+  std::vector<double> roomVolumes;
 };
 
 /// --per-query: one CSV line per query (header in the option's help), written atomically.
@@ -66,6 +70,15 @@ ojson stopsJson(const EvalStops& s) {
 }
 
 /// --json: every figure of the result and the report (docs/evaluation.md names them).
+ojson regionJson(const RegionError& region) {
+  ojson jr;
+  jr["name"] = region.name;
+  jr["stops"] = stopsJson(region.stops);
+  jr["rel_rmse"] = region.relRmse;
+  jr["mean_reference"] = region.meanReference;
+  return jr;
+}
+
 ojson evalJson(const EvalResult& r, const EvalReport& report, int floorSpp) {
   ojson j;
   j["probes"] = r.probes;
@@ -90,13 +103,12 @@ ojson evalJson(const EvalResult& r, const EvalReport& report, int floorSpp) {
   j["stops"]["floor"] = report.floor;
   j["stops"]["reference_noise"] = report.referenceNoise;
   j["regions"] = ojson::array();
-  for (const RegionError& region : report.regions) {
-    ojson jr;
-    jr["name"] = region.name;
-    jr["stops"] = stopsJson(region.stops);
-    jr["rel_rmse"] = region.relRmse;
-    jr["mean_reference"] = region.meanReference;
-    j["regions"].push_back(jr);
+  for (const RegionError& region : report.regions) j["regions"].push_back(regionJson(region));
+  j["rooms"] = ojson::array();
+  for (size_t k = 0; k < report.rooms.size(); ++k) {
+    ojson jr = regionJson(report.rooms[k]);
+    jr["volume_m3"] = report.roomVolumes[k];
+    j["rooms"].push_back(jr);
   }
   return j;
 }
@@ -126,12 +138,18 @@ void printEval(const EvalResult& r, const EvalReport& report, int floorSpp) {
       "reference's own noise %.3f stops RMS\n",
       report.floor, 100 * kAdaptationFloorFraction, report.all.rms, report.all.median,
       report.all.p90, report.all.beyondThirdStop, report.referenceNoise);
-  for (const RegionError& region : report.regions)
+  auto printRegion = [](const RegionError& region) {
     std::printf(
         "  %s: %zu queries, mean reference %.4g: stops RMS %.3f, median %.3f, p90 "
         "%.3f, beyond a third %.4f; rel_rmse %.4f\n",
         region.name.c_str(), region.stops.queries, region.meanReference, region.stops.rms,
         region.stops.median, region.stops.p90, region.stops.beyondThirdStop, region.relRmse);
+  };
+  for (const RegionError& region : report.regions) printRegion(region);
+  if (!report.rooms.empty())
+    std::printf("rooms found in the domain (openings under %.1f m close them off):\n",
+                RoomSettings{}.doorwayMeters);
+  for (const RegionError& room : report.rooms) printRegion(room);
 }
 
 }  // namespace
@@ -247,6 +265,15 @@ void registerEval(CLI::App& app) {
     report.all = summarizeStops(report.stops);
     report.referenceNoise = referenceNoiseStops(r.perQuery, report.floor);
     report.regions = regionErrors(r.perQuery, report.stops, domain, regionNames);
+    // Rooms, told apart without volumes drawn by hand; one room is no split, and says nothing
+    // the whole does not.
+    const RoomMap rooms(tracer, domain);
+    if (rooms.roomCount() > 1) {
+      std::vector<int> labels;
+      for (const EvalQuery& q : r.perQuery) labels.push_back(rooms.roomOf(q.point));
+      report.rooms = labelledRegionErrors(r.perQuery, report.stops, labels, rooms.roomNames());
+      report.roomVolumes = rooms.roomVolumes();
+    }
     if (!o->perQuery.empty()) writePerQueryCsv(o->perQuery, r, report.stops);
     // Notes go to stderr: with --json, stdout holds the JSON only.
     for (const std::string& n : r.notes) std::cerr << "note: " << n << "\n";

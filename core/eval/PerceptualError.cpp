@@ -16,6 +16,27 @@ double percentile(const std::vector<double>& sorted, double q) {
   return sorted[std::clamp(rank, size_t(1), sorted.size()) - 1];
 }
 
+/// The error of the queries marked `inside`.
+RegionError regionError(std::span<const EvalQuery> queries, std::span<const double> stops,
+                        std::span<const char> inside, const std::string& name) {
+  std::vector<double> in;
+  double errSq = 0, refSq = 0, refSum = 0;
+  for (size_t i = 0; i < queries.size(); ++i) {
+    if (!inside[i]) continue;
+    in.push_back(stops[i]);
+    const double e = queries[i].interpolated - queries[i].reference;
+    errSq += e * e;
+    refSq += queries[i].reference * queries[i].reference;
+    refSum += queries[i].reference;
+  }
+  RegionError r;
+  r.name = name;
+  r.stops = summarizeStops(in);
+  r.relRmse = refSq > 0 ? std::sqrt(errSq / refSq) : 0.0;
+  r.meanReference = in.empty() ? 0.0 : refSum / double(in.size());
+  return r;
+}
+
 }  // namespace
 
 double adaptationFloor(std::span<const EvalQuery> queries) {
@@ -76,22 +97,24 @@ std::vector<RegionError> regionErrors(std::span<const EvalQuery> queries,
   PS_CHECK_EQ(boxes.size(), names.size());
   std::vector<RegionError> out;
   for (size_t b = 0; b < boxes.size(); ++b) {
-    std::vector<double> inside;
-    double errSq = 0, refSq = 0, refSum = 0;
-    for (size_t i = 0; i < queries.size(); ++i) {
-      if (!boxes[b].contains(queries[i].point)) continue;
-      inside.push_back(stops[i]);
-      const double e = queries[i].interpolated - queries[i].reference;
-      errSq += e * e;
-      refSq += queries[i].reference * queries[i].reference;
-      refSum += queries[i].reference;
-    }
-    RegionError r;
-    r.name = names[b];
-    r.stops = summarizeStops(inside);
-    r.relRmse = refSq > 0 ? std::sqrt(errSq / refSq) : 0.0;
-    r.meanReference = inside.empty() ? 0.0 : refSum / double(inside.size());
-    out.push_back(std::move(r));
+    std::vector<char> inside(queries.size());
+    for (size_t i = 0; i < queries.size(); ++i) inside[i] = boxes[b].contains(queries[i].point);
+    out.push_back(regionError(queries, stops, inside, names[b]));
+  }
+  return out;
+}
+
+std::vector<RegionError> labelledRegionErrors(std::span<const EvalQuery> queries,
+                                              std::span<const double> stops,
+                                              std::span<const int> labels,
+                                              std::span<const std::string> names) {
+  PS_CHECK_EQ(queries.size(), stops.size());
+  PS_CHECK_EQ(queries.size(), labels.size());
+  std::vector<RegionError> out;
+  for (size_t r = 0; r < names.size(); ++r) {
+    std::vector<char> inside(queries.size());
+    for (size_t i = 0; i < queries.size(); ++i) inside[i] = labels[i] == int(r);
+    out.push_back(regionError(queries, stops, inside, names[r]));
   }
   return out;
 }

@@ -54,4 +54,11 @@ std::vector<RegionError> regionErrors(std::span<const EvalQuery> queries,
                                       std::span<const double> stops, std::span<const Bounds3> boxes,
                                       std::span<const std::string> names);
 
+/// Per region `r` of `names` (a room of core/domain/Rooms.h), the queries whose label is r
+/// (labels[i] for queries[i]; -1: none), against the floor of all the queries.
+std::vector<RegionError> labelledRegionErrors(std::span<const EvalQuery> queries,
+                                              std::span<const double> stops,
+                                              std::span<const int> labels,
+                                              std::span<const std::string> names);
+
 }  // namespace ps

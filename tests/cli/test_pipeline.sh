@@ -97,6 +97,7 @@ assert 0 < want < 5, want
 stops.sort()
 assert abs(stops[math.ceil(0.9 * 32) - 1] - e["stops"]["p90"]) < 1e-4, (stops, e["stops"])
 assert e["stops"]["beyond_third_stop"] == sum(x >= 1 / 3 for x in stops) / 32, e["stops"]
+assert e["rooms"] == [], e["rooms"]  # the Cornell box is one room: no split to report
 q = json.load(open(f"{tmp}/q.json"))[0]
 assert q["tet"] >= 0 and abs(sum(q["weights"]) - 1) < 1e-5
 assert all(c > 0 for c in q["irradiance"]), q
@@ -118,4 +119,29 @@ t = json.load(open(f"{tmp}/tets.json"))
 assert t["vertex_of_input"][5] == t["vertex_of_input"][0], "duplicate merged"
 assert len(t["vertices"]) == 5 and len(t["tets"]) >= 2 and len(t["neighbors"]) == len(t["tets"])
 print("pipeline ok:", n, "probes, rel_rmse", round(e["rel_rmse"], 4))
+PY
+
+# Rooms told apart without importance volumes: two-rooms' two rooms, each with its own error.
+two="$root/resources/scenes/two-rooms.gltf"
+"$cli" place "$two" --budget 32 --accept --no-leak-refine -o "$tmp/two.json" >/dev/null
+"$cli" bake "$tmp/two.json" -o "$tmp/two.psv" --spp 16 --no-leak-refine --no-cache >/dev/null
+"$cli" eval "$tmp/two.psv" --queries 256 --reference-spp 16 --json --per-query "$tmp/two.csv" \
+  >"$tmp/two-eval.json"
+"$cli" eval "$tmp/two.psv" --queries 256 --reference-spp 16 | grep -q "^  room 2: "
+python3 - "$tmp" <<'PY'
+import csv, json, sys
+tmp = sys.argv[1]
+e = json.load(open(f"{tmp}/two-eval.json"))
+rooms = e["rooms"]
+assert [r["name"] for r in rooms] == ["room 1", "room 2"], rooms
+assert abs(rooms[0]["volume_m3"] - rooms[1]["volume_m3"]) < 0.1 * rooms[1]["volume_m3"], rooms
+# The rooms are x < 0 and x > 0; their queries are those of their side, and the dim one (the
+# point light is in A) has the lower mean.
+rows = list(csv.DictReader(open(f"{tmp}/two.csv")))
+sides = [sum(float(r["x"]) < 0 for r in rows), sum(float(r["x"]) > 0 for r in rows)]
+counts = sorted(r["stops"]["queries"] for r in rooms)
+assert all(abs(c - s) <= 0.05 * 256 for c, s in zip(counts, sorted(sides))), (counts, sides)
+means = sorted(r["mean_reference"] for r in rooms)
+assert means[0] < 0.5 * means[1], rooms
+print("rooms ok:", [(r["name"], r["stops"]["queries"], round(r["stops"]["rms"], 3)) for r in rooms])
 PY

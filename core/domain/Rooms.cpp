@@ -1,0 +1,253 @@
+#include "core/domain/Rooms.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <deque>
+
+#include "core/common/Error.h"
+#include "core/domain/DomainPoints.h"
+#include "core/math/Random.h"
+
+namespace ps {
+
+namespace {
+
+constexpr int kAxes = 3;
+
+}  // namespace
+
+RoomMap::RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const RoomSettings& s) {
+  if (!(s.doorwayMeters > 0))
+    throw ParameterError("doorwayMeters",
+                         "expected a width above 0 m, got " + std::to_string(s.doorwayMeters));
+  if (!(s.minRoomCubicMeters >= 0))
+    throw ParameterError("minRoomCubicMeters", "expected 0 or more cubic metres, got " +
+                                                   std::to_string(s.minRoomCubicMeters));
+  if (!(s.cellMeters >= 0))
+    throw ParameterError("cellMeters", "expected 0 (automatic) or an edge above 0 m, got " +
+                                           std::to_string(s.cellMeters));
+  if (s.maxCells < 1000)
+    throw ParameterError("maxCells",
+                         "expected at least 1000 cells, got " + std::to_string(s.maxCells));
+  box_ = domainBounds(tracer, domain);
+  const Vec3 e = box_.extent();
+  const double volume = e.x * e.y * e.z;
+  if (!(volume > 0)) throw ParameterError("domain: the domain has no volume");
+  cell_ = s.cellMeters > 0 ? s.cellMeters
+                           : std::max(s.doorwayMeters / 4, std::cbrt(volume / double(s.maxCells)));
+  const double ext[kAxes] = {e.x, e.y, e.z};
+  size_t cells = 1;
+  for (int a = 0; a < kAxes; ++a) {
+    n_[a] = std::max(1, int(std::ceil(ext[a] / cell_)));
+    cells *= size_t(n_[a]);
+  }
+  if (cells > 4 * s.maxCells)
+    throw ParameterError("cellMeters", "a " + std::to_string(cell_) + " m cell makes " +
+                                           std::to_string(cells) + " cells, above 4 x maxCells");
+  const int nx = n_[0], ny = n_[1];
+  auto index = [&](int x, int y, int z) { return (size_t(z) * size_t(ny) + size_t(y)) * nx + x; };
+  auto centre = [&](size_t c) {
+    const int x = int(c % size_t(nx)), y = int((c / size_t(nx)) % size_t(ny)),
+              z = int(c / (size_t(nx) * size_t(ny)));
+    return box_.lo + Vec3((x + 0.5) * cell_, (y + 0.5) * cell_, (z + 0.5) * cell_);
+  };
+  auto coords = [&](size_t c, int out[kAxes]) {
+    out[0] = int(c % size_t(nx));
+    out[1] = int((c / size_t(nx)) % size_t(ny));
+    out[2] = int(c / (size_t(nx) * size_t(ny)));
+  };
+
+  // Free cells: the centre inside the domain's boxes and outside geometry.
+  const LightingRig noLights;
+  const DomainPoints points(tracer, noLights, domain, 0);
+  std::vector<char> freeCell(cells, 0);
+  tbb::parallel_for(size_t(0), cells, [&](size_t c) {
+    freeCell[c] = points.valid(centre(c), streamSeed(s.seed, c)) ? 1 : 0;
+  });
+  // Joins: bit a when the cell and its +a neighbour are free and the segment between their
+  // centres crosses no surface.
+  std::vector<uint8_t> join(cells, 0);
+  tbb::parallel_for(size_t(0), cells, [&](size_t c) {
+    if (!freeCell[c]) return;
+    int xyz[kAxes];
+    coords(c, xyz);
+    for (int a = 0; a < kAxes; ++a) {
+      if (xyz[a] + 1 >= n_[a]) continue;
+      int nb[kAxes] = {xyz[0], xyz[1], xyz[2]};
+      ++nb[a];
+      const size_t d = index(nb[0], nb[1], nb[2]);
+      if (!freeCell[d]) continue;
+      Ray ray;
+      ray.origin = centre(c);
+      ray.direction = centre(d) - ray.origin;
+      ray.tMin = 0;
+      ray.tMax = 1;
+      if (!tracer.occluded(ray)) join[c] |= uint8_t(1u << a);
+    }
+  });
+  // The neighbours of a free cell it is joined to, and whether it lies against a wall (a side
+  // not joined: a surface, geometry or the domain's edge).
+  auto forJoined = [&](size_t c, auto&& visit) {
+    int xyz[kAxes];
+    coords(c, xyz);
+    for (int a = 0; a < kAxes; ++a) {
+      if (join[c] & (1u << a)) {
+        int nb[kAxes] = {xyz[0], xyz[1], xyz[2]};
+        ++nb[a];
+        visit(index(nb[0], nb[1], nb[2]));
+      }
+      if (xyz[a] > 0) {
+        int nb[kAxes] = {xyz[0], xyz[1], xyz[2]};
+        --nb[a];
+        const size_t d = index(nb[0], nb[1], nb[2]);
+        if (join[d] & (1u << a)) visit(d);
+      }
+    }
+  };
+  std::vector<char> wall(cells, 0);
+  tbb::parallel_for(size_t(0), cells, [&](size_t c) {
+    if (!freeCell[c]) return;
+    int joined = 0;
+    forJoined(c, [&](size_t) { ++joined; });
+    wall[c] = joined < 2 * kAxes ? 1 : 0;
+  });
+  // Each free cell's distance to the nearest wall cell (or cell outside the free space or the
+  // grid), in cells, Euclidean between centres, up to levels + 1 (farther: levels + 1).
+  const int levels = std::max(1, int(std::ceil(s.doorwayMeters / 2 / cell_)));
+  std::vector<std::array<int, kAxes + 1>> ball;  // dx, dy, dz, squared length
+  const int reach = levels + 1;
+  for (int dz = -reach; dz <= reach; ++dz)
+    for (int dy = -reach; dy <= reach; ++dy)
+      for (int dx = -reach; dx <= reach; ++dx) {
+        const int d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 <= reach * reach) ball.push_back({dx, dy, dz, d2});
+      }
+  std::stable_sort(ball.begin(), ball.end(),
+                   [](const auto& a, const auto& b) { return a[3] < b[3]; });
+  std::vector<float> clearance(cells, 0.0f);
+  tbb::parallel_for(size_t(0), cells, [&](size_t c) {
+    if (!freeCell[c]) return;
+    int xyz[kAxes];
+    coords(c, xyz);
+    clearance[c] = float(reach);
+    for (const auto& o : ball) {
+      const int x = xyz[0] + o[0], y = xyz[1] + o[1], z = xyz[2] + o[2];
+      const bool outside = x < 0 || y < 0 || z < 0 || x >= n_[0] || y >= n_[1] || z >= n_[2];
+      if (outside || !freeCell[index(x, y, z)] || wall[index(x, y, z)]) {
+        clearance[c] = float(std::sqrt(double(o[3])));
+        return;
+      }
+    }
+  });
+  // The erosion at level k keeps the free cells more than k cells from a wall (level 0: all of
+  // them); its connected
+  // components (through joins) of at least minRoomCubicMeters are that level's cores. An
+  // opening narrower than about 2 k cells closes at level k, so a core that splits into two
+  // or more at a deeper level is two rooms joined by a doorway (Bormann et al. sec. III-A
+  // erode until rooms separate; here the levels stop at half of doorwayMeters, so that only
+  // openings narrower than it separate rooms).
+  const double cellVolume = cell_ * cell_ * cell_;
+  std::vector<std::vector<int32_t>> coreOf(size_t(levels) + 1);  // per level, per cell; -1
+  std::vector<std::vector<std::vector<size_t>>> cores(size_t(levels) + 1);
+  for (int k = 0; k <= levels; ++k) {
+    std::vector<int32_t>& label = coreOf[size_t(k)];
+    label.assign(cells, -1);
+    auto inCore = [&](size_t c) { return freeCell[c] && (k == 0 || clearance[c] > float(k)); };
+    std::vector<char> seen(cells, 0);
+    for (size_t c = 0; c < cells; ++c) {
+      if (!inCore(c) || seen[c]) continue;
+      std::vector<size_t> members = {c};
+      seen[c] = 1;
+      for (size_t m = 0; m < members.size(); ++m)
+        forJoined(members[m], [&](size_t d) {
+          if (inCore(d) && !seen[d]) {
+            seen[d] = 1;
+            members.push_back(d);
+          }
+        });
+      if (double(members.size()) * cellVolume < s.minRoomCubicMeters) continue;
+      for (size_t m : members) label[m] = int32_t(cores[size_t(k)].size());
+      cores[size_t(k)].push_back(std::move(members));
+    }
+  }
+  // The rooms: a core that splits into two or more cores at a deeper level gives those
+  // cores' rooms; one that does not (it shrinks as one, or vanishes) is a room itself.
+  std::vector<std::vector<std::vector<int32_t>>> kids(size_t(levels) + 1);
+  for (int k = 0; k < levels; ++k) {
+    kids[size_t(k)].resize(cores[size_t(k)].size());
+    for (size_t q = 0; q < cores[size_t(k) + 1].size(); ++q) {
+      const int32_t parent = coreOf[size_t(k)][cores[size_t(k) + 1][q].front()];
+      kids[size_t(k)][size_t(parent)].push_back(int32_t(q));
+    }
+  }
+  std::vector<std::pair<int, int32_t>> seeds;  // (level, core)
+  auto roomsOf = [&](auto&& self, int k, int32_t q) -> std::vector<std::pair<int, int32_t>> {
+    if (k == levels) return {{k, q}};
+    const auto& children = kids[size_t(k)][size_t(q)];
+    if (children.empty()) return {{k, q}};
+    std::vector<std::pair<int, int32_t>> out;
+    for (int32_t child : children) {
+      auto sub = self(self, k + 1, child);
+      out.insert(out.end(), sub.begin(), sub.end());
+    }
+    if (out.size() < 2) return {{k, q}};
+    return out;
+  };
+  for (size_t q = 0; q < cores[0].size(); ++q) {
+    auto found = roomsOf(roomsOf, 0, int32_t(q));
+    seeds.insert(seeds.end(), found.begin(), found.end());
+  }
+  // Every free cell joins the room whose seed reaches it first (a breadth-first search from
+  // all seeds at once, in seed order: deterministic).
+  room_.assign(cells, -1);
+  std::deque<size_t> frontier;
+  for (const auto& [k, q] : seeds) {
+    for (size_t c : cores[size_t(k)][size_t(q)]) {
+      room_[c] = rooms_;
+      frontier.push_back(c);
+    }
+    ++rooms_;
+  }
+  while (!frontier.empty()) {
+    const size_t c = frontier.front();
+    frontier.pop_front();
+    forJoined(c, [&](size_t d) {
+      if (room_[d] == -1) {
+        room_[d] = room_[c];
+        frontier.push_back(d);
+      }
+    });
+  }
+  // Numbered by their volume, largest first (ties by their seed's order).
+  std::vector<double> roomVolume(static_cast<size_t>(rooms_), 0.0);
+  for (size_t c = 0; c < cells; ++c)
+    if (room_[c] >= 0) roomVolume[size_t(room_[c])] += cellVolume;
+  std::vector<int> order(static_cast<size_t>(rooms_));
+  for (int r = 0; r < rooms_; ++r) order[size_t(r)] = r;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return roomVolume[size_t(a)] > roomVolume[size_t(b)]; });
+  std::vector<int32_t> rank(static_cast<size_t>(rooms_));
+  for (int k = 0; k < rooms_; ++k) rank[size_t(order[size_t(k)])] = k;
+  for (int32_t& r : room_)
+    if (r >= 0) r = rank[size_t(r)];
+  for (int k = 0; k < rooms_; ++k) volumes_.push_back(roomVolume[size_t(order[size_t(k)])]);
+}
+
+int RoomMap::roomOf(Vec3 p) const {
+  if (!box_.contains(p)) return -1;
+  const Vec3 q = (p - box_.lo) * (1 / cell_);
+  const int x = std::min(int(q.x), n_[0] - 1), y = std::min(int(q.y), n_[1] - 1),
+            z = std::min(int(q.z), n_[2] - 1);
+  return room_[(size_t(z) * size_t(n_[1]) + size_t(y)) * size_t(n_[0]) + size_t(x)];
+}
+
+std::vector<std::string> RoomMap::roomNames() const {
+  std::vector<std::string> names;
+  for (int r = 0; r < rooms_; ++r) names.push_back("room " + std::to_string(r + 1));
+  return names;
+}
+
+}  // namespace ps
