@@ -74,7 +74,10 @@ class GreedySearch {
   /// at a corner with no free sample). Captures their values. O(8 x samples).
   void addInitialSamples();
   /// The points' weights (weighErrorPoints); throws as it does.
-  void weighPoints() { weighErrorPoints(points_, field_, s_); }
+  void weighPoints() {
+    weighErrorPoints(points_, field_, s_);
+    result_.unresolvedShare = points_.unresolvedShare;
+  }
   /// Interpolates every point from the initial probes and commits that mesh. Throws
   /// ps::ParameterError when they span less than 3D.
   void commitInitialMesh();

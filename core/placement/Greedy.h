@@ -113,6 +113,9 @@ struct GreedyResult {
   bool noImprovement = false;
   size_t probesAtNoImprovement = 0;  ///< probe count (kept included) when that first happened
   size_t trials = 0;                 ///< meshes tried (candidates evaluated)
+  /// kPerceptual: the weighted share of the error points whose capture resolves no light
+  /// (greedy::ErrorPoints::unresolvedShare); 0 for kEnergy.
+  double unresolvedShare = 0;
   size_t reevaluations = 0;  ///< points re-interpolated after the first mesh (locality measure)
   size_t swapPasses = 0;     ///< swap passes run
   size_t swaps = 0;          ///< moves the swaps made (a slot moved twice counts twice)

@@ -382,7 +382,11 @@ void weighErrorPoints(ErrorPoints& pts, const DenseField& field, const GreedySet
     pts.floorLuminance = perceptualFloor(pts);
     // The noise in stops, to first order: d log2(E) = dE / (E ln 2), with E floored as
     // errorStops floors it (below the floor, noise moves nothing: bounded by the floor's).
+    double unresolved = 0;
     for (size_t i = 0; i < N; ++i) {
+      double mean = 0;
+      for (double r : pts.ref[i]) mean += r / kNormals;
+      if (!(mean > kResolvedSigmas * std::sqrt(pts.noiseVar[i]))) unresolved += weight[i];
       double gain = 0;
       for (double r : pts.ref[i]) {
         const double g = 1 / (std::max(r, pts.floorLuminance) * std::log(2.0));
@@ -390,6 +394,7 @@ void weighErrorPoints(ErrorPoints& pts, const DenseField& field, const GreedySet
       }
       pts.noiseVar[i] *= gain / kNormals;
     }
+    pts.unresolvedShare = unresolved / weightSum;
   } else {
     pts.errorNorm = weightedRefSq;
     pts.scoreUnit = pts.refRms;

@@ -25,6 +25,10 @@ using IrrVec = std::array<double, kNormals>;
 /// The normals the error is measured for: the 6 axes, then the 8 cube diagonals.
 const std::array<Vec3, kNormals>& errorNormals();
 
+/// kPerceptual: a point's capture resolves its light when its mean luminance is above this many
+/// standard deviations of its noise (about 95 % confidence, one-sided 1.64 sigma rounded up).
+inline constexpr double kResolvedSigmas = 2.0;
+
 /// Probe slots are packed in 16 bits (tetKey): at most this many probes, kept ones included.
 inline constexpr size_t kMaxProbes = 65535;
 /// No point (held-out points follow the field's samples, so the point count is an index too).
@@ -71,6 +75,11 @@ struct ErrorPoints {
   /// weighted median of the points' mean luminance over the normals times
   /// kAdaptationFloorFraction; 0 for kEnergy.
   double floorLuminance = 0;
+  /// The weighted share of the points whose capture resolves no light: their mean luminance
+  /// over the normals is 0 or below kResolvedSigmas standard deviations of its noise. Where
+  /// it is large, the cheap captures miss the light (a scene lit through rare hits of a small
+  /// emitter) and the perceptual objective, a ratio, measures their noise.
+  double unresolvedShare = 0;
   /// A point's squared error counts at most this (GreedySettings::errorCapRelative; infinite
   /// when off).
   double errSqCap = std::numeric_limits<double>::infinity();
