@@ -866,6 +866,16 @@ TEST(Greedy, RejectsBadParameters) {
   DenseField tiny;
   tiny.samples.resize(3);
   EXPECT_THROW(placeGreedy(tiny, {}, s), ParameterError);
+  // A budget past the field's samples is refused before any trial, naming the budget.
+  DenseField small = f;
+  small.samples.resize(12);
+  s.budget = 13;
+  try {
+    placeGreedy(small, {}, s);
+    ADD_FAILURE() << "a budget of 13 on 12 field samples accepted";
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.parameter(), "budget") << e.what();
+  }
   s.budget = 8;
   s.swapPasses = -1;
   EXPECT_THROW(placeGreedy(f, {}, s), ParameterError);
