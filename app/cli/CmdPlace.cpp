@@ -4,10 +4,12 @@
 // bad input surfaces as ps::Error, caught in main.
 #include <chrono>
 #include <cstdio>
+#include <iostream>
 #include <memory>
 
 #include "app/cli/Common.h"
 #include "core/common/Error.h"
+#include "core/domain/DomainPoints.h"
 #include "core/io/ProbeSetFile.h"
 #include "core/io/SceneHash.h"
 #include "core/placement/Place.h"
@@ -115,6 +117,27 @@ struct PlaceOpts {
   RigOptions rig;
 };
 
+/// Draws of the valid-space check (each of up to 1000 points, DomainPoints::draw).
+constexpr size_t kValidSpaceDraws = 8;
+
+/// Throws ps::FileError naming the scene when its domain has no room for a probe: none of
+/// kValidSpaceDraws draws found a point outside geometry and clear of the lights. Without it, a
+/// method's search runs through ever finer grids (uniform) or builds an empty field, for hours
+/// on a large scene. A domain with room stops at its first points; one without costs
+/// kValidSpaceDraws * 1000 * 32 rays.
+void checkValidSpace(const Tracer& tracer, const ProbeSet& set, uint64_t seed,
+                     const std::string& scenePath) {
+  const std::vector<Bounds3> boxes = importanceBoxes(set.importanceVolumes);
+  const DomainPoints domain(tracer, set.rig, boxes, kDefaultLightClearanceRelative);
+  if (!domain.drawMany(kValidSpaceDraws, seed).empty()) return;
+  throw FileError(scenePath, "",
+                  "no valid space for probes: " + std::to_string(kValidSpaceDraws * 1000) +
+                      " random points of the " +
+                      (boxes.empty() ? "scene's bounds" : "importance volumes") +
+                      " are all inside geometry (more than 25 % of their rays hit back faces) or "
+                      "within the light clearance");
+}
+
 std::string methodNames() {
   std::string s;
   for (const std::string& name : placementMethods()) s += (s.empty() ? "" : ", ") + name;
@@ -180,9 +203,17 @@ void registerPlace(CLI::App& app) {
       for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
       const Tracer tracer(scene);
       set.sceneHash = sceneContentHash(o->scene);
+      checkValidSpace(tracer, set, request.seed, o->scene);
       const PlaceResult placed = placeProbeSet(
           tracer, set, request, [](const std::string& stage) { return terminalProgress(stage); });
       for (const std::string& note : placed.notes) std::printf("%s\n", note.c_str());
+      // Greedy stops short of its budget only when the dense field has no candidate left.
+      if (request.method == "greedy" && request.budget > 0 && !request.parameters.has("maxError") &&
+          placed.kept + placed.placed + placed.nearRejected < size_t(request.budget))
+        std::cerr << "warning: greedy placed " << placed.kept + placed.placed << " of the "
+                  << request.budget
+                  << " probes of --budget: the dense field has no candidate left (a smaller "
+                     "--field-spacing or a larger --field-depth gives it more)\n";
       saveProbeSet(placed.set, o->out);
       std::printf("placed %zu probes (method %s, %zu kept) in %.2f s -> %s\n", placed.placed,
                   request.method.c_str(), placed.kept, secondsSince(t0), o->out.c_str());

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The generated level (scripts/make_level.py): the same parameters give the same bytes; every box
 # is closed, outward-facing and apart from the others; the small level loads, places (greedy),
-# bakes and evaluates end to end in under a minute; bad parameters say so clearly.
+# bakes and evaluates end to end in under a minute; bad parameters, a scene with no room for a
+# probe and a budget the dense field cannot hold each say so clearly.
 # Usage: test_level.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
 cli="$1"; root="$2"
@@ -163,4 +164,29 @@ expect_error "--output: expected a .glb or .gltf file name, got \"$tmp/x.obj\"" 
 expect_error "--output: the folder \"$tmp/missing\" does not exist" "${gen[@]}" -o "$tmp/missing/x.glb"
 test ! -e "$tmp/x.glb" || { echo "FAIL: a refused level was written"; fail=1; }
 
+# A scene with no room for a probe (one solid block filling its bounds) is refused at once
+# instead of searching ever finer grids, by every method.
+python3 - "$root/scripts" "$tmp/solid.gltf" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[1])
+import make_scenes
+b = make_scenes.GltfBuilder("solid")
+b.material("w", [0.8, 0.8, 0.8])
+b.box("block", [-2, 0, -2], [2, 3, 2], "w")
+b.write(sys.argv[2])
+PY
+for method in uniform greedy; do
+  start=$SECONDS
+  expect_error "$tmp/solid.gltf: no valid space for probes: 8000 random points of the scene's bounds are all inside geometry" \
+    "$cli" place "$tmp/solid.gltf" --method "$method" --budget 16 "${sky[@]}" -o "$tmp/x.json"
+  [ $((SECONDS - start)) -lt 30 ] || { echo "FAIL: $method took $((SECONDS - start)) s to refuse"; fail=1; }
+done
+test ! -e "$tmp/x.json" || { echo "FAIL: a refused place wrote its output"; fail=1; }
+
+# A greedy budget beyond the dense field's samples says how many it placed and why.
+"$cli" place "$tmp/a.glb" --method greedy --budget 400 --field-depth 0 --field-spp 16 --held-out 0 \
+  --probe-spp 16 --swap-passes 0 --no-leak-refine "${sky[@]}" -o "$tmp/over.json" 2>"$tmp/over.err"
+placed=$(python3 -c "import json,sys; print(len(json.load(open(sys.argv[1]))['probes']))" "$tmp/over.json")
+grep -q "warning: greedy placed $placed of the 400 probes of --budget: the dense field has no candidate left" "$tmp/over.err" ||
+  { echo "FAIL: no warning for $placed of 400 probes: $(cat "$tmp/over.err")"; fail=1; }
 exit $fail
