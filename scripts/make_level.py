@@ -322,6 +322,7 @@ def build(width, depth, floors, seed):
         # The flights climb away from the corridor (+z side of band 0): the hole spans the
         # flights and the upper landing, the lower landing stays floor.
         stair_holes.append((s0, s1, b["z0"], b["z1"] - 1000))
+    level.stairwells = len(plan.stairs)
     for f in range(floors):
         storey(level, plan, f, rng, stair_holes if f > 0 else [])
     # Roof.
@@ -332,6 +333,8 @@ def build(width, depth, floors, seed):
 
 
 def storey(level, plan, f, rng, holes):
+    """Storey f: its slab (less the stairwell `holes`, (x0, x1, z0, z1) in mm), its rooms,
+    corridors, stairwells and walls, its lights."""
     g = "storey-%d" % f
     y = f * STOREY
     yf, yc = y + SLAB, (f + 1) * STOREY  # floor top, ceiling
@@ -364,16 +367,15 @@ def storey(level, plan, f, rng, holes):
             if outer_list is not None:
                 outer_list.extend(windows(x0, x1, yf, rng))
             if x0 == plan.x0:
-                (west).extend(windows(band["z0"], band["z1"], yf, rng))
+                west.extend(windows(band["z0"], band["z1"], yf, rng))
             if x1 == plan.x1:
-                (east).extend(windows(band["z0"], band["z1"], yf, rng))
+                east.extend(windows(band["z0"], band["z1"], yf, rng))
             if s["kind"] == "stair":
-                level.stairwells += f < plan.floors - 1
-                if f < plan.floors - 1:
+                if f < plan.floors - 1:  # the top storey's stairwell is the opening only
                     stairwell(level, g, x0, x1, band["z0"], band["z1"], yf)
                 continue
             level.rooms += 1
-            room(level, plan, g, rng, band, s, door, slots, k, yf, f)
+            room(level, plan, g, rng, band, s, door, slots, k, yf)
     # Corridor ends: a door on the ground floor, a window above.
     for cz0, cz1 in plan.corridors:
         for lst in (west, east):
@@ -445,8 +447,9 @@ def stairwell(level, g, x0, x1, z0, z1, yf):
     assert yf + (2 * STEPS + 1) * RISE < yf + STOREY  # the top step stays under the next floor
 
 
-def room(level, plan, g, rng, band, slot, door, slots, k, yf, f):
-    """Furniture, a rug, perhaps a lamp and a door to the next room for the room in `slot`."""
+def room(level, plan, g, rng, band, slot, door, slots, k, yf):
+    """Furniture, perhaps a lamp and a door to the next room for the room slots[k] (`slot`) of
+    `band`, whose door to the corridor is `door` (x0, x1), on the floor at yf (mm)."""
     x0, x1, z0, z1 = slot["x0"], slot["x1"], band["z0"], band["z1"]
     side = band["corridor_side"]
     door_z = z1 if side > 0 else z0
@@ -460,10 +463,7 @@ def room(level, plan, g, rng, band, slot, door, slots, k, yf, f):
     if prev is not None and prev.get("side_door"):
         a0, a1 = prev["side_door"][0], prev["side_door"][1]
         keep_out.append((x0 - 100, x0 + 1300, a0 - 300, a1 + 300))
-    if band["outer"] or x0 == plan.x0 or x1 == plan.x1:
-        windowed = True
-    else:
-        windowed = False
+    windowed = band["outer"] or x0 == plan.x0 or x1 == plan.x1
     furnish(level, g, rng, (x0, x1, z0, z1), keep_out, yf)
     if rng.chance(0.02 if windowed else 0.08):
         level.point_light("%s/room-light-%d-%d" % (g, x0, z0),
