@@ -121,10 +121,10 @@ struct PlaceOpts {
 constexpr size_t kValidSpaceDraws = 8;
 
 /// Throws ps::FileError naming the scene when its domain has no room for a probe: none of
-/// kValidSpaceDraws draws found a point outside geometry and clear of the lights. Without it, a
-/// method's search runs through ever finer grids (uniform) or builds an empty field, for hours
-/// on a large scene. A domain with room stops at its first points; one without costs
-/// kValidSpaceDraws * 1000 * 32 rays.
+/// kValidSpaceDraws draws found a point outside geometry and clear of the lights. Without it,
+/// uniform's budget search places up to 40 ever finer grids per search, each tested point by
+/// point, all empty; the other methods fail later, on an empty dense field. A domain with room
+/// stops at its first points; one without costs kValidSpaceDraws * 1000 * 32 rays.
 void checkValidSpace(const Tracer& tracer, const ProbeSet& set, uint64_t seed,
                      const std::string& scenePath) {
   const std::vector<Bounds3> boxes = importanceBoxes(set.importanceVolumes);
