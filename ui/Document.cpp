@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <tuple>
 #include <unordered_set>
 
 #include "core/bake/Bake.h"
@@ -128,6 +129,7 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
   if (keepScene && scene_) {
     set.scenePath = scenePath_.toStdString();
     replace(scene_, tracer_, std::move(set), scenePath_, path);
+    pickUpVolumeBeside(path);
     return;
   }
   if (set.scenePath.empty())
@@ -136,11 +138,47 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
   std::error_code ec;  // a missing file is simply "not the same scene"
   if (scene_ && std::filesystem::equivalent(toPath(scenePath), toPath(scenePath_), ec)) {
     replace(scene_, tracer_, std::move(set), scenePath_, path);
+    pickUpVolumeBeside(path);
     return;
   }
   LoadedScene loaded = load(scenePath);  // throws; nothing changed yet
   replace(loaded.scene, loaded.tracer, std::move(set), scenePath, path);
   sceneHash_ = loaded.hash;
+  pickUpVolumeBeside(path);
+}
+
+void Document::pickUpVolumeBeside(const QString& setPath) {
+  volume_.reset();
+  volumePath_.clear();
+  const QString path = volumePathFor(setPath);
+  if (QFileInfo::exists(path)) {
+    try {
+      VolumeFile f = loadVolume(toPath(path));
+      volume_ = std::make_shared<const ProbeVolume>(std::move(f.volume));
+      volumePath_ = path;
+    } catch (const Error&) {
+      // An unreadable volume beside the set is as good as none: a bake writes a new one.
+    }
+  }
+  // The volume is current when it holds every accepted probe where the set has it (a bake adds
+  // leak refinement's probes, never moves the accepted ones); the evaluation then measures it.
+  bool current = volume_ != nullptr;
+  if (current) {
+    const std::vector<float>& pos = volume_->positions;
+    for (const Probe& p : set_.probes) {
+      if (p.state != ProbeState::Accepted) continue;
+      bool found = false;
+      for (size_t i = 0; i + 2 < pos.size() && !found; i += 3)
+        found = pos[i] == float(p.position.x) && pos[i + 1] == float(p.position.y) &&
+                pos[i + 2] == float(p.position.z);
+      if (!found) {
+        current = false;
+        break;
+      }
+    }
+  }
+  volumeChange_ = current ? changeCount_ : changeCount_ - 1;
+  emit volumeChanged();
 }
 
 std::string Document::staleCapturesText() const {
@@ -394,6 +432,49 @@ void Document::startJob(const QString& kind, const QString& firstMessage, JobFn 
 }
 
 namespace {
+/// One stage of a placement (PlaceContext::stage names) and its rough share of the placement's
+/// wall time, for one overall progress fraction across stages.
+struct JobPhase {
+  std::string stage;
+  double share;
+};
+
+/// The stages a method reports, in order, with rough shares of its time (a guide for the
+/// progress bar, not a measurement: the dense field dominates greedy and chajdas). Leak
+/// refinement follows when asked for.
+std::vector<JobPhase> placementPhases(const std::string& method, bool refineLeaks) {
+  std::vector<JobPhase> phases;
+  if (method == "greedy")
+    phases = {{"field", 0.5}, {"held-out", 0.05}, {"greedy", 0.45}};
+  else if (method == "chajdas")
+    phases = {{"field", 1.0}};
+  else if (method == "spawn-merge")
+    phases = {{"grid", 0.3}, {"spawn-merge", 0.7}};
+  else if (method == "ascent")
+    phases = {{"ascent", 1.0}};
+  else
+    phases = {{"place", 1.0}};
+  if (refineLeaks) {
+    for (JobPhase& p : phases) p.share *= 0.85;
+    phases.push_back({"leaks", 0.15});
+  }
+  return phases;
+}
+
+/// Where a stage starts in [0, 1], its share, and its 1-based step. A stage not in the list
+/// (a method reporting more than it declares) takes the last step's span, so the overall
+/// fraction never goes back.
+std::tuple<double, double, size_t> phaseSpan(const std::vector<JobPhase>& phases,
+                                             const std::string& stage) {
+  double from = 0;
+  for (size_t i = 0; i < phases.size(); ++i) {
+    if (phases[i].stage == stage) return {from, phases[i].share, i + 1};
+    from += phases[i].share;
+  }
+  const JobPhase& last = phases.back();
+  return {from - last.share, last.share, phases.size()};
+}
+
 /// Quick SH of candidates so that each shows its own light; a capture failure (no light) leaves
 /// them uncaptured and is reported in `error`.
 void captureQuickly(const Tracer& tracer, const LightingRig& rig, std::vector<Probe>& probes,
@@ -404,9 +485,10 @@ void captureQuickly(const Tracer& tracer, const LightingRig& rig, std::vector<Pr
   try {
     CaptureSettings cs;
     cs.samplesPerProbe = samples;
-    const auto captures = captureProbes(tracer, rig, points, cs, [&](double f) {
-      return report(QObject::tr("Capturing SH…"), from + (1 - from) * f);
-    });
+    const QString label =
+        from > 0 ? QObject::tr("Capturing SH (last step)…") : QObject::tr("Capturing SH…");
+    const auto captures = captureProbes(
+        tracer, rig, points, cs, [&](double f) { return report(label, from + (1 - from) * f); });
     for (size_t i = 0; i < captures.size() && i < probes.size(); ++i) {
       probes[i].sh = captures[i].sh;
       probes[i].captureSceneHash = sceneHash;
@@ -508,12 +590,19 @@ bool Document::runPlacement(const PlacementRequest& request) {
   const ProbeSet set = set_;
   std::shared_ptr<const Tracer> tracer = tracer_;
   const uint64_t sceneHash = sceneHash_;
+  const std::vector<JobPhase> phases = placementPhases(request.method, request.refineLeaks);
   startJob("place", tr("Placing probes…"), [=](JobResult& result, const auto& report) {
     result.placement = request;
     const PlaceResult placed =
         placeProbeSet(*tracer, set, place, [&](const std::string& stage) -> ProgressFn {
-          const QString label = tr("Placing probes (%1)…").arg(QString::fromStdString(stage));
-          return [&report, label](double f) { return report(label, 0.7 * f); };
+          const auto [from, share, step] = phaseSpan(phases, stage);
+          const QString label = tr("Placing probes: %1 (step %2 of %3)…")
+                                    .arg(QString::fromStdString(stage))
+                                    .arg(step)
+                                    .arg(phases.size() + 1);
+          return [&report, label, from, share](double f) {
+            return report(label, 0.7 * (from + share * f));
+          };
         });
     result.spacingMeters = placed.set.placement.spacingMeters;
     for (const std::string& note : placed.notes) result.notes << QString::fromStdString(note);
@@ -699,7 +788,11 @@ void Document::onJobDone() {
       set_.placement.spacingMeters = r->spacingMeters;
     }
     const QString text = tr("Propose %1 candidates").arg(r->probes.size());
+    // The proposal is the editor's, not the artist's: a document that was clean stays clean
+    // (closing it asks nothing; the proposal is undoable like any edit).
+    const bool wasClean = undo_.isClean();
     if (!r->probes.empty()) addProbes(std::move(r->probes), text);
+    if (wasClean) undo_.setClean();
   } else if (r->kind == QLatin1String("place") && r->error != QLatin1String("cancelled") &&
              (!r->probes.empty() || r->error.isEmpty())) {
     set_.placement.method = r->placement.method;

@@ -106,7 +106,8 @@ class Document : public QObject {
   /// Loads a glTF scene and starts an empty probe set for it (then, when autoPropose() is on,
   /// proposes candidates in the background).
   void openScene(const QString& path);
-  /// Loads a probe set. Its scene is loaded too unless `keepScene` and a scene is open.
+  /// Loads a probe set. Its scene is loaded too unless `keepScene` and a scene is open. A volume
+  /// beside it (volumePathFor) becomes volume(), current when it holds the accepted probes.
   void openProbeSet(const QString& path, bool keepScene = false);
   /// Saves atomically to `path` and makes it the document's file; marks the document clean.
   void saveProbeSet(const QString& path);
@@ -202,6 +203,8 @@ class Document : public QObject {
   /// The last volume baked (or loaded) for this document; null when none.
   std::shared_ptr<const ProbeVolume> volume() const { return volume_; }
   QString volumePath() const { return volumePath_; }
+  /// The volume was baked from the probes as they are (no edit since the bake or the load).
+  bool volumeIsCurrent() const { return volume_ && volumeChange_ == changeCount_; }
   /// Loads a volume file for the preview and the overlays. Throws ps::Error.
   void openVolume(const QString& path);
 
@@ -255,6 +258,9 @@ class Document : public QObject {
   void onJobDone();
   void replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const Tracer> tracer,
                ProbeSet set, const QString& scenePath, const QString& setPath);
+  /// Takes the volume file beside a probe set just opened (volumePathFor) as volume(), current
+  /// when it holds every accepted probe at its position; drops any other volume.
+  void pickUpVolumeBeside(const QString& setPath);
   /// Stops the background job (if any) and waits for it.
   void cancelJob();
 

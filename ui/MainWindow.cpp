@@ -14,12 +14,15 @@
 #include <QMessageBox>
 #include <QProgressBar>
 #include <QPushButton>
+#include <QRegularExpression>
 #include <QSettings>
 #include <QSortFilterProxyModel>
 #include <QStatusBar>
 #include <QTableView>
 #include <QToolBar>
 #include <QUndoStack>
+#include <algorithm>
+#include <cmath>
 
 #include "core/common/Error.h"
 #include "ui/Autosave.h"
@@ -74,6 +77,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   addDockWidget(Qt::LeftDockWidgetArea, placementDock);
   connect(placement_, &PlacementPanel::failed, this, &MainWindow::showError);
   placement_->setSelectionProvider([this] { return selectedIds(); });
+  placement_->setSaveBeforeBake([this] { return offerSaveBeforeBake(); });
 
   lighting_ = new LightingPanel(doc_);
   auto* lightingDock = new QDockWidget(tr("Lighting"), this);
@@ -137,20 +141,15 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   connect(doc_, &Document::probeInserted, this, &MainWindow::updateStatus);
   connect(doc_, &Document::probeRemoved, this, &MainWindow::updateStatus);
   connect(doc_, &Document::probeChanged, this, &MainWindow::updateStatus);
-  connect(doc_, &Document::jobProgress, this, [this](const QString& what, double f) {
-    jobLabel_->setText(what);
-    progress_->setValue(int(f * 100));
-    progress_->setVisible(doc_->isBusy());
-    cancelJob_->setVisible(doc_->isBusy());
-  });
+  connect(doc_, &Document::jobProgress, this, &MainWindow::onJobProgress);
   connect(doc_, &Document::jobFinished, this, [this](const QString& error) {
     progress_->hide();
-    cancelJob_ = new QPushButton(tr("Cancel"));
     cancelJob_->hide();
-    connect(cancelJob_, &QPushButton::clicked, doc_, &Document::requestCancel);
     jobLabel_->clear();
-    if (!error.isEmpty() && error != QLatin1String("cancelled"))
-      showError(tr("Probe proposal"), error);
+    jobTimer_.invalidate();
+    const QString kind = jobKind_;
+    jobKind_.clear();
+    if (!error.isEmpty() && error != QLatin1String("cancelled")) showError(jobTitle(kind), error);
   });
   updateTitle();
   updateStatus();
@@ -187,7 +186,10 @@ void MainWindow::createActions() {
   a->setShortcut(QKeySequence::Undo);
   edit->addAction(a);
   a = doc_->undoStack()->createRedoAction(this, tr("&Redo"));
-  a->setShortcut(QKeySequence::Redo);
+  a->setObjectName("redoAction");
+  // Both conventions: Ctrl+Shift+Z (KDE, macOS) and Ctrl+Y (Windows, the README).
+  a->setShortcuts(
+      {QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_Z), QKeySequence(Qt::CTRL | Qt::Key_Y)});
   edit->addAction(a);
   edit->addSeparator();
   a = edit->addAction(tr("&Accept selected"), this,
@@ -420,8 +422,85 @@ void MainWindow::rebuildRecentMenu() {
 }
 
 bool MainWindow::openRecent(const QString& path) {
+  return openPath(path);
+}
+
+bool MainWindow::openPath(const QString& path) {
   return path.endsWith(QLatin1String(".json"), Qt::CaseInsensitive) ? openProbeSet(path)
                                                                     : openScene(path);
+}
+
+QString MainWindow::jobTitle(const QString& kind) {
+  if (kind == QLatin1String("propose")) return tr("Probe proposal");
+  if (kind == QLatin1String("place")) return tr("Run placement");
+  if (kind == QLatin1String("bake")) return tr("Bake");
+  if (kind == QLatin1String("recapture")) return tr("Recapture probes");
+  if (kind == QLatin1String("eval")) return tr("Evaluate");
+  return tr("Background job");
+}
+
+QString MainWindow::editorMessage(const QString& message) {
+  // The core names the command line's flags; in the editor the same settings are the Lighting
+  // tab's controls.
+  QString m = message;
+  static const QRegularExpression flag(QStringLiteral(R"( \(--[a-z-]+[^)]*\))"));
+  const bool hadFlags = m.contains(flag);
+  m.remove(flag);
+  if (hadFlags)
+    m.replace(QLatin1String("add a sun, a sky or an environment map"),
+              QLatin1String("add a sun, a sky or a point light in the Lighting tab"));
+  return m;
+}
+
+void MainWindow::onJobProgress(const QString& what, double fraction) {
+  const bool busy = doc_->isBusy();
+  if (busy && !jobTimer_.isValid()) {
+    jobTimer_.start();
+    jobKind_ = doc_->jobKind();
+    progress_->setValue(0);
+  }
+  // One bar for the whole job: the document reports the overall fraction across its phases;
+  // the bar never goes back within a job.
+  const int percent = std::max(progress_->value(), int(fraction * 100));
+  progress_->setValue(percent);
+  QString text = what;
+  const double elapsed = jobTimer_.isValid() ? jobTimer_.elapsed() * 1e-3 : 0.0;
+  if (busy && percent >= 3 && elapsed >= 2.0) {
+    const double left = elapsed * (100 - percent) / percent;
+    text += left < 60 ? tr(" about %1 s left").arg(std::max(1, int(std::lround(left))))
+                      : tr(" about %1 min left").arg(int(std::lround(left / 60)));
+  }
+  jobLabel_->setText(text);
+  progress_->setVisible(busy);
+  cancelJob_->setVisible(busy);
+}
+
+bool MainWindow::offerSaveBeforeBake(std::optional<int> answer) {
+  QString suggestion = doc_->scenePath().isEmpty()
+                           ? QString()
+                           : QFileInfo(doc_->scenePath()).absolutePath() + "/" +
+                                 QFileInfo(doc_->scenePath()).completeBaseName() + ".probes.json";
+  if (QFileInfo::exists(suggestion)) suggestion.clear();  // never overwrite without a dialog
+  int choice = answer.value_or(0);
+  if (!answer) {
+    QMessageBox box(QMessageBox::Question, tr("Bake"),
+                    suggestion.isEmpty()
+                        ? tr("The bake saves its volume beside the probe set, which has no file "
+                             "yet. Save the probe set first?")
+                        : tr("The bake saves its volume beside the probe set, which has no file "
+                             "yet. Save the probe set as %1 and bake?")
+                              .arg(QFileInfo(suggestion).fileName()),
+                    QMessageBox::Save | QMessageBox::Cancel, this);
+    box.setObjectName("saveBeforeBakeBox");
+    box.setInformativeText(suggestion.isEmpty() ? QString() : QFileInfo(suggestion).absolutePath());
+    QPushButton* other = box.addButton(tr("Save as…"), QMessageBox::ActionRole);
+    if (suggestion.isEmpty()) other->hide();
+    choice = box.exec();
+    if (box.clickedButton() == other) choice = QMessageBox::SaveAll;
+  }
+  if (choice == QMessageBox::Save) return suggestion.isEmpty() ? saveAs() : saveAs(suggestion);
+  if (choice == QMessageBox::SaveAll) return saveAs();
+  return false;
 }
 
 void MainWindow::startAutosave(const QString& folder, int intervalMs) {
@@ -500,7 +579,8 @@ void MainWindow::onBoxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers m
   selectIds(sel);
 }
 
-void MainWindow::showError(const QString& title, const QString& message) {
+void MainWindow::showError(const QString& title, const QString& given) {
+  const QString message = editorMessage(given);
   lastError_ = message;
   if (quiet_) return;
   QMessageBox::warning(this, title, message);

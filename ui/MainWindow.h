@@ -1,6 +1,7 @@
 #pragma once
 // The editor's main window: viewport in the centre, probe table in a dock, menus, status bar.
 // Every action that can fail catches ps::Error and shows it; the document then stays as it was.
+#include <QElapsedTimer>
 #include <QMainWindow>
 #include <QSet>
 #include <QStringList>
@@ -56,6 +57,20 @@ class MainWindow : public QMainWindow {
   QStringList recentFiles() const;
   /// Opens a recent file: a .json as a probe set, anything else as a scene.
   bool openRecent(const QString& path);
+  /// Opens a file by its kind: a .json probe set with its scene (and the volume beside it),
+  /// anything else as a glTF scene. The command line's argument goes here.
+  bool openPath(const QString& path);
+
+  /// Bake asks this when the probe set has no file: offers to save it beside the scene
+  /// (X.gltf -> X.probes.json) or elsewhere. True once saved. With `answer` (tests) no dialog
+  /// is shown: QMessageBox::Save saves at the suggestion, anything else declines.
+  bool offerSaveBeforeBake(std::optional<int> answer = std::nullopt);
+
+  /// A core message as the editor shows it: the command line's flags ("(--sun DX,DY,DZ,E)")
+  /// left out and the Lighting tab named instead.
+  static QString editorMessage(const QString& message);
+  /// The title of a background job's error box ("Run placement", "Bake", ...).
+  static QString jobTitle(const QString& kind);
 
   /// Starts autosaving into `folder` (Autosave.h) every `intervalMs`.
   void startAutosave(const QString& folder, int intervalMs = 30000);
@@ -97,6 +112,7 @@ class MainWindow : public QMainWindow {
   void selectIds(const QSet<quint64>& ids);
   void onBoxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers mods);
   void addRecentFile(const QString& path);
+  void onJobProgress(const QString& what, double fraction);
   void rebuildRecentMenu();
 
   Document* doc_;
@@ -122,6 +138,8 @@ class MainWindow : public QMainWindow {
   bool quiet_ = false;
   bool syncingSelection_ = false;
   QString lastError_;
+  QElapsedTimer jobTimer_;  ///< since the running job started; invalid when idle
+  QString jobKind_;         ///< the running job's kind, kept for its error's title
 };
 
 }  // namespace ps::ui

@@ -233,6 +233,9 @@ bool PlacementPanel::run() {
 }
 
 bool PlacementPanel::bake() {
+  if (doc_->hasScene() && !doc_->isBusy() && doc_->probeSetPath().isEmpty() && saveBeforeBake_ &&
+      !saveBeforeBake_())
+    return false;  // the artist declined to save: nothing to report
   try {
     if (doc_->bake(bakeRequest())) {
       updateState();

@@ -44,6 +44,9 @@ class PlacementPanel : public QWidget {
   void setSelectionProvider(std::function<std::vector<uint64_t>()> provider) {
     selection_ = std::move(provider);
   }
+  /// Asked by bake() when the probe set has no file yet (the volume is saved beside it): true
+  /// once the set is saved, false when the artist declined (the bake then does not start).
+  void setSaveBeforeBake(std::function<bool()> offer) { saveBeforeBake_ = std::move(offer); }
   /// Adds an importance volume around the selected probes (padded by half a metre), or around
   /// the whole scene when none is selected; one undo step. False (after emitting failed) when
   /// there is neither a selection nor a scene.
@@ -103,6 +106,7 @@ class PlacementPanel : public QWidget {
   QPushButton* removeVolume_ = nullptr;
   bool syncingVolumes_ = false;
   std::function<std::vector<uint64_t>()> selection_;
+  std::function<bool()> saveBeforeBake_;
 };
 
 }  // namespace ps::ui

@@ -1,4 +1,4 @@
-// probestudio-editor [SCENE] [--probes SET.json] [--screenshot OUT.png] [--size WxH]
+// probestudio-editor [SCENE | SET.json] [--probes SET.json] [--screenshot OUT.png] [--size WxH]
 //                    [--overlays glyphs,slice,tets,test-object,preview] [--select ID]
 // The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
 // probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
@@ -137,7 +137,9 @@ int main(int argc, char** argv) {
   QCommandLineParser parser;
   parser.setApplicationDescription("ProbeStudio light-probe editor");
   parser.addHelpOption();
-  parser.addPositionalArgument("scene", "glTF scene to open (.gltf, .glb)", "[SCENE]");
+  parser.addPositionalArgument(
+      "file", "glTF scene (.gltf, .glb), or a probe set (.json) to open with its scene",
+      "[SCENE | SET.json]");
   const QCommandLineOption probesOpt("probes", "Probe set to open.", "SET.json");
   const QCommandLineOption shotOpt(
       "screenshot", "Render the viewport to OUT.png (+ OUT.png.json) and exit.", "OUT.png");
@@ -168,8 +170,16 @@ int main(int argc, char** argv) {
   const QString shot = parser.value(shotOpt);
   const bool screenshot = !shot.isEmpty();
   const QStringList positional = parser.positionalArguments();
-  const QString scenePath = positional.isEmpty() ? QString() : positional.first();
-  const QString probesPath = parser.value(probesOpt);
+  // The argument is a scene, or a probe set (.json) opened with its scene.
+  const QString argument = positional.isEmpty() ? QString() : positional.first();
+  const bool argumentIsSet = argument.endsWith(QLatin1String(".json"), Qt::CaseInsensitive);
+  if (argumentIsSet && parser.isSet(probesOpt)) {
+    fail(QStringLiteral("%1: a probe set as the argument and --probes %2: give one probe set")
+             .arg(argument, parser.value(probesOpt)));
+    return 1;
+  }
+  const QString scenePath = argumentIsSet ? QString() : argument;
+  const QString probesPath = argumentIsSet ? argument : parser.value(probesOpt);
 
   const auto m = QRegularExpression("^(\\d+)x(\\d+)$").match(parser.value(sizeOpt));
   if (!m.hasMatch() || m.captured(1).toInt() < 16 || m.captured(2).toInt() < 16) {

@@ -10,6 +10,12 @@ export LIBGL_ALWAYS_SOFTWARE=1
 run() { xvfb-run -a -s "-screen 0 1280x1024x24" "$editor" "$@"; }
 
 run "$scene" --screenshot "$tmp/shot.png" --save-probes "$tmp/set.json"
+# A probe set as the argument opens it with its scene: its own probes, no proposal, clean.
+run "$tmp/set.json" --screenshot "$tmp/argset.png"
+grep -q "\"probeSetPath\": \"$tmp/set.json\"" "$tmp/argset.png.json" ||
+  { echo "FAIL: a probe set as the argument was not opened as the set"; exit 1; }
+grep -q '"modified": false' "$tmp/argset.png.json" ||
+  { echo "FAIL: a probe set just opened is marked unsaved"; exit 1; }
 # The same view without probes, for the checker's before/after comparison.
 run "$scene" --screenshot "$tmp/bare.png" --no-probes
 mkdir -p "$artifacts"

@@ -1,0 +1,286 @@
+// The artist's loop, driven as a person would (QT_QPA_PLATFORM=offscreen): opening a set with its
+// scene, a clean new document, Bake offering to save, the bake found again on reopen, messages
+// naming the editor's controls, redo on Ctrl+Y, no stray windows after jobs, one progress bar.
+#include <QAbstractButton>
+#include <QComboBox>
+#include <QDir>
+#include <QDoubleSpinBox>
+#include <QFile>
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
+#include <QMessageBox>
+#include <QProgressBar>
+#include <QPushButton>
+#include <QSettings>
+#include <QSignalSpy>
+#include <QSpinBox>
+#include <QTemporaryDir>
+#include <QTimer>
+#include <QtTest>
+#include <memory>
+
+#include "core/io/ProbeSetFile.h"
+#include "ui/Document.h"
+#include "ui/LightingPanel.h"
+#include "ui/MainWindow.h"
+#include "ui/PlacementPanel.h"
+#include "ui/Viewport.h"
+
+using namespace ps;
+using namespace ps::ui;
+
+namespace {
+const QString kScene = QStringLiteral(PS_SOURCE_DIR "/resources/scenes/two-rooms.gltf");
+
+/// Accepted probes spread through two-rooms' left room and doorway (inside the building).
+std::vector<Probe> acceptedProbes() {
+  const Vec3 points[] = {{-2.5, 0.8, -1.5}, {-1.0, 0.8, 1.5}, {-2.0, 2.0, 1.0},
+                         {-0.5, 2.0, -1.0}, {1.5, 1.2, 0.0},  {3.0, 1.0, 1.5}};
+  std::vector<Probe> out;
+  for (const Vec3& v : points) {
+    Probe p;
+    p.position = v;
+    p.state = ProbeState::Accepted;
+    p.method = "manual";
+    out.push_back(p);
+  }
+  return out;
+}
+
+/// Clicks `button` of the next modal message box as soon as it shows; records its text.
+void answerNextMessageBox(QMessageBox::StandardButton button, QString* text = nullptr) {
+  QTimer::singleShot(0, [button, text] {
+    auto* box = qobject_cast<QMessageBox*>(QApplication::activeModalWidget());
+    if (!box) return answerNextMessageBox(button, text);  // not up yet: try again
+    if (text) *text = box->text();
+    box->button(button)->click();
+  });
+}
+
+/// Copies two-rooms (one self-contained .gltf) into `dir`; without its lights when `unlit`.
+QString copyScene(const QTemporaryDir& dir, bool unlit) {
+  QFile in(kScene);
+  if (!in.open(QIODevice::ReadOnly)) return {};
+  QJsonObject root = QJsonDocument::fromJson(in.readAll()).object();
+  if (unlit) {
+    root.remove("extensions");
+    root.remove("extensionsUsed");
+    QJsonArray nodes = root["nodes"].toArray();
+    for (auto n : nodes) {
+      QJsonObject o = n.toObject();
+      o.remove("extensions");
+      n = o;
+    }
+    root["nodes"] = nodes;
+  }
+  const QString path = dir.filePath(unlit ? "unlit.gltf" : "two-rooms.gltf");
+  QFile out(path);
+  if (!out.open(QIODevice::WriteOnly)) return {};
+  out.write(QJsonDocument(root).toJson());
+  return path;
+}
+
+/// Waits for the running job (if any) to end; its error.
+QString waitForJob(Document* doc, int timeoutMs = 120000) {
+  if (!doc->isBusy()) return {};
+  QSignalSpy done(doc, &Document::jobFinished);
+  if (!done.wait(timeoutMs)) return QStringLiteral("timeout");
+  return done.first().first().toString();
+}
+
+/// Visible top-level widgets other than `main`.
+QStringList strayWindows(const QWidget* main) {
+  QStringList out;
+  for (QWidget* w : QApplication::topLevelWidgets())
+    if (w != main && w->isVisible())
+      out << QStringLiteral("%1 '%2'").arg(w->metaObject()->className(), w->windowTitle());
+  return out;
+}
+}  // namespace
+
+class TestArtistLoop : public QObject {
+  Q_OBJECT
+  QTemporaryDir settingsDir_;
+
+ private slots:
+  void initTestCase() {
+    if (!QFile::exists(kScene)) QSKIP("two-rooms.gltf not present");
+    QSettings::setDefaultFormat(QSettings::IniFormat);
+    QSettings::setPath(QSettings::IniFormat, QSettings::UserScope, settingsDir_.path());
+    QCoreApplication::setOrganizationName("ProbeStudioTest");
+    QCoreApplication::setApplicationName("test_artist_loop");
+  }
+
+  void aNewDocumentIsCleanAfterItsProposal() {
+    MainWindow w;
+    w.setQuiet(true);
+    QVERIFY(w.openScene(kScene));  // proposes candidates in the background
+    QVERIFY(w.document()->isBusy());
+    QCOMPARE(waitForJob(w.document()), QString());
+    QVERIFY(!w.document()->probes().empty());
+    QVERIFY(!w.document()->isModified());
+    QVERIFY(!w.isWindowModified());
+    // Closing asks nothing (no message box: close() would block on it otherwise).
+    QVERIFY(w.close());
+    // An artist's edit is a change.
+    MainWindow w2;
+    w2.setPromptOnClose(false);
+    QVERIFY(w2.openScene(kScene));
+    QCOMPARE(waitForJob(w2.document()), QString());
+    w2.document()->deleteProbes({w2.document()->probes().front().id});
+    QVERIFY(w2.isWindowModified());
+  }
+
+  void aSetAsTheArgumentOpensWithItsSceneAndItsBake() {
+    QTemporaryDir dir;
+    const QString scene = copyScene(dir, false);
+    QVERIFY(!scene.isEmpty());
+    const QString set = dir.filePath("rooms.probes.json");
+    {
+      MainWindow w;
+      w.setQuiet(true);
+      w.setPromptOnClose(false);
+      w.document()->setAutoPropose(false);
+      QVERIFY(w.openPath(scene));
+      w.document()->addProbes(acceptedProbes(), "Add");
+      // Bake on a set never saved: the editor offers to save it beside the scene; accept.
+      w.placementPanel()->bakeSamplesBox()->setValue(16);
+      QString text;
+      answerNextMessageBox(QMessageBox::Save, &text);
+      QVERIFY(w.placementPanel()->bake());
+      QVERIFY2(text.contains("two-rooms.probes.json"), qPrintable(text));
+      QCOMPARE(w.document()->jobKind(), QString("bake"));
+      QCOMPARE(waitForJob(w.document()), QString());
+      QVERIFY(QFile::exists(dir.filePath("two-rooms.probes.json")));
+      QVERIFY(QFile::exists(dir.filePath("two-rooms.psv")));
+      QVERIFY(w.document()->volumeIsCurrent());
+      QVERIFY(w.saveAs(set));
+      QVERIFY(QFile::copy(dir.filePath("two-rooms.psv"), dir.filePath("rooms.psv")));
+    }
+    // The command line's argument: a set opens with its scene, clean, with the bake beside it.
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    QVERIFY(w.openPath(set));
+    Document* doc = w.document();
+    QVERIFY(doc->hasScene());
+    QCOMPARE(QFileInfo(doc->scenePath()).fileName(), QString("two-rooms.gltf"));
+    QCOMPARE(doc->probeSetPath(), set);
+    QCOMPARE(doc->probes().size(), acceptedProbes().size());
+    QVERIFY(!doc->isBusy());  // no proposal over an opened set
+    QVERIFY(!doc->isModified());
+    QVERIFY(doc->volume() != nullptr);
+    QCOMPARE(doc->volumePath(), dir.filePath("rooms.psv"));
+    QVERIFY(doc->volumeIsCurrent());
+    // Moving an accepted probe makes the bake stale; so does reopening the set edited.
+    doc->moveProbe(doc->probes().front().id, Vec3(-2.4, 0.9, -1.4));
+    QVERIFY(!doc->volumeIsCurrent());
+    QVERIFY(w.save());
+    QVERIFY(w.openPath(set));
+    QVERIFY(doc->volume() != nullptr);
+    QVERIFY(!doc->volumeIsCurrent());
+    // A set with no volume beside it drops the previous one.
+    const QString other = dir.filePath("other.json");
+    QVERIFY(QFile::copy(set, other));
+    QVERIFY(w.openPath(other));
+    QVERIFY(doc->volume() == nullptr);
+
+    // Declining the offer starts nothing and reports nothing.
+    MainWindow w2;
+    w2.setQuiet(true);
+    w2.setPromptOnClose(false);
+    w2.document()->setAutoPropose(false);
+    QVERIFY(w2.openPath(scene));
+    w2.document()->addProbes(acceptedProbes(), "Add");
+    answerNextMessageBox(QMessageBox::Cancel);
+    QVERIFY(!w2.placementPanel()->bake());
+    QVERIFY(!w2.document()->isBusy());
+    QVERIFY(w2.lastError().isEmpty());
+  }
+
+  void messagesNameTheEditorsControls() {
+    QTemporaryDir dir;
+    const QString unlit = copyScene(dir, true);
+    QVERIFY(!unlit.isEmpty());
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    w.document()->setAutoPropose(false);
+    QVERIFY(w.openPath(unlit));
+    w.document()->addProbes(acceptedProbes(), "Add");
+    // Recapture in a scene with no light: the error says where to add one.
+    w.lightingPanel()->recaptureButton()->click();
+    waitForJob(w.document());
+    QVERIFY2(w.lastError().contains("Lighting tab"), qPrintable(w.lastError()));
+    QVERIFY2(!w.lastError().contains("--"), qPrintable(w.lastError()));
+  }
+
+  void ctrlYAndCtrlShiftZRedo() {
+    MainWindow w;
+    w.setPromptOnClose(false);
+    w.document()->setAutoPropose(false);
+    QVERIFY(w.openPath(kScene));
+    // The offscreen platform has no GL: the window is shown without its viewport.
+    const std::unique_ptr<QWidget> viewport(w.takeCentralWidget());
+    viewport->setParent(nullptr);
+    w.show();
+    QVERIFY(QTest::qWaitForWindowActive(&w));
+    w.document()->addProbes(acceptedProbes(), "Add");
+    QTest::keyClick(&w, Qt::Key_Z, Qt::ControlModifier);
+    QCOMPARE(w.document()->probes().size(), size_t(0));
+    QTest::keyClick(&w, Qt::Key_Y, Qt::ControlModifier);
+    QCOMPARE(w.document()->probes().size(), acceptedProbes().size());
+    QTest::keyClick(&w, Qt::Key_Z, Qt::ControlModifier);
+    QCOMPARE(w.document()->probes().size(), size_t(0));
+    QTest::keyClick(&w, Qt::Key_Z, Qt::ControlModifier | Qt::ShiftModifier);
+    QCOMPARE(w.document()->probes().size(), acceptedProbes().size());
+  }
+
+  void jobsLeaveNoStrayWindowsAndShowOneProgress() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    w.document()->setAutoPropose(false);
+    QVERIFY(w.openPath(kScene));
+    // The offscreen platform has no GL: the window is shown without its viewport.
+    const std::unique_ptr<QWidget> viewport(w.takeCentralWidget());
+    viewport->setParent(nullptr);
+    w.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&w));
+    Document* doc = w.document();
+    doc->addProbes(acceptedProbes(), "Add");
+    // One placement with its phases (grid, leak refinement, capture): the fraction the bar
+    // shows never goes back, and the label names the step.
+    std::vector<double> fractions;
+    QStringList labels;
+    connect(doc, &Document::jobProgress, this, [&](const QString& what, double f) {
+      if (!doc->isBusy()) return;
+      fractions.push_back(f);
+      labels << what;
+    });
+    w.placementPanel()->methodBox()->setCurrentText("uniform");
+    w.placementPanel()->spacingBox()->setValue(1.0);
+    QVERIFY(w.placementPanel()->run());
+    QCOMPARE(waitForJob(doc), QString());
+    QVERIFY(fractions.size() >= 3);
+    for (size_t i = 1; i < fractions.size(); ++i)
+      QVERIFY2(fractions[i] >= fractions[i - 1], qPrintable(QStringLiteral("%1 then %2 (%3)")
+                                                                .arg(fractions[i - 1])
+                                                                .arg(fractions[i])
+                                                                .arg(labels.join(" | "))));
+    QVERIFY2(labels.join(" ").contains("step 2 of 3"), qPrintable(labels.join(" | ")));
+    // Two more jobs: still only the main window.
+    for (int i = 0; i < 2; ++i) {
+      QVERIFY(doc->recapture(8));
+      QCOMPARE(waitForJob(doc), QString());
+      QCoreApplication::processEvents();
+    }
+    QVERIFY2(strayWindows(&w).isEmpty(), qPrintable(strayWindows(&w).join(", ")));
+    auto* bar = w.findChild<QProgressBar*>();
+    QVERIFY(bar && !bar->isVisible());
+  }
+};
+
+QTEST_MAIN(TestArtistLoop)
+#include "test_artist_loop.moc"
