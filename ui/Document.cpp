@@ -1,5 +1,6 @@
 #include "ui/Document.h"
 
+#include <QDateTime>
 #include <QFileInfo>
 #include <QStandardPaths>
 #include <QtConcurrent/QtConcurrentRun>
@@ -70,6 +71,7 @@ Document::Document(QObject* parent) : QObject(parent) {
 
 Document::~Document() {
   cancelJob();
+  stopLive();
   // The undo stack announces its last clean change while it is destroyed; nothing may hear
   // about it (a parent window is already half destroyed when its children go).
   disconnect(&undo_, nullptr, this, nullptr);
@@ -84,6 +86,7 @@ void Document::cancelJob() {
 void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const Tracer> tracer,
                        ProbeSet set, const QString& scenePath, const QString& setPath) {
   cancelJob();
+  stopLive();
   ++generation_;
   const bool sceneChanges = scene != scene_;
   emit probesAboutToBeReset();
@@ -248,11 +251,18 @@ uint64_t Document::addManualProbe(Vec3 position, const QString& text) {
       cs.samplesPerProbe = proposal_.samplesPerProbe;
       const Vec3 pts[1] = {position};
       p.sh = captureProbes(*tracer_, set_.rig, pts, cs).at(0).sh;
+      p.captureSceneHash = sceneHash_;
     } catch (const Error&) {
       // No light in the scene and rig: the probe stays uncaptured (drawn grey).
     }
   }
-  return addProbes({p}, text).at(0);
+  const uint64_t id = addProbes({p}, text).at(0);
+  // The quick capture above is the preview's; the bake's sample count follows in the background.
+  if (p.sh && live_.enabled && live_.finalSamples > proposal_.samplesPerProbe) {
+    liveFinal_[id] = {position, QDateTime::currentMSecsSinceEpoch()};
+    pumpLive();
+  }
+  return id;
 }
 
 void Document::moveProbe(uint64_t id, Vec3 position, int mergeKey) {
@@ -337,6 +347,8 @@ void Document::insertProbeRaw(int row, const Probe& p) {
 void Document::removeProbeRaw(uint64_t id) {
   const int row = indexOf(id);
   if (row < 0) return;
+  liveQuick_.erase(id);
+  liveFinal_.erase(id);
   emit probeAboutToBeRemoved(row);
   set_.probes.erase(set_.probes.begin() + row);
   ++changeCount_;
@@ -354,10 +366,156 @@ void Document::setProbeStateRaw(uint64_t id, ProbeState s) {
 void Document::setProbePositionRaw(uint64_t id, Vec3 p, const std::optional<ShRgb>& sh) {
   const int row = indexOf(id);
   if (row < 0) return;
-  set_.probes[size_t(row)].position = p;
-  set_.probes[size_t(row)].sh = sh;
+  Probe& probe = set_.probes[size_t(row)];
+  const bool moved = probe.position != p;
+  probe.position = p;
+  probe.sh = sh;
   ++changeCount_;
+  // A probe moved without a capture at its new place is captured there in the background.
+  if (sh) {
+    liveQuick_.erase(id);
+    liveFinal_.erase(id);
+  } else if (moved && live_.enabled && tracer_ && probe.state != ProbeState::Rejected) {
+    liveQuick_[id] = {p, QDateTime::currentMSecsSinceEpoch()};
+    liveFinal_.erase(id);
+    if (liveRunning_ && liveRunningFinal_ && liveCancel_) liveCancel_->store(true);
+  }
   emit probeChanged(row);
+  pumpLive();
+}
+
+void Document::setProbeShLive(uint64_t id, const ShRgb& sh) {
+  const int row = indexOf(id);
+  if (row < 0) return;
+  // A bake captures its probes itself: a better preview capture leaves it as current as it was.
+  const bool current = volumeIsCurrent();
+  set_.probes[size_t(row)].sh = sh;
+  set_.probes[size_t(row)].captureSceneHash = sceneHash_;
+  ++changeCount_;
+  if (current) volumeChange_ = changeCount_;
+  emit probeChanged(row);
+}
+
+struct Document::LiveTask {
+  uint64_t id = 0;
+  Vec3 position;
+  qint64 since = 0;  ///< when the edit asked for it, ms since the epoch
+  int samples = 0;
+  bool final = false;
+  int generation = 0, rigGeneration = 0;
+};
+
+struct Document::LiveResult {
+  LiveTask task;
+  std::optional<ShRgb> sh;
+  bool cancelled = false;
+};
+
+bool Document::isCapturingLive() const {
+  return liveRunning_ || !liveQuick_.empty() || !liveFinal_.empty();
+}
+
+bool Document::isQuickCapturePending(uint64_t id) const {
+  return liveQuick_.count(id) > 0 || (liveRunning_ && !liveRunningFinal_ && liveRunningId_ == id);
+}
+
+bool Document::isQuickCapturePending() const {
+  return !liveQuick_.empty() || (liveRunning_ && !liveRunningFinal_);
+}
+
+void Document::captureLive(uint64_t id) {
+  const Probe* p = probe(id);
+  if (!p || !tracer_ || !live_.enabled) return;
+  liveQuick_[id] = {p->position, QDateTime::currentMSecsSinceEpoch()};
+  liveFinal_.erase(id);
+  pumpLive();
+}
+
+void Document::pumpLive() {
+  while (!liveRunning_ && tracer_ && live_.enabled) {
+    auto* queue = !liveQuick_.empty() ? &liveQuick_ : !liveFinal_.empty() ? &liveFinal_ : nullptr;
+    if (!queue) return;
+    LiveTask t;
+    t.final = queue == &liveFinal_;
+    t.id = queue->begin()->first;
+    t.position = queue->begin()->second.first;
+    t.since = queue->begin()->second.second;
+    queue->erase(queue->begin());
+    const Probe* p = probe(t.id);
+    if (!p || p->position != t.position || p->state == ProbeState::Rejected) continue;
+    t.samples = t.final ? live_.finalSamples : live_.previewSamples;
+    if (t.samples <= 0) continue;
+    t.generation = generation_;
+    t.rigGeneration = rigGeneration_;
+    const int chunk = std::max(1, std::min(live_.samplesPerChunk, t.samples));
+    const int chunks = std::max(1, t.samples / chunk);
+    t.samples = chunks * chunk;
+    auto cancel = std::make_shared<std::atomic<bool>>(false);
+    liveCancel_ = cancel;
+    liveRunning_ = true;
+    liveRunningFinal_ = t.final;
+    liveRunningId_ = t.id;
+    if (!liveWatcher_) {
+      liveWatcher_ = new QFutureWatcher<std::shared_ptr<LiveResult>>(this);
+      connect(liveWatcher_, &QFutureWatcherBase::finished, this, &Document::onLiveDone);
+      // Its own thread, so that a live capture never waits behind a placement or a bake.
+      livePool_.setMaxThreadCount(1);
+    }
+    std::shared_ptr<const Tracer> tracer = tracer_;
+    const LightingRig rig = set_.rig;
+    liveWatcher_->setFuture(QtConcurrent::run(&livePool_, [=]() -> std::shared_ptr<LiveResult> {
+      auto r = std::make_shared<LiveResult>();
+      r->task = t;
+      try {
+        // `chunks` independent captures of the point (seeded by their index), averaged.
+        CaptureSettings cs;
+        cs.samplesPerProbe = chunk;
+        cs.seed = t.final ? 2 : 1;
+        // The final capture leaves the other cores to the preview's rebuild and the view.
+        if (t.final) cs.threads = 1;
+        const std::vector<Vec3> points(size_t(chunks), t.position);
+        const auto captures =
+            captureProbes(*tracer, rig, points, cs, [&](double) { return !cancel->load(); });
+        ShRgb sum;
+        for (const ProbeCapture& c : captures) sum += c.sh;
+        r->sh = sum * (1.0 / double(chunks));
+      } catch (const Cancelled&) {
+        r->cancelled = true;
+      } catch (const std::exception&) {
+        // No light: the probe stays uncaptured, as a quick capture leaves it.
+      }
+      return r;
+    }));
+  }
+}
+
+void Document::onLiveDone() {
+  liveRunning_ = false;
+  const std::shared_ptr<LiveResult> r = liveWatcher_->result();
+  if (r && r->task.generation == generation_ && r->task.rigGeneration == rigGeneration_) {
+    const LiveTask& t = r->task;
+    const Probe* p = probe(t.id);
+    const bool there = p && p->position == t.position && p->state != ProbeState::Rejected;
+    const bool asked = liveQuick_.count(t.id) > 0;  // moved again meanwhile
+    if (there && r->sh) {
+      setProbeShLive(t.id, *r->sh);
+      emit liveCaptured(t.id, t.samples,
+                        double(QDateTime::currentMSecsSinceEpoch() - t.since) * 1e-3);
+      if (!t.final && !asked && live_.finalSamples > t.samples)
+        liveFinal_[t.id] = {t.position, t.since};
+    } else if (there && r->cancelled && !asked) {
+      (t.final ? liveFinal_ : liveQuick_)[t.id] = {t.position, t.since};
+    }
+  }
+  pumpLive();
+}
+
+void Document::stopLive() {
+  liveQuick_.clear();
+  liveFinal_.clear();
+  if (liveCancel_) liveCancel_->store(true);
+  if (liveWatcher_ && liveWatcher_->isRunning()) liveWatcher_->waitForFinished();
+  liveRunning_ = false;
 }
 
 void Document::setProbeLockedRaw(uint64_t id, bool locked) {
@@ -369,6 +527,11 @@ void Document::setProbeLockedRaw(uint64_t id, bool locked) {
 }
 
 void Document::setRigRaw(const LightingRig& rig) {
+  // Live captures of the old light are dropped; the moved probes still waiting are captured
+  // with the new one.
+  ++rigGeneration_;
+  liveFinal_.clear();
+  if (liveCancel_) liveCancel_->store(true);
   set_.rig = rig;
   ++changeCount_;
   emit rigChanged();

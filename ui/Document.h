@@ -6,9 +6,11 @@
 #include <QObject>
 #include <QString>
 #include <QStringList>
+#include <QThreadPool>
 #include <QUndoStack>
 #include <atomic>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -32,6 +34,17 @@ namespace ps::ui {
 struct ProposalSettings {
   double targetProbeCount = 80;  ///< spacing = cbrt(volume of bounds / target)
   int samplesPerProbe = 64;      ///< quick SH capture
+};
+
+/// Live capture of edited probes: a probe moved (or added) is captured alone in the background,
+/// quickly for the preview first, then at the bake's sample count. Both captures split their
+/// rays over independent captures of the same point (core/capture seeds each by its index),
+/// averaged: the same estimator as one capture of all the rays, spread over the cores.
+struct LiveCaptureSettings {
+  bool enabled = true;
+  int previewSamples = 64;   ///< the quick capture (ProposalSettings' count)
+  int finalSamples = 1024;   ///< then this many (the bake panel's samples per probe); 0: none
+  int samplesPerChunk = 32;  ///< rays per independent capture; cancellation between chunks
 };
 
 /// The placement panel's settings. toPlaceRequest() turns them into the core's request
@@ -208,6 +221,17 @@ class Document : public QObject {
   /// Loads a volume file for the preview and the overlays. Throws ps::Error.
   void openVolume(const QString& path);
 
+  // --- live capture of edited probes (LiveCaptureSettings) ---
+  LiveCaptureSettings& liveCaptureSettings() { return live_; }
+  /// Probes waiting for, or in, a live capture.
+  bool isCapturingLive() const;
+  /// This probe waits for, or is in, a quick live capture (its SH is on its way).
+  bool isQuickCapturePending(uint64_t id) const;
+  /// Some probe waits for, or is in, a quick live capture.
+  bool isQuickCapturePending() const;
+  /// Queues a live capture of this probe where it is now (a move or an add already does).
+  void captureLive(uint64_t id);
+
   /// Captures every non-rejected probe again in the background with the current rig (after a
   /// lighting change) at `samplesPerProbe`; one undo step replaces their SH. Probes moved or
   /// deleted while it runs are left alone.
@@ -246,6 +270,9 @@ class Document : public QObject {
   /// volume() changed (baked, loaded, or dropped with the scene).
   void volumeChanged();
   void evaluationsChanged();
+  /// A live capture landed: the probe's SH now holds `samples` rays taken at its position, in
+  /// `seconds` since the edit that asked for it.
+  void liveCaptured(quint64 id, int samples, double seconds);
   /// Background work: a message and the fraction done in [0, 1].
   void jobProgress(const QString& message, double fraction);
   /// Background work finished; `error` is empty on success.
@@ -261,6 +288,15 @@ class Document : public QObject {
   /// Takes the volume file beside a probe set just opened (volumePathFor) as volume(), current
   /// when it holds every accepted probe at its position; drops any other volume.
   void pickUpVolumeBeside(const QString& setPath);
+  struct LiveTask;
+  struct LiveResult;
+  /// Starts the next live capture (quick ones before final ones) unless one runs.
+  void pumpLive();
+  void onLiveDone();
+  /// Drops the queued live captures, cancels the running one and waits for it.
+  void stopLive();
+  /// Sets a probe's SH from a live capture: no undo step (the edit that asked for it is one).
+  void setProbeShLive(uint64_t id, const ShRgb& sh);
   /// Stops the background job (if any) and waits for it.
   void cancelJob();
 
@@ -283,6 +319,16 @@ class Document : public QObject {
   quint64 volumeChange_ = 0;  ///< changeCount() when the volume was baked
   std::vector<EvaluationPoint> evaluations_;
   QFutureWatcher<std::shared_ptr<JobResult>>* watcher_ = nullptr;
+  LiveCaptureSettings live_;
+  /// Probes waiting for a quick / a final live capture: where, and since when (ms since epoch).
+  std::map<uint64_t, std::pair<Vec3, qint64>> liveQuick_, liveFinal_;
+  int rigGeneration_ = 0;  ///< bumped by every rig change; live captures of an older rig drop
+  QFutureWatcher<std::shared_ptr<LiveResult>>* liveWatcher_ = nullptr;
+  std::shared_ptr<std::atomic<bool>> liveCancel_;
+  QThreadPool livePool_;
+  bool liveRunning_ = false;
+  bool liveRunningFinal_ = false;
+  uint64_t liveRunningId_ = 0;
   std::shared_ptr<std::atomic<bool>> jobCancel_;
 };
 

@@ -129,7 +129,9 @@ void InspectorPanel::refresh() {
                          .arg(e.b, 0, 'g', 3));
   } else {
     sphere_->clear();
-    sphere_->setText(one ? tr("not captured at this position") : QString());
+    sphere_->setText(!one                                   ? QString()
+                     : doc_->isQuickCapturePending(one->id) ? tr("capturing at this position…")
+                                                            : tr("not captured at this position"));
     shInfo_->clear();
   }
   refreshing_ = false;

@@ -127,6 +127,10 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   bakeSpp_->setRange(1, 1 << 20);
   bakeSpp_->setValue(1024);
   bakeForm->addRow(tr("Samples per probe"), bakeSpp_);
+  // An edited probe's live capture ends at the bake's count (LiveCaptureSettings).
+  connect(bakeSpp_, &QSpinBox::valueChanged, this,
+          [this](int n) { doc_->liveCaptureSettings().finalSamples = n; });
+  doc_->liveCaptureSettings().finalSamples = bakeSpp_->value();
   leakRefine_ = new QCheckBox(tr("Refine leaks"));
   leakRefine_->setChecked(true);
   leakRefine_->setToolTip(

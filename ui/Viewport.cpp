@@ -826,8 +826,10 @@ void Viewport::paintGL() {
   if (sceneDirty_) uploadScene();
   if (probesDirty_) uploadProbes();
   // Fields are rebuilt from the probes in the background when an edit ends (not on every step
-  // of a drag); the frame shows the previous ones until then.
-  if ((previewLighting_ || overlays_) && drag_ != Drag::Handle) startFieldsRebuild();
+  // of a drag) and once a moved probe's quick capture (milliseconds) has landed, so that one
+  // rebuild shows it; the frame shows the previous ones until then.
+  if ((previewLighting_ || overlays_) && drag_ != Drag::Handle && !doc_->isQuickCapturePending())
+    startFieldsRebuild();
   if (overlaysDirty_) uploadOverlays();
 
   glClearColor(0, 0, 0, 1);

@@ -125,6 +125,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   const std::optional<ProbeVolume>& previewVolume();
   /// Glyph centres and f vectors (for the screenshot's sidecar and tests).
   const ShGrid& glyphGrid();
+  /// The lit preview's grid (the preview volume sampled, Probe lighting), now.
+  const ShGrid& previewGrid();
   /// Glyphs over the dense grid (default) or over the captured probes themselves.
   void setGlyphsAtProbes(bool on);
   bool glyphsAtProbes() const { return glyphsAtProbes_; }

@@ -192,6 +192,11 @@ const ShGrid& Viewport::glyphGrid() {
   return glyphGrid_;
 }
 
+const ShGrid& Viewport::previewGrid() {
+  updateFields();
+  return previewGrid_;
+}
+
 void Viewport::setGlyphsAtProbes(bool on) {
   glyphsAtProbes_ = on;
   overlaysDirty_ = true;

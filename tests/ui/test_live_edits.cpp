@@ -1,0 +1,331 @@
+// Live edits (QT_QPA_PLATFORM=offscreen): a probe moved into a dark room is captured there
+// alone in the background, quickly and then at the bake's sample count, and the inspector, the
+// preview volume and the lit preview's grid follow in place while the event loop keeps running.
+// It prints how long the preview took to reflect the move (BENCHMARKS.md, Editor):
+//   PS_LIVE_SCENE=SCENE.glb PS_LIVE_SUN=1 build/tests/ui/test_live_edits
+// measures another scene (PS_LIVE_SUN=1 adds a sun and a sky when the scene brings no light).
+#include <QDir>
+#include <QDoubleSpinBox>
+#include <QElapsedTimer>
+#include <QLabel>
+#include <QSettings>
+#include <QSignalSpy>
+#include <QSpinBox>
+#include <QTemporaryDir>
+#include <QTimer>
+#include <QtTest>
+#include <cmath>
+#include <cstdio>
+
+#include "core/traversal/ProbeVolume.h"
+#include "ui/Document.h"
+#include "ui/InspectorPanel.h"
+#include "ui/LightingField.h"
+#include "ui/MainWindow.h"
+#include "ui/PlacementPanel.h"
+#include "ui/Viewport.h"
+
+using namespace ps;
+using namespace ps::ui;
+
+namespace {
+QString scenePath() {
+  const QByteArray env = qgetenv("PS_LIVE_SCENE");
+  return env.isEmpty() ? QStringLiteral(PS_SOURCE_DIR "/resources/scenes/two-rooms.gltf")
+                       : QString::fromLocal8Bit(env);
+}
+
+double meanRadiance(const ShRgb& sh) {
+  return luminance(sh.c[0]) * 0.282095;
+}
+
+/// The lit preview's value (mean radiance) in the grid cell nearest `p`.
+double previewAt(const ShGrid& grid, Vec3 p) {
+  double best = 1e300, value = 0;
+  for (size_t i = 0; i < grid.size(); ++i)
+    if (const double d = length(grid.centre(i) - p); d < best) {
+      best = d;
+      value = meanRadiance(grid.sh[i]);
+    }
+  return value;
+}
+
+/// The preview volume's interpolated SH at `p` (null when outside or no volume).
+std::optional<ShRgb> volumeAt(Viewport* vp, Vec3 p) {
+  const std::optional<ProbeVolume>& v = vp->previewVolume();
+  if (!v) return std::nullopt;
+  const VolumeLocation loc = locate(*v, p);
+  if (loc.tet < 0) return std::nullopt;
+  return interpolate(*v, loc);
+}
+
+/// The move the tests make: the brightest probe (two-rooms: beside room A's lamp) into the
+/// darkest place, half-way between the darkest captured probe and its nearest neighbour (free
+/// space, as both are).
+std::pair<uint64_t, Vec3> brightIntoDark(const std::vector<Probe>& probes) {
+  size_t bright = 0, dark = 0;
+  for (size_t i = 0; i < probes.size(); ++i) {
+    if (!probes[i].sh) continue;
+    if (!probes[bright].sh || meanRadiance(*probes[i].sh) > meanRadiance(*probes[bright].sh))
+      bright = i;
+    if (!probes[dark].sh || meanRadiance(*probes[i].sh) < meanRadiance(*probes[dark].sh)) dark = i;
+  }
+  size_t nearest = dark == 0 ? 1 : 0;
+  for (size_t i = 0; i < probes.size(); ++i)
+    if (i != dark && i != bright &&
+        length(probes[i].position - probes[dark].position) <
+            length(probes[nearest].position - probes[dark].position))
+      nearest = i;
+  return {probes[bright].id, (probes[dark].position + probes[nearest].position) * 0.5};
+}
+
+/// Opens the scene with its proposal (a sun and a sky first with PS_LIVE_SUN). False on failure.
+bool openWithProposal(MainWindow& w) {
+  Document* doc = w.document();
+  const bool sun = !qgetenv("PS_LIVE_SUN").isEmpty();
+  doc->setAutoPropose(!sun);
+  if (!w.openScene(scenePath())) return false;
+  if (sun) {
+    LightingRig rig;
+    Light light;
+    light.type = LightType::Directional;
+    light.name = "sun";
+    light.direction = normalize(Vec3(-0.4, -0.8, -0.45));
+    light.intensity = Rgb(6, 5.6, 5);
+    rig.lights.push_back(light);
+    rig.skyRadiance = Rgb(0.3, 0.4, 0.6);
+    doc->setRig(rig, "Sun and sky");
+    doc->proposeCandidates();
+  }
+  if (doc->isBusy()) {
+    QSignalSpy done(doc, &Document::jobFinished);
+    if (!done.wait(600000) || !done.first().first().toString().isEmpty()) return false;
+  }
+  return doc->probes().size() >= 8;
+}
+
+/// Longest pause of the event loop while it waits for `spy` (ms): the view stays interactive
+/// when this stays small.
+struct StallMeter {
+  QTimer timer;
+  QElapsedTimer clock;
+  qint64 last = 0, worst = 0;
+  StallMeter() {
+    timer.setInterval(5);
+    QObject::connect(&timer, &QTimer::timeout, [this] {
+      const qint64 now = clock.elapsed();
+      worst = std::max(worst, now - last);
+      last = now;
+    });
+    clock.start();
+    timer.start();
+  }
+  /// Starts measuring afresh (after the test's own synchronous work).
+  void reset() { last = clock.elapsed(); }
+};
+}  // namespace
+
+class TestLiveEdits : public QObject {
+  Q_OBJECT
+  QTemporaryDir settingsDir_;
+
+ private slots:
+  void initTestCase() {
+    if (!QFile::exists(scenePath())) QSKIP("scene not present");
+    QSettings::setDefaultFormat(QSettings::IniFormat);
+    QSettings::setPath(QSettings::IniFormat, QSettings::UserScope, settingsDir_.path());
+    QCoreApplication::setOrganizationName("ProbeStudioTest");
+    QCoreApplication::setApplicationName("test_live_edits");
+  }
+
+  void aMovedProbeIsCapturedWhereItWentAndThePreviewFollows() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    Viewport* vp = w.viewport();
+    vp->setPreviewLighting(true);
+    const bool custom = !qgetenv("PS_LIVE_SCENE").isEmpty();
+    QVERIFY(openWithProposal(w));
+    QVERIFY(doc->probes().size() >= 8);
+    // The bake's samples are the final capture's (kept small for the suite's time).
+    w.placementPanel()->bakeSamplesBox()->setValue(custom ? 1024 : 256);
+    QCOMPARE(doc->liveCaptureSettings().finalSamples, custom ? 1024 : 256);
+
+    const auto& probes = doc->probes();
+    const auto [id, to] = brightIntoDark(probes);
+    const Vec3 from = doc->probe(id)->position;
+    const ShRgb oldSh = *doc->probe(id)->sh;
+    const double before = previewAt(vp->previewGrid(), to);
+    w.selectProbes({quint64(id)});
+
+    StallMeter stalls;
+    QElapsedTimer clock;
+    QSignalSpy captured(doc, &Document::liveCaptured);
+    clock.start();
+    doc->moveProbe(id, to, doc->newMergeKey());
+    // At once: no capture at the new place yet, one on its way, the inspector says so.
+    QVERIFY(!doc->probe(id)->sh);
+    QVERIFY(doc->isQuickCapturePending(id));
+    bool saysCapturing = false;
+    for (QLabel* l : w.inspector()->findChildren<QLabel*>())
+      saysCapturing |= l->text().contains("capturing");
+    QVERIFY(saysCapturing);
+
+    // The quick capture lands in the background.
+    stalls.reset();
+    QVERIFY(captured.wait(60000));
+    qint64 worstStall = stalls.worst;
+    const double quickSeconds = double(clock.nsecsElapsed()) * 1e-9;
+    QCOMPARE(captured.first().at(0).toULongLong(), quint64(id));
+    QCOMPARE(captured.first().at(1).toInt(), doc->liveCaptureSettings().previewSamples);
+    QVERIFY(doc->probe(id)->sh);
+    const ShRgb quickSh = *doc->probe(id)->sh;
+    QVERIFY(!(quickSh == oldSh));
+    // The preview: the volume holds the probe at its new place with its new light, and the lit
+    // preview's grid changed there.
+    QElapsedTimer rebuild;
+    rebuild.start();
+    const std::optional<ShRgb> there = volumeAt(vp, to);
+    const double after = previewAt(vp->previewGrid(), to);
+    const double rebuildSeconds = double(rebuild.nsecsElapsed()) * 1e-9;
+    QVERIFY(there);
+    QVERIFY2(std::abs(meanRadiance(*there) - meanRadiance(quickSh)) <=
+                 1e-3 * std::max(meanRadiance(quickSh), 1e-6),
+             qPrintable(
+                 QStringLiteral("%1 vs %2").arg(meanRadiance(*there)).arg(meanRadiance(quickSh))));
+    QVERIFY2(std::abs(after - before) > 1e-3 * std::max(before, 1e-6),
+             qPrintable(QStringLiteral("%1 -> %2").arg(before).arg(after)));
+    bool saysIrradiance = false;
+    for (QLabel* l : w.inspector()->findChildren<QLabel*>())
+      saysIrradiance |= l->text().contains("W/m");
+    QVERIFY(saysIrradiance);
+
+    // Then the bake's sample count.
+    stalls.reset();
+    stalls.worst = 0;
+    QVERIFY(captured.size() >= 2 || captured.wait(600000));
+    worstStall = std::max(worstStall, stalls.worst);
+    const double finalSeconds = double(clock.nsecsElapsed()) * 1e-9;
+    QCOMPARE(captured.at(1).at(1).toInt(), doc->liveCaptureSettings().finalSamples);
+    QVERIFY(!(*doc->probe(id)->sh == quickSh));
+    QVERIFY(!doc->isCapturingLive());
+    // The event loop never stalled for long: the view stayed interactive.
+    QVERIFY2(worstStall < 250, qPrintable(QString::number(worstStall)));
+    std::printf(
+        "live edit (%s, %zu probes): quick capture (%d rays) in %.3f s, preview rebuilt in "
+        "%.3f s: preview reflects the move after %.3f s; final capture (%d rays) after %.3f s; "
+        "longest event-loop pause %lld ms\n",
+        qPrintable(QFileInfo(scenePath()).fileName()), doc->probes().size(),
+        doc->liveCaptureSettings().previewSamples, quickSeconds, rebuildSeconds,
+        quickSeconds + rebuildSeconds, doc->liveCaptureSettings().finalSamples, finalSeconds,
+        qlonglong(worstStall));
+
+    // Undo puts the probe back with the light it had there; no capture runs for it.
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probe(id)->position, from);
+    QVERIFY(*doc->probe(id)->sh == oldSh);
+    QVERIFY(!doc->isCapturingLive());
+    // Redo moves it again and captures it again.
+    doc->undoStack()->redo();
+    QVERIFY(doc->isQuickCapturePending(id));
+    QVERIFY(captured.wait(60000));
+    QVERIFY(doc->probe(id)->sh);
+  }
+
+  void theShownViewReflectsTheMove() {
+    if (QGuiApplication::platformName() == QLatin1String("offscreen"))
+      QSKIP("needs OpenGL: run under xvfb-run (ui.test_live_edits_shown)");
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    Viewport* vp = w.viewport();
+    w.resize(1400, 900);
+    w.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&w));
+    QVERIFY(openWithProposal(w));
+    vp->setProbesVisible(false);  // the lit surfaces only, not the moved probe's sphere
+    vp->setPreviewLighting(true);
+    vp->frameAll();
+    QSignalSpy fields(vp, &Viewport::fieldsUpdated);
+    vp->update();
+    QVERIFY(fields.wait(60000));
+    const auto [id, to] = brightIntoDark(doc->probes());
+    const QImage before = vp->grabFramebuffer();
+
+    QElapsedTimer clock;
+    QSignalSpy captured(doc, &Document::liveCaptured);
+    clock.start();
+    doc->moveProbe(id, to, doc->newMergeKey());
+    QVERIFY(captured.wait(60000));
+    // The first fields the view builds after the capture carry it.
+    fields.clear();
+    QVERIFY(fields.wait(60000));
+    const double seconds = double(clock.nsecsElapsed()) * 1e-9;
+    const QImage after = vp->grabFramebuffer();
+    const double frameSeconds = double(clock.nsecsElapsed()) * 1e-9;
+    // The room it moved into: the pixels around the new place change.
+    const std::optional<QPointF> centre = vp->project(to);
+    QVERIFY(centre);
+    const double scale = double(before.width()) / std::max(vp->width(), 1);
+    const int r = before.width() / 8;
+    const int cx = int(centre->x() * scale), cy = int(centre->y() * scale);
+    double diff = 0;
+    int n = 0;
+    for (int y = std::max(0, cy - r); y < std::min(before.height(), cy + r); ++y)
+      for (int x = std::max(0, cx - r); x < std::min(before.width(), cx + r); ++x) {
+        const QColor a = before.pixelColor(x, y), b = after.pixelColor(x, y);
+        diff += std::abs(a.red() - b.red()) + std::abs(a.green() - b.green()) +
+                std::abs(a.blue() - b.blue());
+        ++n;
+      }
+    diff /= std::max(n, 1) * 3.0;
+    const QByteArray artifacts = qgetenv("PS_ARTIFACTS");
+    if (!artifacts.isEmpty()) {
+      QDir().mkpath(QString::fromLocal8Bit(artifacts));
+      const QString base = QString::fromLocal8Bit(artifacts) + "/live-edit-" +
+                           QFileInfo(scenePath()).completeBaseName();
+      before.save(base + "-before.png");
+      after.save(base + "-after.png");
+    }
+    std::printf(
+        "shown view (%s): the lit preview reflects the move after %.3f s (frame read "
+        "back at %.3f s); mean change around the new place %.1f / 255\n",
+        qPrintable(QFileInfo(scenePath()).fileName()), seconds, frameSeconds, diff);
+    QVERIFY2(diff > 1.0, qPrintable(QString::number(diff)));
+  }
+
+  void aLightingChangeDropsCapturesOfTheOldLight() {
+    if (!qgetenv("PS_LIVE_SCENE").isEmpty()) QSKIP("two-rooms only");
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openScene(scenePath()));
+    w.placementPanel()->bakeSamplesBox()->setValue(4096);
+    const uint64_t id = doc->addManualProbe(Vec3(-2.0, 1.2, 0.5), "Add");
+    QVERIFY(doc->probe(id)->sh);  // the quick capture, at once
+    QVERIFY(doc->isCapturingLive());
+    const ShRgb quick = *doc->probe(id)->sh;
+    // The light changes while the final capture runs: it is dropped, the SH stays.
+    LightingRig rig;
+    rig.skyRadiance = Rgb(5, 5, 5);
+    doc->setRig(rig, "Sky");
+    QSignalSpy captured(doc, &Document::liveCaptured);
+    QTRY_VERIFY_WITH_TIMEOUT(!doc->isCapturingLive(), 60000);
+    QCOMPARE(captured.count(), 0);
+    QVERIFY(*doc->probe(id)->sh == quick);
+    // Added probes get the bake's count after their quick capture.
+    w.placementPanel()->bakeSamplesBox()->setValue(128);
+    const uint64_t second = doc->addManualProbe(Vec3(-1.0, 1.0, -0.5), "Add");
+    QVERIFY(captured.wait(60000));
+    QCOMPARE(captured.first().at(0).toULongLong(), quint64(second));
+    QCOMPARE(captured.first().at(1).toInt(), 128);
+    QCOMPARE(doc->undoStack()->count(), 3);  // two adds and the rig: no step of its own
+  }
+};
+
+QTEST_MAIN(TestLiveEdits)
+#include "test_live_edits.moc"
