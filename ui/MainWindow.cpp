@@ -100,6 +100,9 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   probesLabel_ = new QLabel;
   cutsLabel_ = new QLabel;
   cutsLabel_->setObjectName("leakCutsLabel");
+  overlayReason_ = new QLabel;
+  overlayReason_->setObjectName("overlayReason");
+  overlayReason_->setStyleSheet("color: #b35c00");
   jobLabel_ = new QLabel;
   progress_ = new QProgressBar;
   progress_->setRange(0, 100);
@@ -112,6 +115,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   statusBar()->addWidget(trianglesLabel_);
   statusBar()->addWidget(probesLabel_);
   statusBar()->addWidget(cutsLabel_);
+  statusBar()->addWidget(overlayReason_);
   statusBar()->addPermanentWidget(jobLabel_);
   statusBar()->addPermanentWidget(progress_);
   statusBar()->addPermanentWidget(cancelJob_);
@@ -134,6 +138,13 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
                              3000);
   });
   connect(viewport_, &Viewport::fieldsUpdated, this, &MainWindow::updateCutsLabel);
+  // Why a shown overlay is empty, and what fixes it.
+  connect(viewport_, &Viewport::fieldsUpdated, this, &MainWindow::updateOverlayReason);
+  connect(viewport_, &Viewport::overlaysToggled, this, &MainWindow::updateOverlayReason);
+  for (auto signal : {&Document::probesReset, &Document::volumeChanged})
+    connect(doc_, signal, this, &MainWindow::updateOverlayReason);
+  for (auto signal : {&Document::probeInserted, &Document::probeRemoved, &Document::probeChanged})
+    connect(doc_, signal, this, &MainWindow::updateOverlayReason);
   connect(doc_, &Document::modifiedChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateStatus);
@@ -685,6 +696,12 @@ void MainWindow::updateStatus() {
                             .arg(counts[int(ProbeState::Accepted)])
                             .arg(counts[int(ProbeState::Candidate)])
                             .arg(counts[int(ProbeState::Rejected)]));
+}
+
+void MainWindow::updateOverlayReason() {
+  const QString reason = viewport_->emptyOverlayReason();
+  overlayReason_->setText(reason);
+  overlayReason_->setToolTip(reason);
 }
 
 void MainWindow::updateCutsLabel() {

@@ -106,6 +106,8 @@ class MainWindow : public QMainWindow {
   void updateStatus();
   /// The status bar's leak-cut figures, from the viewport's last fields.
   void updateCutsLabel();
+  /// The status bar's reason why a shown overlay is empty (Viewport::emptyOverlayReason).
+  void updateOverlayReason();
   std::vector<uint64_t> selectedIds() const;
   void onTableSelectionChanged();
   void onProbeClicked(std::optional<quint64> id, Qt::KeyboardModifiers mods);
@@ -123,7 +125,8 @@ class MainWindow : public QMainWindow {
   QLabel* sceneLabel_;
   QLabel* trianglesLabel_;
   QLabel* probesLabel_;
-  QLabel* cutsLabel_;  ///< what the preview's leak cuts did (Viewport::previewCuts)
+  QLabel* cutsLabel_;      ///< what the preview's leak cuts did (Viewport::previewCuts)
+  QLabel* overlayReason_;  ///< why a shown overlay is empty, with the fixing action
   QLabel* jobLabel_;
   QProgressBar* progress_;
   InspectorPanel* inspector_;

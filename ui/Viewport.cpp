@@ -946,6 +946,7 @@ void Viewport::paintGL() {
   drawHandle(vp);
   glBindVertexArray(0);
   glUseProgram(0);
+  drawLegends();
 }
 
 void Viewport::drawHandle(const QMatrix4x4& vp) {

@@ -153,9 +153,33 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
 
   /// The slice's texture (size x size, u along sliceCorners()[0] -> [1], v along [0] -> [3]):
   /// luminance distance to the selected probe (or the volume's mean when none is selected), blue
-  /// at 0 to red at 4 stops; or relative irradiance error for the slice's normal of the preview
-  /// volume against the all-captured one, blue at 0 to red at 50 %. Transparent without a volume.
+  /// at 0 to red at 4 stops; or the error in stops (errorStops, PerceptualError.h) of the preview
+  /// volume's irradiance for the slice's normal against the all-captured one's, blue at 0 to red
+  /// at 1 stop. Transparent without a volume.
   QImage renderSliceImage(int size);
+
+  /// One overlay's legend, drawn in the view's lower left corner: a title, a colour ramp from
+  /// `lo` to `hi` in `unit` (with `mark` flagged on it), or named colour swatches.
+  struct Legend {
+    QString title;
+    QString unit;
+    double lo = 0, hi = 0;
+    bool clampsAbove = true;   ///< values above `hi` take its colour ("hi+")
+    std::vector<QColor> ramp;  ///< colours evenly from lo to hi; empty: swatches only
+    std::optional<double> mark;
+    QString markLabel;
+    std::vector<std::pair<QColor, QString>> swatches;
+  };
+  /// The legends of the preview and the overlays shown now, from the last fields.
+  std::vector<Legend> legends();
+  /// Draw the legends (on by default).
+  void setLegendsVisible(bool on);
+  bool legendsVisible() const { return legendsVisible_; }
+  /// Where the last frame drew its legends (widget pixels).
+  const std::vector<QRect>& legendRects() const { return legendRects_; }
+  /// Why the preview and the overlays shown have nothing to draw, in one line with the action
+  /// that fixes it; empty when they have something (or none is shown).
+  QString emptyOverlayReason() const;
 
   /// Renders one frame into the widget's framebuffer now (makeCurrent, paintGL, glFinish);
   /// for the frame-time benchmark.
@@ -200,6 +224,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// New lighting fields were applied (applyFields): a background rebuild arrived, or
   /// updateFields() took or computed them.
   void fieldsUpdated();
+  /// The preview, an overlay, the slice's mode or the preview's source was switched.
+  void overlaysToggled();
   /// The preview volume was brought up to date with the document by local edits
   /// (EditableProbeVolume) rather than rebuilt: the wall time of the edits and the tet slots
   /// they rewrote.
@@ -244,6 +270,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   std::optional<ProbeVolume> previewForFields();
   void uploadOverlays();
   void drawOverlays(const QMatrix4x4& vp);
+  /// The legends, with QPainter over the frame.
+  void drawLegends();
   void drawLines(const std::vector<float>& xyzrgba, GLenum mode, const QMatrix4x4& vp);
   void initOverlayGL();
   /// Compiles and links a program; `common` prepends the version line and kCommonGlsl to the
@@ -279,6 +307,11 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   PreviewVolumeMirror mirror_;
   bool mirrorAhead_ = false;
   ShGrid glyphGrid_, previewGrid_;
+  bool legendsVisible_ = true;
+  std::vector<QRect> legendRects_;
+  /// The glyphs' full-length magnitude (95th percentile of |f|), for their legend; recomputed
+  /// when negative.
+  double glyphScale_ = -1;
   std::vector<std::array<int32_t, 2>> edges_;
   std::vector<uint8_t> leaks_;
   std::vector<float> edgeStops_;

@@ -4,11 +4,14 @@
 // test object. The data comes from LightingField.h; this file only turns it into GL buffers and
 // draws it.
 #include <QImage>
+#include <QLinearGradient>
+#include <QPainter>
 #include <QtConcurrent/QtConcurrentRun>
 #include <QtMath>
 #include <algorithm>
 #include <cmath>
 
+#include "core/placement/Uniform.h"
 #include "core/scene/Scene.h"
 #include "ui/Document.h"
 #include "ui/Viewport.h"
@@ -81,6 +84,12 @@ void main() {
 /// Neighbouring probes whose brightness differs by more than this (stops) are flagged.
 constexpr float kEdgeStopsTooFar = 1.5f;
 
+/// The error slice is red from this error on, in stops (PerceptualError.h: kVisibleStops, a
+/// third of a stop, is where an artist sees it).
+constexpr double kSliceErrorStopsRed = 1.0;
+/// The luminance-distance slice is red from this distance on, in stops (Chajdas Fig. 11).
+constexpr double kSliceDistanceStopsRed = 4.0;
+
 /// Slice colour ramp (sRGB): blue (0) -> green -> yellow -> red (1).
 QRgb sliceColor(double t) {
   t = std::clamp(t, 0.0, 1.0);
@@ -100,6 +109,7 @@ void Viewport::setPreviewLighting(bool on) {
   previewLighting_ = on;
   overlaysDirty_ = true;
   update();
+  emit overlaysToggled();
 }
 
 void Viewport::setOverlay(Overlay o, bool on) {
@@ -111,12 +121,14 @@ void Viewport::setOverlay(Overlay o, bool on) {
   if (cutsReference() != cut) fieldsDirty_ = true;
   overlaysDirty_ = true;
   update();
+  emit overlaysToggled();
 }
 
 void Viewport::setPreviewSource(PreviewSource s) {
   previewSource_ = s;
   fieldsDirty_ = true;
   update();
+  emit overlaysToggled();
 }
 
 void Viewport::setLeakCuts(bool on) {
@@ -138,6 +150,7 @@ void Viewport::setSliceMode(SliceMode m) {
   if (cutsReference() != cut) fieldsDirty_ = true;
   overlaysDirty_ = true;
   update();
+  emit overlaysToggled();
 }
 
 bool Viewport::cutsReference() const {
@@ -199,6 +212,7 @@ const ShGrid& Viewport::previewGrid() {
 
 void Viewport::setGlyphsAtProbes(bool on) {
   glyphsAtProbes_ = on;
+  glyphScale_ = -1;
   overlaysDirty_ = true;
   update();
 }
@@ -328,6 +342,7 @@ void Viewport::applyFields(Fields&& f) {
   leaks_ = std::move(f.leaks);
   edgeStops_ = std::move(f.edgeStops);
   previewCuts_ = std::move(f.cuts);
+  glyphScale_ = -1;
   emit fieldsUpdated();
 }
 
@@ -403,9 +418,11 @@ QImage Viewport::renderSliceImage(int size) {
       ref += previewVolume_->probeSh(int32_t(i));
     ref = ref * (1.0 / double(previewVolume_->probeCount()));
   }
-  double meanRef = 0;
+  // The error's floor (PerceptualError.h): kAdaptationFloorFraction of the reference's typical
+  // irradiance, here the mean probe's; darker light counts as the floor.
+  double floor = 1e-12;
   if (sliceMode_ == SliceMode::Error && referenceVolume_)
-    meanRef = meanLuminance(ref) * kPi;  // floor for the relative error: a tenth of the mean
+    floor = std::max(kAdaptationFloorFraction * meanLuminance(ref) * kPi, 1e-12);
   int32_t hint = -1, hintRef = -1;
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {
@@ -415,14 +432,14 @@ QImage Viewport::renderSliceImage(int size) {
       const ShRgb sh = interpolate(*previewVolume_, loc);
       double t = 0;
       if (sliceMode_ == SliceMode::LuminanceDistance) {
-        t = luminanceDistanceStops(sh, ref) / 4.0;  // 4 stops and more: red
+        t = luminanceDistanceStops(sh, ref) / kSliceDistanceStopsRed;
       } else {
         if (!referenceVolume_) continue;
         const VolumeLocation lr = locate(*referenceVolume_, p, hintRef);
         hintRef = lr.tet;
         const double er = luminance(interpolate(*referenceVolume_, lr).irradiance(normal));
         const double et = luminance(sh.irradiance(normal));
-        t = std::abs(et - er) / std::max(er, 0.1 * meanRef + 1e-9) / 0.5;  // 50 % and more: red
+        t = errorStops(et, er, floor) / kSliceErrorStopsRed;
       }
       img.setPixel(x, y, sliceColor(t));
     }
@@ -747,6 +764,245 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
     drawLines(v, GL_LINES, vp);
     glEnable(GL_DEPTH_TEST);
     glDisable(GL_BLEND);
+  }
+}
+
+}  // namespace ps::ui
+
+// ---------------------------------------------------------------- legends
+
+namespace ps::ui {
+
+namespace {
+QColor rgbF(double r, double g, double b) {
+  return QColor::fromRgbF(float(r), float(g), float(b));
+}
+
+/// The slice's ramp at five points from 0 to 1.
+std::vector<QColor> sliceRamp() {
+  std::vector<QColor> out;
+  for (int i = 0; i <= 4; ++i) out.push_back(QColor::fromRgba(sliceColor(i / 4.0)));
+  return out;
+}
+
+/// Mean irradiance (W/m²) of an SH: pi times its mean radiance (the L00 term's luminance).
+double meanIrradiance(const ShRgb& sh) {
+  return kPi * luminance(sh.c[0]) * 0.282095;
+}
+
+QString number(double x) {
+  return QString::number(x, 'g', 3);
+}
+}  // namespace
+
+void Viewport::setLegendsVisible(bool on) {
+  legendsVisible_ = on;
+  update();
+}
+
+std::vector<Viewport::Legend> Viewport::legends() {
+  std::vector<Legend> out;
+  if (!doc_->hasScene()) return out;
+  if (previewLighting_ && previewVolume_ && previewGrid_.size() > 0) {
+    double lo = 1e300, hi = 0;
+    for (const ShRgb& sh : previewGrid_.sh) {
+      const double e = meanIrradiance(sh);
+      if (e <= 0) continue;
+      lo = std::min(lo, e);
+      hi = std::max(hi, e);
+    }
+    if (hi > 0) {
+      Legend l;
+      l.title = tr("Probe lighting: mean irradiance (exposure %1 stops)")
+                    .arg(QString::number(double(exposureStops_), 'f', 1));
+      l.unit = QStringLiteral("W/m²");
+      l.lo = lo;
+      l.hi = hi;
+      l.clampsAbove = false;
+      l.ramp = {rgbF(0.02, 0.02, 0.02), rgbF(0.35, 0.35, 0.35), rgbF(0.95, 0.95, 0.95)};
+      out.push_back(l);
+    }
+  }
+  if (overlay(Overlay::Glyphs)) {
+    if (glyphScale_ < 0) {
+      std::vector<double> mags;
+      for (const GlyphSample& g : currentGlyphSamples(nullptr))
+        if (const double m = length(g.f); m > 1e-12) mags.push_back(m);
+      glyphScale_ = 0;
+      if (!mags.empty()) {
+        const size_t k = mags.size() * 95 / 100;
+        std::nth_element(mags.begin(), mags.begin() + long(k), mags.end());
+        glyphScale_ = mags[k];
+      }
+    }
+    if (glyphScale_ > 0) {
+      Legend l;
+      l.title = glyphsAtProbes_
+                    ? tr("Gradient glyphs at the probes: |f| (Chajdas eq. 1), full length at p95")
+                    : tr("Gradient glyphs: |f| (Chajdas eq. 1), full length at p95");
+      l.unit = QStringLiteral("W/m²");
+      l.lo = 0;
+      l.hi = glyphScale_;
+      l.ramp = {rgbF(0.15, 0.25, 0.9), rgbF(0.1, 0.85, 0.95), rgbF(1.0, 0.9, 0.15),
+                rgbF(1.0, 0.2, 0.1)};
+      out.push_back(l);
+    }
+  }
+  if (overlay(Overlay::Slice) && previewVolume_) {
+    static const char* axes[3] = {"x", "y", "z"};
+    const auto c = sliceCorners();
+    const QString where =
+        tr("%1 = %2 m").arg(QLatin1String(axes[sliceAxis_])).arg(number(c[0][sliceAxis_]));
+    Legend l;
+    l.unit = tr("stops");
+    l.ramp = sliceRamp();
+    l.lo = 0;
+    if (sliceMode_ == SliceMode::LuminanceDistance) {
+      quint64 selected = 0;
+      for (const Probe& p : doc_->probes())
+        if (selection_.contains(p.id) && p.sh) {
+          selected = p.id;
+          break;
+        }
+      l.title = selected
+                    ? tr("Slice at %1: luminance distance to probe %2").arg(where).arg(selected)
+                    : tr("Slice at %1: luminance distance to the probes' mean").arg(where);
+      l.hi = kSliceDistanceStopsRed;
+    } else {
+      l.title =
+          referenceVolume_
+              ? tr("Slice at %1: error of the accepted probes against all captured").arg(where)
+              : tr("Slice at %1: error (no reference: capture more probes)").arg(where);
+      l.hi = kSliceErrorStopsRed;
+      l.mark = kVisibleStops;
+      l.markLabel = tr("visible from ⅓ stop");
+    }
+    out.push_back(l);
+  }
+  if (overlay(Overlay::TetMesh) && previewVolume_) {
+    Legend l;
+    l.title = tr("Tetrahedra of the preview volume: %L1").arg(previewVolume_->tets.size());
+    l.swatches = {{rgbF(0.8, 0.8, 0.85), tr("edge")},
+                  {rgbF(1.0, 0.15, 0.1), tr("crosses geometry (leak)")},
+                  {rgbF(1.0, 0.6, 0.1), tr("probes > %1 stops apart").arg(kEdgeStopsTooFar)}};
+    out.push_back(l);
+  }
+  return out;
+}
+
+QString Viewport::emptyOverlayReason() const {
+  if (!doc_->hasScene() || (!previewLighting_ && overlays_ == 0)) return {};
+  if (overlays_ == (1u << int(Overlay::TestObject)) && !previewLighting_ && previewVolume_)
+    return {};
+  const QString what = previewLighting_ && overlays_ == 0 ? tr("The probe lighting preview")
+                                                          : tr("The preview and overlays");
+  if (previewSource_ == PreviewSource::Baked) {
+    if (!doc_->volume())
+      return tr("%1 show the baked volume, and there is none: bake (Ctrl+B), open one "
+                "(Probes › Open volume) or use the captured probes (View › Preview and overlays "
+                "use).")
+          .arg(what);
+    return {};
+  }
+  size_t captured = 0, acceptedCaptured = 0, any = 0;
+  std::vector<Vec3> points;
+  for (const Probe& p : doc_->probes()) {
+    if (p.state == ProbeState::Rejected) continue;
+    ++any;
+    if (!p.sh) continue;
+    ++captured;
+    const bool accepted = p.state == ProbeState::Accepted;
+    acceptedCaptured += accepted ? 1 : 0;
+    if (previewSource_ == PreviewSource::AllCaptured || accepted) points.push_back(p.position);
+  }
+  if (any == 0)
+    return tr("%1 have nothing to show: there are no probes. Run placement (Ctrl+R) or add "
+              "probes (N).")
+        .arg(what);
+  if (captured == 0)
+    return tr("%1 have nothing to show: the probes carry no captures. Capture them with "
+              "Lighting › Recapture probes with this lighting, or open a baked volume (Probes › "
+              "Open volume).")
+        .arg(what);
+  if (previewSource_ == PreviewSource::Accepted && acceptedCaptured < 4)
+    return tr("%1 use the accepted probes, and only %2 of them are captured: accept at least 4 "
+              "(A), or use all captured probes (View › Preview and overlays use).")
+        .arg(what)
+        .arg(acceptedCaptured);
+  if (points.size() < 4)
+    return tr("%1 need at least 4 captured probes, there are %2: capture more with Lighting › "
+              "Recapture probes with this lighting.")
+        .arg(what)
+        .arg(points.size());
+  if (!pointsSpan3D(points))
+    return tr("%1 have nothing to show: the captured probes lie in one plane. Add a probe above "
+              "or below them (Shift+N at the camera).")
+        .arg(what);
+  return {};
+}
+
+void Viewport::drawLegends() {
+  legendRects_.clear();
+  if (!legendsVisible_) return;
+  const std::vector<Legend> all = legends();
+  if (all.empty()) return;
+  QPainter p(this);
+  p.setRenderHint(QPainter::Antialiasing);
+  QFont font = p.font();
+  font.setPointSizeF(8.5);
+  p.setFont(font);
+  const QFontMetrics fm(font);
+  const int pad = 6, barH = 10, width = std::min(this->width() - 20, 330);
+  int bottom = height() - 10;
+  for (auto it = all.rbegin(); it != all.rend(); ++it) {
+    const Legend& l = *it;
+    const int lines = l.ramp.empty() ? 1 + int(l.swatches.size()) : 3;
+    const int h = pad * 2 + lines * fm.height() + (l.ramp.empty() ? 0 : barH - fm.height() + 4);
+    const QRect box(10, bottom - h, width, h);
+    legendRects_.push_back(box);
+    p.setPen(Qt::NoPen);
+    p.setBrush(QColor(20, 22, 28, 200));
+    p.drawRoundedRect(box, 4, 4);
+    p.setPen(QColor(235, 235, 235));
+    int y = box.top() + pad;
+    p.drawText(QRect(box.left() + pad, y, box.width() - 2 * pad, fm.height()),
+               Qt::AlignLeft | Qt::AlignVCenter,
+               fm.elidedText(l.title, Qt::ElideRight, box.width() - 2 * pad));
+    y += fm.height() + 2;
+    if (!l.ramp.empty()) {
+      const QRect bar(box.left() + pad, y, box.width() - 2 * pad, barH);
+      QLinearGradient g(bar.topLeft(), bar.topRight());
+      for (size_t i = 0; i < l.ramp.size(); ++i)
+        g.setColorAt(l.ramp.size() > 1 ? double(i) / double(l.ramp.size() - 1) : 0.0, l.ramp[i]);
+      p.setPen(Qt::NoPen);
+      p.setBrush(g);
+      p.drawRect(bar);
+      if (l.mark && l.hi > l.lo) {
+        const int x = bar.left() + int(bar.width() * (*l.mark - l.lo) / (l.hi - l.lo));
+        p.setPen(QPen(Qt::white, 2));
+        p.drawLine(x, bar.top() - 2, x, bar.bottom() + 2);
+      }
+      y += barH + 2;
+      p.setPen(QColor(235, 235, 235));
+      const QRect labels(bar.left(), y, bar.width(), fm.height());
+      p.drawText(labels, Qt::AlignLeft | Qt::AlignVCenter, number(l.lo));
+      p.drawText(labels, Qt::AlignRight | Qt::AlignVCenter,
+                 QStringLiteral("%1%2 %3").arg(
+                     number(l.hi), l.clampsAbove ? QStringLiteral("+") : QString(), l.unit));
+      if (!l.markLabel.isEmpty())
+        p.drawText(labels, Qt::AlignHCenter | Qt::AlignVCenter, l.markLabel);
+    } else {
+      for (const auto& [colour, text] : l.swatches) {
+        p.setPen(Qt::NoPen);
+        p.setBrush(colour);
+        p.drawRect(box.left() + pad, y + fm.height() / 2 - 3, 14, 6);
+        p.setPen(QColor(235, 235, 235));
+        p.drawText(QRect(box.left() + pad + 20, y, box.width() - 2 * pad - 20, fm.height()),
+                   Qt::AlignLeft | Qt::AlignVCenter, text);
+        y += fm.height();
+      }
+    }
+    bottom = box.top() - 6;
   }
 }
 

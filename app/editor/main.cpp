@@ -118,6 +118,11 @@ bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) 
     volumes.append(QJsonObject{{"weight", v.weight}, {"edges", edges}});
   }
   root["importanceVolumes"] = volumes;
+  // The overlays' legends (image pixels): drawn over the background on purpose.
+  QJsonArray legends;
+  for (const QRect& r : vp->legendRects())
+    legends.append(QJsonArray{r.x() * scale, r.y() * scale, r.width() * scale, r.height() * scale});
+  root["legends"] = legends;
   QFile f(out + ".json");
   if (!f.open(QIODevice::WriteOnly) || f.write(QJsonDocument(root).toJson()) < 0) {
     fail(QStringLiteral("%1: cannot write").arg(out + ".json"));

@@ -17,7 +17,8 @@
 //     3 px that differs from BASE by more than 40 in some channel (an arrow is drawn there);
 //   - slice: at least 60 % of a 5 x 5 grid of points inside the projected slice quad differ
 //     from BASE by more than 12 (the slice is drawn where its corners project);
-//   - nothing outside the scene: over the pixels where BASE shows the background gradient, the
+//   - nothing outside the scene: over the pixels where BASE shows the background gradient (but
+//     for the legends' rectangles, sidecar "legends"), the
 //     mean absolute difference is below 1.5 (overlays stay inside the scene).
 //
 // check_screenshot --volumes SHOT.png BASE.png: SHOT shows importance volumes, BASE the same view
@@ -29,6 +30,7 @@
 #include <QJsonArray>
 #include <QJsonDocument>
 #include <QJsonObject>
+#include <QRectF>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -114,6 +116,17 @@ int checkOverlays(const char* shotPath, const char* basePath) {
 
   const QJsonObject bg = root["background"].toObject();
   const QJsonArray top = bg["top"].toArray(), bottom = bg["bottom"].toArray();
+  // The legends are drawn over the background on purpose.
+  std::vector<QRectF> legends;
+  for (const QJsonValue& r : root["legends"].toArray()) {
+    const QJsonArray a = r.toArray();
+    legends.emplace_back(a[0].toDouble(), a[1].toDouble(), a[2].toDouble(), a[3].toDouble());
+  }
+  auto inLegend = [&](int x, int y) {
+    for (const QRectF& r : legends)
+      if (r.adjusted(-1, -1, 1, 1).contains(x, y)) return true;
+    return false;
+  };
   double outside = 0;
   long outsideCount = 0;
   for (int y = 0; y < h; ++y) {
@@ -123,7 +136,7 @@ int checkOverlays(const char* shotPath, const char* basePath) {
     };
     const QRgb expected = qRgb(mix(0), mix(1), mix(2));
     for (int x = 0; x < w; ++x)
-      if (channelDiff(base.pixel(x, y), expected) <= 3) {
+      if (channelDiff(base.pixel(x, y), expected) <= 3 && !inLegend(x, y)) {
         outside += diffAt(x, y);
         ++outsideCount;
       }

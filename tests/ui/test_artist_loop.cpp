@@ -1,6 +1,7 @@
 // The artist's loop, driven as a person would (QT_QPA_PLATFORM=offscreen): opening a set with its
 // scene, a clean new document, Bake offering to save, the bake found again on reopen, messages
-// naming the editor's controls, redo on Ctrl+Y, no stray windows after jobs, one progress bar.
+// naming the editor's controls, redo on Ctrl+Y, no stray windows after jobs, one progress bar,
+// the overlays' legends and the status bar's reason when an overlay is empty.
 #include <QAbstractButton>
 #include <QComboBox>
 #include <QDir>
@@ -9,6 +10,7 @@
 #include <QJsonArray>
 #include <QJsonDocument>
 #include <QJsonObject>
+#include <QLabel>
 #include <QMessageBox>
 #include <QProgressBar>
 #include <QPushButton>
@@ -279,6 +281,60 @@ class TestArtistLoop : public QObject {
     QVERIFY2(strayWindows(&w).isEmpty(), qPrintable(strayWindows(&w).join(", ")));
     auto* bar = w.findChild<QProgressBar*>();
     QVERIFY(bar && !bar->isVisible());
+  }
+
+  void overlaysCarryLegendsAndSayWhyTheyAreEmpty() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    Viewport* vp = w.viewport();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openPath(kScene));
+    auto* reason = w.findChild<QLabel*>("overlayReason");
+    QVERIFY(reason);
+    // A set as `place` writes it: probes without captures. The preview has nothing to show and
+    // the status bar says why and what to do.
+    doc->addProbes(acceptedProbes(), "Add");
+    QVERIFY(reason->text().isEmpty());  // nothing shown, nothing to explain
+    vp->setPreviewLighting(true);
+    QVERIFY2(reason->text().contains("no captures") && reason->text().contains("Recapture"),
+             qPrintable(reason->text()));
+    QVERIFY(vp->legends().empty());
+    // The action it names fixes it.
+    w.lightingPanel()->recaptureButton()->click();
+    QCOMPARE(waitForJob(doc), QString());
+    QVERIFY2(reason->text().isEmpty(), qPrintable(reason->text()));
+    // The baked volume as the source, without one: say so.
+    vp->setPreviewSource(PreviewSource::Baked);
+    QVERIFY2(reason->text().contains("Ctrl+B"), qPrintable(reason->text()));
+    vp->setPreviewSource(PreviewSource::AllCaptured);
+    QVERIFY(reason->text().isEmpty());
+
+    // Legends, with units and ranges, for each overlay shown.
+    vp->setOverlay(Viewport::Overlay::Glyphs, true);
+    vp->setOverlay(Viewport::Overlay::Slice, true);
+    vp->setOverlay(Viewport::Overlay::TetMesh, true);
+    vp->setSliceMode(Viewport::SliceMode::Error);
+    QVERIFY(vp->previewVolume());
+    const std::vector<Viewport::Legend> legends = vp->legends();
+    QStringList titles;
+    for (const auto& l : legends) titles << l.title;
+    QCOMPARE(legends.size(), size_t(4));
+    QVERIFY(titles[0].startsWith("Probe lighting"));
+    QCOMPARE(legends[0].unit, QStringLiteral("W/m²"));
+    QVERIFY(legends[0].lo > 0 && legends[0].hi > legends[0].lo);
+    QVERIFY(titles[1].startsWith("Gradient glyphs"));
+    QVERIFY(legends[1].hi > 0);
+    // The error slice speaks in stops, with the visible third of a stop marked.
+    QVERIFY2(titles[2].contains("error"), qPrintable(titles[2]));
+    QCOMPARE(legends[2].unit, QStringLiteral("stops"));
+    QCOMPARE(legends[2].hi, 1.0);
+    QVERIFY(legends[2].mark && *legends[2].mark == kVisibleStops);
+    // ... and says where the slice is.
+    QVERIFY2(titles[2].contains("y = "), qPrintable(titles[2]));
+    QVERIFY(titles[3].startsWith("Tetrahedra"));
+    QCOMPARE(legends[3].swatches.size(), size_t(3));
   }
 };
 
