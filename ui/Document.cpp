@@ -924,7 +924,12 @@ bool Document::evaluate(const EvalRequest& request) {
     e.leakingOutsideHullFraction = r.leakingOutsideHullFraction;
     e.outsideHullFraction = r.outsideHullFraction;
     e.stopsFloor = adaptationFloor(r.perQuery);
-    e.stops = summarizeStops(queryStops(r.perQuery, e.stopsFloor));
+    const std::vector<double> stops = queryStops(r.perQuery, e.stopsFloor);
+    e.stops = summarizeStops(stops);
+    for (size_t i = 0; i < r.perQuery.size() && i < stops.size(); ++i) {
+      const EvalQuery& q = r.perQuery[i];
+      e.queries.push_back({q.point, q.normal, q.reference, q.interpolated, stops[i], q.leaking});
+    }
     e.source = evaluated;
     e.referenceCached = r.referenceCached;
     e.seconds = r.seconds;

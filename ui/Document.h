@@ -88,6 +88,16 @@ struct EvalRequest {
   bool leakCuts = true;
 };
 
+/// One query of an evaluation where it is: the point and the normal its irradiance faces, the
+/// reference and the volume's irradiance (luminance, W/m²) and the error in stops
+/// (errorStops against the evaluation's floor). In eval's order (its per-query CSV's rows).
+struct QueryError {
+  Vec3 point, normal;
+  double reference = 0, interpolated = 0;
+  double stops = 0;
+  bool leaking = false;
+};
+
 /// One evaluation the artist ran: the volume's probe count and its errors against the
 /// path-traced reference (relative RMS, 95th percentile, max), what was evaluated.
 struct EvaluationPoint {
@@ -103,9 +113,10 @@ struct EvaluationPoint {
   /// against (luminance, W/m²).
   EvalStops stops;
   double stopsFloor = 0;
-  QString source;                ///< "baked volume" or "preview (accepted probes[, leak cuts])"
-  bool referenceCached = false;  ///< the reference came from the eval reference cache
-  double seconds = 0;            ///< wall time of the evaluation
+  std::vector<QueryError> queries;  ///< each query, in eval's order
+  QString source;                   ///< "baked volume" or "preview (accepted probes[, leak cuts])"
+  bool referenceCached = false;     ///< the reference came from the eval reference cache
+  double seconds = 0;               ///< wall time of the evaluation
 };
 
 class Document : public QObject {

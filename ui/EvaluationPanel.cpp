@@ -82,6 +82,29 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   table_->setMaximumHeight(140);
   layout->addWidget(table_);
 
+  worst_ = new QTableWidget(0, 4);
+  worst_->setObjectName("worstQueries");
+  worst_->setHorizontalHeaderLabels(
+      {tr("error (stops)"), tr("reference W/m²"), tr("volume W/m²"), tr("position (m)")});
+  worst_->setToolTip(tr("The last evaluation's queries, worst first; pick one to frame it"));
+  worst_->verticalHeader()->hide();
+  worst_->horizontalHeader()->setStretchLastSection(true);
+  worst_->setEditTriggers(QAbstractItemView::NoEditTriggers);
+  worst_->setSelectionBehavior(QAbstractItemView::SelectRows);
+  worst_->setSelectionMode(QAbstractItemView::SingleSelection);
+  worst_->setMaximumHeight(180);
+  layout->addWidget(worst_);
+  addProbe_ = new QPushButton(tr("Add a probe here"));
+  addProbe_->setObjectName("addProbeAtQuery");
+  addProbe_->setToolTip(tr("An accepted probe at the picked query (one undo step)"));
+  addProbe_->setEnabled(false);
+  layout->addWidget(addProbe_);
+  connect(worst_, &QTableWidget::currentCellChanged, this, [this](int row) {
+    addProbe_->setEnabled(row >= 0);
+    if (row >= 0) emit queryPicked(worst_->item(row, 0)->data(Qt::UserRole).toInt());
+  });
+  connect(addProbe_, &QPushButton::clicked, this, [this] { addProbeAtCurrentQuery(); });
+
   connect(run_, &QPushButton::clicked, this, [this] { evaluate(); });
   connect(doc_, &Document::evaluationsChanged, this, &EvaluationPanel::refresh);
   connect(doc_, &Document::jobFinished, this, [this] { run_->setEnabled(!doc_->isBusy()); });
@@ -105,7 +128,50 @@ bool EvaluationPanel::evaluate() {
   return false;
 }
 
+bool EvaluationPanel::addProbeAtCurrentQuery() {
+  const int row = worst_->currentRow();
+  if (row < 0 || doc_->evaluations().empty() || !doc_->hasScene()) return false;
+  const int index = worst_->item(row, 0)->data(Qt::UserRole).toInt();
+  const auto& queries = doc_->evaluations().back().queries;
+  if (index < 0 || size_t(index) >= queries.size()) return false;
+  // Queries are free-space points of the domain (core/eval), so the probe goes right there.
+  const uint64_t id = doc_->addManualProbe(queries[size_t(index)].point,
+                                           tr("Add probe at query %1 (%2 stops)")
+                                               .arg(index)
+                                               .arg(queries[size_t(index)].stops, 0, 'f', 2));
+  emit probeAdded(quint64(id));
+  return true;
+}
+
+void EvaluationPanel::refreshWorst() {
+  worst_->setRowCount(0);
+  addProbe_->setEnabled(false);
+  if (doc_->evaluations().empty()) return;
+  const auto& queries = doc_->evaluations().back().queries;
+  std::vector<int> order(queries.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = int(i);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return queries[size_t(a)].stops > queries[size_t(b)].stops;
+  });
+  worst_->setRowCount(int(order.size()));
+  for (int row = 0; row < int(order.size()); ++row) {
+    const QueryError& q = queries[size_t(order[size_t(row)])];
+    auto* stops = new QTableWidgetItem(QString::number(q.stops, 'f', 2));
+    stops->setData(Qt::UserRole, order[size_t(row)]);
+    if (q.leaking) stops->setToolTip(tr("Its tetrahedron has a probe it cannot see (a leak)"));
+    worst_->setItem(row, 0, stops);
+    worst_->setItem(row, 1, new QTableWidgetItem(QString::number(q.reference, 'g', 3)));
+    worst_->setItem(row, 2, new QTableWidgetItem(QString::number(q.interpolated, 'g', 3)));
+    worst_->setItem(row, 3,
+                    new QTableWidgetItem(QStringLiteral("%1, %2, %3")
+                                             .arg(q.point.x, 0, 'f', 2)
+                                             .arg(q.point.y, 0, 'f', 2)
+                                             .arg(q.point.z, 0, 'f', 2)));
+  }
+}
+
 void EvaluationPanel::refresh() {
+  refreshWorst();
   const auto& evals = doc_->evaluations();
   rmse_->clear();
   p95_->clear();

@@ -2,7 +2,9 @@
 // The evaluation dock, a plot (Qt Charts) of error against probe count: Evaluate runs core/eval in
 // the background on the baked volume (or the accepted probes' preview volume); each run adds a
 // point to the plot of relative RMS and 95th-percentile irradiance error (in %) against the
-// volume's probe count, and a row to the table below it.
+// volume's probe count, and a row to the table below it. Below that, the last evaluation's
+// queries worst first: picking one frames it in the view, and "Add a probe here" puts an accepted
+// probe at it.
 #include <QWidget>
 
 class QChart;
@@ -36,12 +38,24 @@ class EvaluationPanel : public QWidget {
   QSpinBox* queriesBox() const { return queries_; }
   QSpinBox* referenceSamplesBox() const { return refSpp_; }
   QTableWidget* table() const { return table_; }
+  /// The last evaluation's queries, worst first: error (stops), reference and volume (W/m²),
+  /// position. A row's Qt::UserRole holds the query's index in eval's order.
+  QTableWidget* worstTable() const { return worst_; }
+  QPushButton* addProbeButton() const { return addProbe_; }
+  /// Adds an accepted probe at the query of the worst table's current row (one undo step);
+  /// false when no row is current.
+  bool addProbeAtCurrentQuery();
 
  signals:
   void failed(const QString& title, const QString& message);
+  /// The artist picked a query in the worst-first list (its index in eval's order).
+  void queryPicked(int index);
+  /// A probe was added at a query.
+  void probeAdded(quint64 id);
 
  private:
   void refresh();
+  void refreshWorst();
 
   Document* doc_;
   QChart* chart_;
@@ -52,6 +66,8 @@ class EvaluationPanel : public QWidget {
   QSpinBox *queries_, *refSpp_;
   QPushButton* run_;
   QTableWidget* table_;
+  QTableWidget* worst_;
+  QPushButton* addProbe_;
   bool leakCuts_ = true;
 };
 

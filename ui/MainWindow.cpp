@@ -93,6 +93,17 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   addDockWidget(Qt::LeftDockWidgetArea, evaluationDock);
   tabifyDockWidget(lightingDock, evaluationDock);
   connect(evaluation_, &EvaluationPanel::failed, this, &MainWindow::showError);
+  // The error where it is: a picked query is framed and ringed; a probe added there is selected.
+  connect(evaluation_, &EvaluationPanel::queryPicked, this, [this](int index) {
+    if (doc_->evaluations().empty()) return;
+    const auto& queries = doc_->evaluations().back().queries;
+    if (index < 0 || size_t(index) >= queries.size()) return;
+    viewport_->setHighlightedQuery(index);
+    const Scene* scene = doc_->scene();
+    viewport_->framePoint(queries[size_t(index)].point,
+                          std::clamp(scene ? scene->bounds.diagonal() * 0.08 : 1.0, 0.5, 3.0));
+  });
+  connect(evaluation_, &EvaluationPanel::probeAdded, this, [this](quint64 id) { selectIds({id}); });
   placementDock->raise();
 
   sceneLabel_ = new QLabel(tr("No scene"));
@@ -325,6 +336,7 @@ void MainWindow::createActions() {
       {Viewport::Overlay::Slice, "&Slice plane", QKeySequence(Qt::Key_V)},
       {Viewport::Overlay::TetMesh, "&Tetrahedral mesh", QKeySequence(Qt::Key_T)},
       {Viewport::Overlay::TestObject, "Test &object", QKeySequence(Qt::Key_O)},
+      {Viewport::Overlay::ErrorPoints, "Evaluation &error points", QKeySequence(Qt::Key_U)},
   };
   for (const auto& o : overlays) {
     const Viewport::Overlay which = o.overlay;
@@ -333,6 +345,14 @@ void MainWindow::createActions() {
     a->setCheckable(true);
     a->setShortcut(o.key);
     overlayBar->addAction(a);
+    if (which == Viewport::Overlay::ErrorPoints) {
+      a->setObjectName("errorPointsAction");
+      a->setToolTip(tr("The last evaluation's queries, coloured by their error in stops"));
+      // A finished evaluation shows where its error is.
+      connect(doc_, &Document::evaluationsChanged, a, [this, a] {
+        if (!doc_->evaluations().empty() && !a->isChecked()) a->trigger();
+      });
+    }
   }
   a = view->addAction(tr("Glyphs at the probes (not the grid)"), viewport_,
                       &Viewport::setGlyphsAtProbes);

@@ -307,6 +307,10 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
     update();
   });
   connect(doc, &Document::probesReset, this, &Viewport::onProbesChanged);
+  connect(doc, &Document::evaluationsChanged, this, [this] {
+    highlightedQuery_ = -1;
+    update();
+  });
   connect(doc, &Document::volumeChanged, this, [this] {
     fieldsDirty_ = true;
     update();
@@ -467,6 +471,18 @@ void Viewport::frameSelection() {
     }
   if (b.empty()) return frameAll();
   camera_.frame(b, float(std::max(width(), 1)) / float(std::max(height(), 1)), 0.6f);
+  update();
+}
+
+void Viewport::framePoint(Vec3 centre, double radius) {
+  const Vec3 r(radius, radius, radius);
+  camera_.frame(Bounds3{centre - r, centre + r},
+                float(std::max(width(), 1)) / float(std::max(height(), 1)), 0.6f);
+  update();
+}
+
+void Viewport::setHighlightedQuery(int index) {
+  highlightedQuery_ = index;
   update();
 }
 

@@ -21,6 +21,8 @@
 class QRubberBand;
 class QTimer;
 
+class QPainter;
+
 namespace ps::ui {
 
 class Document;
@@ -44,6 +46,15 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void frameAll();
   /// Frames the selected probes, or everything when nothing is selected.
   void frameSelection();
+  /// Frames a ball of `radius` metres around `centre` (a query of the evaluation).
+  void framePoint(Vec3 centre, double radius);
+  /// Where the ErrorPoints overlay draws each query of the last evaluation (widget pixels; none
+  /// for a query behind the camera or above the cut-away), in eval's order.
+  std::vector<std::optional<QPointF>> errorPointPixels() const;
+  /// The colour the slice and the error points give `value` on a ramp that is red from `red` on.
+  static QRgb legendColor(double value, double red);
+  /// The query the artist picked (ringed in the ErrorPoints overlay); -1 for none.
+  void setHighlightedQuery(int index);
 
   /// Widget pixel (logical, origin top-left) of a world point, or nothing behind the camera.
   std::optional<QPointF> project(Vec3 world) const;
@@ -88,7 +99,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// longest side and filtered trilinearly on the GPU.
   void setPreviewLighting(bool on);
   bool previewLighting() const { return previewLighting_; }
-  enum class Overlay { Glyphs, Slice, TetMesh, TestObject };
+  /// ErrorPoints: the last evaluation's queries (Document::evaluations()), a dot each, coloured
+  /// by their error in stops (blue at 0, red from 1 stop).
+  enum class Overlay { Glyphs, Slice, TetMesh, TestObject, ErrorPoints };
   void setOverlay(Overlay o, bool on);
   bool overlay(Overlay o) const { return overlays_ & (1u << int(o)); }
   /// Which probes the preview volume uses (accepted only, or all captured).
@@ -270,8 +283,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   std::optional<ProbeVolume> previewForFields();
   void uploadOverlays();
   void drawOverlays(const QMatrix4x4& vp);
-  /// The legends, with QPainter over the frame.
+  /// The legends and the error points, with QPainter over the frame.
   void drawLegends();
+  void drawErrorPoints(QPainter& p);
   void drawLines(const std::vector<float>& xyzrgba, GLenum mode, const QMatrix4x4& vp);
   void initOverlayGL();
   /// Compiles and links a program; `common` prepends the version line and kCommonGlsl to the
@@ -309,6 +323,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   ShGrid glyphGrid_, previewGrid_;
   bool legendsVisible_ = true;
   std::vector<QRect> legendRects_;
+  int highlightedQuery_ = -1;
   /// The glyphs' full-length magnitude (95th percentile of |f|), for their legend; recomputed
   /// when negative.
   double glyphScale_ = -1;

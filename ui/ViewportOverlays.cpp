@@ -795,6 +795,10 @@ QString number(double x) {
 }
 }  // namespace
 
+QRgb Viewport::legendColor(double value, double red) {
+  return sliceColor(red > 0 ? value / red : 0.0);
+}
+
 void Viewport::setLegendsVisible(bool on) {
   legendsVisible_ = on;
   update();
@@ -879,6 +883,21 @@ std::vector<Viewport::Legend> Viewport::legends() {
     }
     out.push_back(l);
   }
+  if (overlay(Overlay::ErrorPoints) && !doc_->evaluations().empty()) {
+    const EvaluationPoint& e = doc_->evaluations().back();
+    Legend l;
+    l.title = tr("Evaluation errors: %1 queries, %2 probes (%3)")
+                  .arg(e.queries.size())
+                  .arg(e.probes)
+                  .arg(e.source);
+    l.unit = tr("stops");
+    l.lo = 0;
+    l.hi = kSliceErrorStopsRed;
+    l.ramp = sliceRamp();
+    l.mark = kVisibleStops;
+    l.markLabel = tr("visible from ⅓ stop");
+    out.push_back(l);
+  }
   if (overlay(Overlay::TetMesh) && previewVolume_) {
     Legend l;
     l.title = tr("Tetrahedra of the preview volume: %L1").arg(previewVolume_->tets.size());
@@ -892,6 +911,9 @@ std::vector<Viewport::Legend> Viewport::legends() {
 
 QString Viewport::emptyOverlayReason() const {
   if (!doc_->hasScene() || (!previewLighting_ && overlays_ == 0)) return {};
+  if (overlay(Overlay::ErrorPoints) && doc_->evaluations().empty())
+    return tr("The error points have nothing to show: no evaluation yet. Evaluate (Ctrl+E).");
+  if (overlays_ == (1u << int(Overlay::ErrorPoints)) && !previewLighting_) return {};
   if (overlays_ == (1u << int(Overlay::TestObject)) && !previewLighting_ && previewVolume_)
     return {};
   const QString what = previewLighting_ && overlays_ == 0 ? tr("The probe lighting preview")
@@ -941,13 +963,46 @@ QString Viewport::emptyOverlayReason() const {
   return {};
 }
 
+std::vector<std::optional<QPointF>> Viewport::errorPointPixels() const {
+  std::vector<std::optional<QPointF>> out;
+  if (!overlay(Overlay::ErrorPoints) || doc_->evaluations().empty()) return out;
+  const float cut = cutHeight();
+  for (const QueryError& q : doc_->evaluations().back().queries)
+    out.push_back(cutaway_ && q.point.y > cut ? std::nullopt : project(q.point));
+  return out;
+}
+
+void Viewport::drawErrorPoints(QPainter& p) {
+  const std::vector<std::optional<QPointF>> pixels = errorPointPixels();
+  if (pixels.empty()) return;
+  const std::vector<QueryError>& queries = doc_->evaluations().back().queries;
+  const double r = 4.5;
+  // The worst drawn last, on top.
+  std::vector<size_t> order(queries.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return queries[a].stops < queries[b].stops; });
+  for (size_t i : order) {
+    if (!pixels[i]) continue;
+    p.setPen(QPen(QColor(15, 15, 15, 220), 1.2));
+    p.setBrush(QColor::fromRgb(sliceColor(queries[i].stops / kSliceErrorStopsRed)));
+    p.drawEllipse(*pixels[i], r, r);
+  }
+  if (highlightedQuery_ >= 0 && size_t(highlightedQuery_) < pixels.size() &&
+      pixels[size_t(highlightedQuery_)]) {
+    p.setPen(QPen(QColor(0, 230, 255), 2.5));
+    p.setBrush(Qt::NoBrush);
+    p.drawEllipse(*pixels[size_t(highlightedQuery_)], r * 2.6, r * 2.6);
+  }
+}
+
 void Viewport::drawLegends() {
   legendRects_.clear();
-  if (!legendsVisible_) return;
-  const std::vector<Legend> all = legends();
-  if (all.empty()) return;
+  const std::vector<Legend> all = legendsVisible_ ? legends() : std::vector<Legend>();
+  if (all.empty() && !overlay(Overlay::ErrorPoints)) return;
   QPainter p(this);
   p.setRenderHint(QPainter::Antialiasing);
+  drawErrorPoints(p);
   QFont font = p.font();
   font.setPointSizeF(8.5);
   p.setFont(font);

@@ -7,6 +7,7 @@
 #include <QDir>
 #include <QDoubleSpinBox>
 #include <QFile>
+#include <QGuiApplication>
 #include <QJsonArray>
 #include <QJsonDocument>
 #include <QJsonObject>
@@ -17,6 +18,7 @@
 #include <QSettings>
 #include <QSignalSpy>
 #include <QSpinBox>
+#include <QTableWidget>
 #include <QTemporaryDir>
 #include <QTimer>
 #include <QtTest>
@@ -24,6 +26,7 @@
 
 #include "core/io/ProbeSetFile.h"
 #include "ui/Document.h"
+#include "ui/EvaluationPanel.h"
 #include "ui/LightingPanel.h"
 #include "ui/MainWindow.h"
 #include "ui/PlacementPanel.h"
@@ -335,6 +338,119 @@ class TestArtistLoop : public QObject {
     QVERIFY2(titles[2].contains("y = "), qPrintable(titles[2]));
     QVERIFY(titles[3].startsWith("Tetrahedra"));
     QCOMPARE(legends[3].swatches.size(), size_t(3));
+  }
+
+  void theErrorIsShownWhereItIsAndFixedInOneClick() {
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    Viewport* vp = w.viewport();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openPath(kScene));
+    doc->addProbes(acceptedProbes(), "Add");
+    QVERIFY(doc->recapture(64));
+    QCOMPARE(waitForJob(doc), QString());
+    // Before any evaluation the error points say what to do.
+    vp->setOverlay(Viewport::Overlay::ErrorPoints, true);
+    auto* reason = w.findChild<QLabel*>("overlayReason");
+    QVERIFY2(reason->text().contains("Ctrl+E"), qPrintable(reason->text()));
+    vp->setOverlay(Viewport::Overlay::ErrorPoints, false);
+
+    EvaluationPanel* panel = w.evaluationPanel();
+    panel->queriesBox()->setValue(24);
+    panel->referenceSamplesBox()->setValue(16);
+    QVERIFY(panel->evaluate());
+    QCOMPARE(waitForJob(doc), QString());
+    const std::vector<QueryError>& queries = doc->evaluations().back().queries;
+    QCOMPARE(queries.size(), size_t(24));
+    // The evaluation turns the error points on; each query is drawn where it is.
+    QVERIFY(vp->overlay(Viewport::Overlay::ErrorPoints));
+    QVERIFY(reason->text().isEmpty());
+    const auto pixels = vp->errorPointPixels();
+    QCOMPARE(pixels.size(), queries.size());
+    for (size_t i = 0; i < queries.size(); ++i)
+      if (pixels[i]) QCOMPARE(*pixels[i], *vp->project(queries[i].point));
+    bool hasLegend = false;
+    for (const auto& l : vp->legends())
+      hasLegend |= l.title.startsWith("Evaluation errors") && l.unit == "stops";
+    QVERIFY(hasLegend);
+
+    if (QGuiApplication::platformName() != QLatin1String("offscreen")) {
+      // Drawn (under Xvfb, ui.test_error_points_shown): the dot of each query on screen has the
+      // colour of its error on the legend's ramp.
+      w.resize(1400, 900);
+      w.show();
+      QVERIFY(QTest::qWaitForWindowExposed(&w));
+      vp->frameAll();
+      const QImage image = vp->grabFramebuffer();
+      const double scale = double(image.width()) / std::max(vp->width(), 1);
+      const auto shown = vp->errorPointPixels();
+      int checked = 0, matching = 0;
+      for (size_t i = 0; i < queries.size(); ++i) {
+        if (!shown[i]) continue;
+        const QPoint px((*shown[i] * scale).toPoint());
+        if (!image.rect().contains(px)) continue;
+        bool covered = false;  // a dot drawn over this one hides its colour
+        for (size_t j = 0; j < queries.size(); ++j)
+          covered |= j != i && shown[j] && queries[j].stops >= queries[i].stops &&
+                     QLineF(*shown[i], *shown[j]).length() < 10;
+        if (covered) continue;
+        ++checked;
+        const QColor got = image.pixelColor(px);
+        const QColor want = QColor::fromRgb(
+            Viewport::legendColor(queries[i].stops, 1.0));  // the ramp, red from 1 stop
+        matching += std::abs(got.red() - want.red()) + std::abs(got.green() - want.green()) +
+                        std::abs(got.blue() - want.blue()) <
+                    40;
+      }
+      QVERIFY2(checked >= 5 && matching >= 0.8 * checked,
+               qPrintable(QStringLiteral("%1 of %2").arg(matching).arg(checked)));
+      const QByteArray artifacts = qgetenv("PS_ARTIFACTS");
+      if (!artifacts.isEmpty()) {
+        QDir().mkpath(QString::fromLocal8Bit(artifacts));
+        image.save(QString::fromLocal8Bit(artifacts) + "/editor-two-rooms-error-points.png");
+      }
+    }
+
+    // The list: worst first, each row naming its query.
+    QTableWidget* worst = panel->worstTable();
+    QCOMPARE(worst->rowCount(), 24);
+    double previous = 1e300;
+    for (int row = 0; row < worst->rowCount(); ++row) {
+      const int index = worst->item(row, 0)->data(Qt::UserRole).toInt();
+      QVERIFY(index >= 0 && index < 24);
+      QVERIFY(queries[size_t(index)].stops <= previous);
+      previous = queries[size_t(index)].stops;
+    }
+    // Picking the worst frames it.
+    const int worstIndex = worst->item(0, 0)->data(Qt::UserRole).toInt();
+    const Vec3 at = queries[size_t(worstIndex)].point;
+    QVERIFY(!panel->addProbeButton()->isEnabled());
+    worst->setCurrentCell(0, 0);
+    const std::optional<QPointF> framed = vp->project(at);
+    QVERIFY(framed);
+    const QPointF centre(vp->width() / 2.0, vp->height() / 2.0);
+    QVERIFY2(QLineF(*framed, centre).length() < 0.05 * vp->width(),
+             qPrintable(QStringLiteral("%1, %2 of %3 x %4")
+                            .arg(framed->x())
+                            .arg(framed->y())
+                            .arg(vp->width())
+                            .arg(vp->height())));
+    // "Add a probe here": one click, one undo step, an accepted probe there, selected.
+    const size_t before = doc->probes().size();
+    const int steps = doc->undoStack()->count();
+    QVERIFY(panel->addProbeButton()->isEnabled());
+    panel->addProbeButton()->click();
+    QCOMPARE(doc->probes().size(), before + 1);
+    QCOMPARE(doc->undoStack()->count(), steps + 1);
+    const Probe& added = doc->probes().back();
+    QCOMPARE(added.position, at);
+    QCOMPARE(added.state, ProbeState::Accepted);
+    QVERIFY(added.sh);
+    QCOMPARE(vp->selection(), QSet<quint64>{quint64(added.id)});
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probes().size(), before);
   }
 };
 
