@@ -397,9 +397,12 @@ void Document::setProbeShLive(uint64_t id, const ShRgb& sh) {
 }
 
 struct Document::LiveTask {
-  uint64_t id = 0;
-  Vec3 position;
-  qint64 since = 0;  ///< when the edit asked for it, ms since the epoch
+  struct Item {
+    uint64_t id = 0;
+    Vec3 position;
+    qint64 since = 0;  ///< when the edit asked for it, ms since the epoch
+  };
+  std::vector<Item> items;  ///< a final task holds one probe; a quick one up to kLiveQuickBatch
   int samples = 0;
   bool final = false;
   int generation = 0, rigGeneration = 0;
@@ -407,16 +410,23 @@ struct Document::LiveTask {
 
 struct Document::LiveResult {
   LiveTask task;
-  std::optional<ShRgb> sh;
+  std::vector<std::optional<ShRgb>> sh;  ///< per item; empty when the capture failed
   bool cancelled = false;
 };
+
+namespace {
+/// Quick live captures taken together (a selection dragged as one): one capture call, spread
+/// over the cores, instead of one after the other.
+constexpr size_t kLiveQuickBatch = 64;
+}  // namespace
 
 bool Document::isCapturingLive() const {
   return liveRunning_ || !liveQuick_.empty() || !liveFinal_.empty();
 }
 
 bool Document::isQuickCapturePending(uint64_t id) const {
-  return liveQuick_.count(id) > 0 || (liveRunning_ && !liveRunningFinal_ && liveRunningId_ == id);
+  return liveQuick_.count(id) > 0 ||
+         (liveRunning_ && !liveRunningFinal_ && liveRunningIds_.count(id) > 0);
 }
 
 bool Document::isQuickCapturePending() const {
@@ -437,14 +447,16 @@ void Document::pumpLive() {
     if (!queue) return;
     LiveTask t;
     t.final = queue == &liveFinal_;
-    t.id = queue->begin()->first;
-    t.position = queue->begin()->second.first;
-    t.since = queue->begin()->second.second;
-    queue->erase(queue->begin());
-    const Probe* p = probe(t.id);
-    if (!p || p->position != t.position || p->state == ProbeState::Rejected) continue;
+    const size_t batch = t.final ? 1 : kLiveQuickBatch;
+    while (!queue->empty() && t.items.size() < batch) {
+      const auto it = queue->begin();
+      const Probe* p = probe(it->first);
+      if (p && p->position == it->second.first && p->state != ProbeState::Rejected)
+        t.items.push_back({it->first, it->second.first, it->second.second});
+      queue->erase(it);
+    }
     t.samples = t.final ? live_.finalSamples : live_.previewSamples;
-    if (t.samples <= 0) continue;
+    if (t.items.empty() || t.samples <= 0) continue;
     t.generation = generation_;
     t.rigGeneration = rigGeneration_;
     const int chunk = std::max(1, std::min(live_.samplesPerChunk, t.samples));
@@ -454,7 +466,8 @@ void Document::pumpLive() {
     liveCancel_ = cancel;
     liveRunning_ = true;
     liveRunningFinal_ = t.final;
-    liveRunningId_ = t.id;
+    liveRunningIds_.clear();
+    for (const LiveTask::Item& item : t.items) liveRunningIds_.insert(item.id);
     if (!liveWatcher_) {
       liveWatcher_ = new QFutureWatcher<std::shared_ptr<LiveResult>>(this);
       connect(liveWatcher_, &QFutureWatcherBase::finished, this, &Document::onLiveDone);
@@ -467,22 +480,26 @@ void Document::pumpLive() {
       auto r = std::make_shared<LiveResult>();
       r->task = t;
       try {
-        // `chunks` independent captures of the point (seeded by their index), averaged.
+        // `chunks` independent captures of each point (seeded by their index), averaged.
         CaptureSettings cs;
         cs.samplesPerProbe = chunk;
         cs.seed = t.final ? 2 : 1;
         // The final capture leaves the other cores to the preview's rebuild and the view.
         if (t.final) cs.threads = 1;
-        const std::vector<Vec3> points(size_t(chunks), t.position);
+        std::vector<Vec3> points;
+        for (const LiveTask::Item& item : t.items)
+          points.insert(points.end(), size_t(chunks), item.position);
         const auto captures =
             captureProbes(*tracer, rig, points, cs, [&](double) { return !cancel->load(); });
-        ShRgb sum;
-        for (const ProbeCapture& c : captures) sum += c.sh;
-        r->sh = sum * (1.0 / double(chunks));
+        for (size_t i = 0; i < t.items.size(); ++i) {
+          ShRgb sum;
+          for (int c = 0; c < chunks; ++c) sum += captures.at(i * size_t(chunks) + size_t(c)).sh;
+          r->sh.push_back(sum * (1.0 / double(chunks)));
+        }
       } catch (const Cancelled&) {
         r->cancelled = true;
       } catch (const std::exception&) {
-        // No light: the probe stays uncaptured, as a quick capture leaves it.
+        // No light: the probes stay uncaptured, as a quick capture leaves them.
       }
       return r;
     }));
@@ -491,20 +508,24 @@ void Document::pumpLive() {
 
 void Document::onLiveDone() {
   liveRunning_ = false;
+  liveRunningIds_.clear();
   const std::shared_ptr<LiveResult> r = liveWatcher_->result();
   if (r && r->task.generation == generation_ && r->task.rigGeneration == rigGeneration_) {
     const LiveTask& t = r->task;
-    const Probe* p = probe(t.id);
-    const bool there = p && p->position == t.position && p->state != ProbeState::Rejected;
-    const bool asked = liveQuick_.count(t.id) > 0;  // moved again meanwhile
-    if (there && r->sh) {
-      setProbeShLive(t.id, *r->sh);
-      emit liveCaptured(t.id, t.samples,
-                        double(QDateTime::currentMSecsSinceEpoch() - t.since) * 1e-3);
-      if (!t.final && !asked && live_.finalSamples > t.samples)
-        liveFinal_[t.id] = {t.position, t.since};
-    } else if (there && r->cancelled && !asked) {
-      (t.final ? liveFinal_ : liveQuick_)[t.id] = {t.position, t.since};
+    const qint64 now = QDateTime::currentMSecsSinceEpoch();
+    for (size_t i = 0; i < t.items.size(); ++i) {
+      const LiveTask::Item& item = t.items[i];
+      const Probe* p = probe(item.id);
+      const bool there = p && p->position == item.position && p->state != ProbeState::Rejected;
+      const bool asked = liveQuick_.count(item.id) > 0;  // moved again meanwhile
+      if (there && i < r->sh.size() && r->sh[i]) {
+        setProbeShLive(item.id, *r->sh[i]);
+        emit liveCaptured(item.id, t.samples, double(now - item.since) * 1e-3);
+        if (!t.final && !asked && live_.finalSamples > t.samples)
+          liveFinal_[item.id] = {item.position, item.since};
+      } else if (there && r->cancelled && !asked) {
+        (t.final ? liveFinal_ : liveQuick_)[item.id] = {item.position, item.since};
+      }
     }
   }
   pumpLive();

@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -339,7 +340,7 @@ class Document : public QObject {
   QThreadPool livePool_;
   bool liveRunning_ = false;
   bool liveRunningFinal_ = false;
-  uint64_t liveRunningId_ = 0;
+  std::set<uint64_t> liveRunningIds_;  ///< the probes of the running live capture
   std::shared_ptr<std::atomic<bool>> jobCancel_;
 };
 

@@ -296,6 +296,32 @@ class TestLiveEdits : public QObject {
     QVERIFY2(diff > 1.0, qPrintable(QString::number(diff)));
   }
 
+  void aMovedSelectionIsCapturedTogether() {
+    if (!qgetenv("PS_LIVE_SCENE").isEmpty()) QSKIP("two-rooms only");
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    QVERIFY(openWithProposal(w));
+    w.placementPanel()->bakeSamplesBox()->setValue(64);  // the quick capture is the last
+    std::vector<std::pair<uint64_t, Vec3>> targets;
+    for (size_t i = 0; i < 20 && i < doc->probes().size(); ++i)
+      targets.emplace_back(doc->probes()[i].id, doc->probes()[i].position + Vec3(0, 0.1, 0));
+    QSignalSpy captured(doc, &Document::liveCaptured);
+    QElapsedTimer clock;
+    clock.start();
+    doc->moveProbes(targets, doc->newMergeKey());  // one undo step, as a dragged selection
+    QVERIFY(doc->isQuickCapturePending());
+    QTRY_VERIFY_WITH_TIMEOUT(!doc->isCapturingLive(), 60000);
+    std::printf("%zu probes moved together: captured in %.3f s\n", targets.size(),
+                double(clock.nsecsElapsed()) * 1e-9);
+    QCOMPARE(captured.count(), int(targets.size()));
+    for (const auto& [id, to] : targets) {
+      QCOMPARE(doc->probe(id)->position, to);
+      QVERIFY(doc->probe(id)->sh);
+    }
+  }
+
   void aLightingChangeDropsCapturesOfTheOldLight() {
     if (!qgetenv("PS_LIVE_SCENE").isEmpty()) QSKIP("two-rooms only");
     MainWindow w;
