@@ -168,8 +168,13 @@ int main(int argc, char** argv) {
       "no-leak-cuts", "Preview without the leak cuts (View > Leak cuts in the preview, off).");
   const QCommandLineOption recoverOpt(
       "recover", "With --screenshot: recover the newest crashed session's work first.");
-  parser.addOptions({probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt, selectOpt,
-                     saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt, windowShotOpt, noCutsOpt});
+  const QCommandLineOption acceptOpt(
+      "accept-proposal",
+      "Accept the proposed candidates once they are there (one undo step, an unsaved edit): "
+      "a scripted session's work, for the recovery test.");
+  parser.addOptions({acceptOpt, probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt,
+                     selectOpt, saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt, windowShotOpt,
+                     noCutsOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -253,6 +258,16 @@ int main(int argc, char** argv) {
             : QStandardPaths::writableLocation(QStandardPaths::AppLocalDataLocation) + "/recovery";
     const int autosaveMs = std::max(parser.value(autosaveOpt).toInt(), 50);
     if (!screenshot) {
+      if (parser.isSet(acceptOpt))
+        QObject::connect(
+            doc, &ps::ui::Document::jobFinished, &w,
+            [doc] {
+              std::vector<uint64_t> ids;
+              for (const ps::Probe& p : doc->probes())
+                if (p.state == ps::ProbeState::Candidate) ids.push_back(p.id);
+              doc->setStates(ids, ps::ProbeState::Accepted);
+            },
+            Qt::SingleShotConnection);
       doc->setAutoPropose(true);
       // Autosave, and offer what a crashed session left (Autosave.h).
       w.startAutosave(recoveryDir, autosaveMs);

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Crash recovery end to end (label "ui"): a real editor under Xvfb proposes candidates (unsaved
-# work), autosaves, and is killed with SIGKILL; the next start recovers the work.
+# Crash recovery end to end (label "ui"): a real editor under Xvfb proposes candidates and
+# accepts them (unsaved work), autosaves, and is killed with SIGKILL; the next start recovers it.
 # usage: test_recovery.sh EDITOR SOURCE_DIR
 set -euo pipefail
 editor=$1 src=$2
@@ -17,7 +17,7 @@ rec="$tmp/recovery"
 
 # The session that crashes: started in the background; its own pid is written to a file.
 xvfb-run -a -s "-screen 0 1280x1024x24" sh -c \
-  '"$1" "$2" --recovery-dir "$3" --autosave-ms 200 & echo $! > "$4"; wait' \
+  '"$1" "$2" --accept-proposal --recovery-dir "$3" --autosave-ms 200 & echo $! > "$4"; wait' \
   sh "$editor" "$scene" "$rec" "$tmp/pid" > "$tmp/crashed.log" 2>&1 &
 for _ in $(seq 1 600); do
   if ls "$rec"/session-*.probes.json > /dev/null 2>&1; then break; fi
@@ -48,6 +48,8 @@ d = json.load(open(sys.argv[1]))
 n = len(d["probes"])
 assert n >= 20, f"recovered {n} probes"
 assert d["modified"], "the recovered work must be marked unsaved"
+accepted = sum(p["state"] == "accepted" for p in d["probes"])
+assert accepted >= 20, f"recovered {accepted} accepted probes"
 print(f"recovered {n} probes, marked unsaved")
 PY
 if ls "$rec"/session-*.probes.json > /dev/null 2>&1; then
