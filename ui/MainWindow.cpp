@@ -498,8 +498,8 @@ void MainWindow::onJobProgress(const QString& what, double fraction) {
   const double elapsed = jobTimer_.isValid() ? jobTimer_.elapsed() * 1e-3 : 0.0;
   if (busy && percent >= 3 && elapsed >= 2.0) {
     const double left = elapsed * (100 - percent) / percent;
-    text += left < 60 ? tr(" about %1 s left").arg(std::max(1, int(std::lround(left))))
-                      : tr(" about %1 min left").arg(int(std::lround(left / 60)));
+    text += left < 60 ? tr(" (about %1 s left)").arg(std::max(1, int(std::lround(left))))
+                      : tr(" (about %1 min left)").arg(int(std::lround(left / 60)));
   }
   jobLabel_->setText(text);
   progress_->setVisible(busy);
