@@ -204,6 +204,25 @@ class TestArtistLoop : public QObject {
     QVERIFY(w2.lastError().isEmpty());
   }
 
+  void capturesMadeInTheEditorAreNotStaleOnReopen() {
+    QTemporaryDir dir;
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openPath(kScene));
+    doc->addManualProbe(Vec3(-2.0, 1.2, 0.5), "Add");  // captured at once
+    const uint64_t moved = doc->addProbes(acceptedProbes(), "Add").front();
+    doc->moveProbe(moved, Vec3(-2.4, 0.9, -1.4));  // captured live
+    QTRY_VERIFY_WITH_TIMEOUT(!doc->isCapturingLive(), 60000);
+    QVERIFY(doc->probe(moved)->sh);
+    const QString set = dir.filePath("rooms.json");
+    QVERIFY(w.saveAs(set));
+    QVERIFY(w.openPath(set));
+    QCOMPARE(QString::fromStdString(doc->staleCapturesText()), QString());
+  }
+
   void messagesNameTheEditorsControls() {
     QTemporaryDir dir;
     const QString unlit = copyScene(dir, true);
