@@ -47,6 +47,10 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   p95_->setName(tr("95th percentile (%)"));
   p95_->setMarkerSize(9);
   p95_->setMarkerShape(QScatterSeries::MarkerShapeRectangle);
+  stops_ = new QScatterSeries;
+  stops_->setName(tr("RMS (stops)"));
+  stops_->setMarkerSize(9);
+  stops_->setMarkerShape(QScatterSeries::MarkerShapeTriangle);
   rmseLine_ = new QLineSeries;
   p95Line_ = new QLineSeries;
   for (QXYSeries* s : {static_cast<QXYSeries*>(rmseLine_), static_cast<QXYSeries*>(p95Line_),
@@ -63,6 +67,13 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
     s->attachAxis(xAxis_);
     s->attachAxis(yAxis_);
   }
+  // The error as the eye sees it, in stops (core/eval/PerceptualError.h), on its own axis.
+  chart_->addSeries(stops_);
+  stopsAxis_ = new QValueAxis;
+  stopsAxis_->setTitleText(tr("RMS error (stops)"));
+  chart_->addAxis(stopsAxis_, Qt::AlignRight);
+  stops_->attachAxis(xAxis_);
+  stops_->attachAxis(stopsAxis_);
   // The connecting lines share the markers' colours and stay out of the legend.
   rmseLine_->setColor(rmse_->color());
   p95Line_->setColor(p95_->color());
@@ -175,6 +186,8 @@ void EvaluationPanel::refresh() {
   const auto& evals = doc_->evaluations();
   rmse_->clear();
   p95_->clear();
+  stops_->clear();
+  double maxStops = kVisibleStops;
   rmseLine_->clear();
   p95Line_->clear();
   table_->setRowCount(int(evals.size()));
@@ -186,6 +199,8 @@ void EvaluationPanel::refresh() {
     const double x = double(e.probes), a = 100 * e.relRmse, b = 100 * e.p95RelError;
     rmse_->append(x, a);
     p95_->append(x, b);
+    stops_->append(x, e.stops.rms);
+    maxStops = std::max(maxStops, e.stops.rms);
     auto it = best.find(e.probes);
     if (it == best.end())
       best[e.probes] = {a, b};
@@ -247,6 +262,7 @@ void EvaluationPanel::refresh() {
   }
   xAxis_->setRange(0, maxX * 1.1);
   yAxis_->setRange(0, maxY * 1.15);
+  stopsAxis_->setRange(0, maxStops * 1.15);
 }
 
 }  // namespace ps::ui

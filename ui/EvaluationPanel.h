@@ -1,7 +1,8 @@
 #pragma once
 // The evaluation dock, a plot (Qt Charts) of error against probe count: Evaluate runs core/eval in
 // the background on the baked volume (or the accepted probes' preview volume); each run adds a
-// point to the plot of relative RMS and 95th-percentile irradiance error (in %) against the
+// point to the plot of relative RMS and 95th-percentile irradiance error (in %), and of the RMS
+// error in stops (right-hand axis), against the
 // volume's probe count, and a row to the table below it. Below that, the last evaluation's
 // queries worst first: picking one frames it in the view, and "Add a probe here" puts an accepted
 // probe at it.
@@ -35,6 +36,8 @@ class EvaluationPanel : public QWidget {
   /// The plotted series: relative RMS error (%) and 95th percentile (%) against probe count.
   QScatterSeries* rmseSeries() const { return rmse_; }
   QScatterSeries* p95Series() const { return p95_; }
+  /// The RMS error in stops (EvalStops::rms) against probe count, on the right-hand axis.
+  QScatterSeries* stopsSeries() const { return stops_; }
   QSpinBox* queriesBox() const { return queries_; }
   QSpinBox* referenceSamplesBox() const { return refSpp_; }
   QTableWidget* table() const { return table_; }
@@ -60,9 +63,9 @@ class EvaluationPanel : public QWidget {
   Document* doc_;
   QChart* chart_;
   QChartView* view_;
-  QScatterSeries *rmse_, *p95_;
+  QScatterSeries *rmse_, *p95_, *stops_;
   QLineSeries *rmseLine_, *p95Line_;
-  QValueAxis *xAxis_, *yAxis_;
+  QValueAxis *xAxis_, *yAxis_, *stopsAxis_;
   QSpinBox *queries_, *refSpp_;
   QPushButton* run_;
   QTableWidget* table_;

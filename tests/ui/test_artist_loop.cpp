@@ -15,6 +15,7 @@
 #include <QMessageBox>
 #include <QProgressBar>
 #include <QPushButton>
+#include <QScatterSeries>
 #include <QSettings>
 #include <QSignalSpy>
 #include <QSpinBox>
@@ -383,6 +384,9 @@ class TestArtistLoop : public QObject {
     QCOMPARE(waitForJob(doc), QString());
     const std::vector<QueryError>& queries = doc->evaluations().back().queries;
     QCOMPARE(queries.size(), size_t(24));
+    // The plot speaks in stops too.
+    QCOMPARE(panel->stopsSeries()->count(), 1);
+    QCOMPARE(panel->stopsSeries()->at(0).y(), doc->evaluations().back().stops.rms);
     // The evaluation turns the error points on; each query is drawn where it is.
     QVERIFY(vp->overlay(Viewport::Overlay::ErrorPoints));
     QVERIFY(reason->text().isEmpty());
