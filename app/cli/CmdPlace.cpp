@@ -207,13 +207,6 @@ void registerPlace(CLI::App& app) {
       const PlaceResult placed = placeProbeSet(
           tracer, set, request, [](const std::string& stage) { return terminalProgress(stage); });
       for (const std::string& note : placed.notes) std::printf("%s\n", note.c_str());
-      // Greedy stops short of its budget only when the dense field has no candidate left.
-      if (request.method == "greedy" && request.budget > 0 && !request.parameters.has("maxError") &&
-          placed.kept + placed.placed + placed.nearRejected < size_t(request.budget))
-        std::cerr << "warning: greedy placed " << placed.kept + placed.placed << " of the "
-                  << request.budget
-                  << " probes of --budget: the dense field has no candidate left (a smaller "
-                     "--field-spacing or a larger --field-depth gives it more)\n";
       saveProbeSet(placed.set, o->out);
       std::printf("placed %zu probes (method %s, %zu kept) in %.2f s -> %s\n", placed.placed,
                   request.method.c_str(), placed.kept, secondsSince(t0), o->out.c_str());

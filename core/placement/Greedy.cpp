@@ -33,8 +33,8 @@ constexpr size_t kCandidateTets = 8;      ///< tetrahedra whose candidates an ad
 constexpr size_t kMaxCandidateTets = 32;  ///< ... and at most, when none of those helps
 
 /// The probe count placeGreedy stops at: the budget, or with none every field sample (at most
-/// kMaxProbes). Throws ps::ParameterError for a field of fewer than 4 samples, or a budget
-/// above kMaxProbes or above the kept probes plus the field's samples.
+/// kMaxProbes). Throws ps::ParameterError for a field of fewer than 4 samples or a budget above
+/// kMaxProbes.
 size_t greedyBudget(const DenseField& field, size_t keptCount, const GreedySettings& s) {
   const size_t S = field.samples.size();
   if (S < 4)
@@ -43,13 +43,7 @@ size_t greedyBudget(const DenseField& field, size_t keptCount, const GreedySetti
   const size_t budget = s.budget != 0 ? size_t(s.budget) : std::min(kMaxProbes, keptCount + S);
   if (budget > kMaxProbes)
     throw ParameterError("budget: at most 65535 probes, got " + std::to_string(budget));
-  // New probes are field samples: a budget past them cannot be met (found before any trial).
-  if (budget > keptCount + S)
-    throw ParameterError("budget", "expected at most " + std::to_string(keptCount + S) +
-                                       " probes: the dense field has " + std::to_string(S) +
-                                       " samples to place new probes on (a finer field has "
-                                       "more), got " +
-                                       std::to_string(budget));
+
   return budget;
 }
 
@@ -179,6 +173,19 @@ GreedySearch::GreedySearch(const DenseField& field, std::span<const KeptProbe> k
     for (size_t i = 0; i < points_.fieldCount; ++i)
       isProbe_[i] =
           std::binary_search(keptAt.begin(), keptAt.end(), points_.position[i], less) ? 1 : 0;
+  // New probes are free field samples (not a kept probe's, not in the light clearance): a
+  // budget past them cannot be met, and is refused before any trial.
+  if (s.budget != 0) {
+    size_t free = 0;
+    for (size_t i = 0; i < points_.fieldCount; ++i)
+      free += !isProbe_[i] && !points_.avoided[i] ? 1 : 0;
+    if (budget_ > kept.size() + free)
+      throw ParameterError("budget", "expected at most " + std::to_string(kept.size() + free) +
+                                         " probes: the dense field has " + std::to_string(free) +
+                                         " samples to place new probes on (a finer field has "
+                                         "more), got " +
+                                         std::to_string(budget_));
+  }
   if (s.captureProbeValues) {
     probeVal_.resize(points_.fieldCount);
     haveProbeVal_.assign(points_.fieldCount, 0);

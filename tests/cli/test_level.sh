@@ -183,10 +183,9 @@ for method in uniform greedy; do
 done
 test ! -e "$tmp/x.json" || { echo "FAIL: a refused place wrote its output"; fail=1; }
 
-# A greedy budget beyond the dense field's samples says how many it placed and why.
-"$cli" place "$tmp/a.glb" --method greedy --budget 400 --field-depth 0 --field-spp 16 --held-out 0 \
-  --probe-spp 16 --swap-passes 0 --no-leak-refine "${sky[@]}" -o "$tmp/over.json" 2>"$tmp/over.err"
-placed=$(python3 -c "import json,sys; print(len(json.load(open(sys.argv[1]))['probes']))" "$tmp/over.json")
-grep -q "warning: greedy placed $placed of the 400 probes of --budget: the dense field has no candidate left" "$tmp/over.err" ||
-  { echo "FAIL: no warning for $placed of 400 probes: $(cat "$tmp/over.err")"; fail=1; }
+# A greedy budget beyond the dense field's samples is refused before any trial, naming them.
+expect_error "--budget: expected at most 169 probes: the dense field has 169 samples to place new probes on" \
+  "$cli" place "$tmp/a.glb" --method greedy --budget 400 --field-depth 0 --field-spp 16 \
+  --held-out 0 --probe-spp 16 --swap-passes 0 --no-leak-refine "${sky[@]}" -o "$tmp/over.json"
+test ! -e "$tmp/over.json" || { echo "FAIL: a refused budget wrote its output"; fail=1; }
 exit $fail
