@@ -4,23 +4,42 @@
 #include <nlohmann/json.hpp>
 
 #include "core/bake/CaptureCache.h"
+#include "core/common/Check.h"
 #include "core/common/Error.h"
+#include "core/common/Tolerances.h"
 #include "core/io/JsonFields.h"
 #include "core/io/SceneHash.h"
 #include "core/tessellation/Tetrahedralization.h"
 
 namespace ps {
 
-ProbeVolume volumeFromProbes(std::span<const Vec3> positions, std::span<const ShRgb> sh) {
+ProbeVolume volumeFromProbes(std::span<const Vec3> positions, std::span<const ShRgb> sh,
+                             std::span<const ProbeVisibility> visibility) {
+  PS_CHECK(visibility.empty() || visibility.size() == positions.size());
   const Tetrahedralization t = tetrahedralize(positions);
   std::vector<ShRgb> shOfVertex(t.vertices.size());
-  std::vector<char> seen(t.vertices.size(), 0);
+  std::vector<size_t> firstInput(t.vertices.size(), positions.size());
   for (size_t i = 0; i < positions.size(); ++i) {
     const int32_t v = t.vertexOfInput[i];
-    if (!seen[v]) shOfVertex[v] = sh[i];
-    seen[v] = 1;
+    if (firstInput[v] == positions.size()) {
+      shOfVertex[v] = sh[i];
+      firstInput[v] = i;
+    }
   }
-  return buildProbeVolume(t, shOfVertex);
+  ProbeVolume volume = buildProbeVolume(t, shOfVertex);
+  if (!visibility.empty()) {
+    volume.visibilityMapSize = kVisibilityMapSize;
+    volume.visibility.resize(t.vertices.size() * size_t(kVisibilityFloats));
+    volume.probeInside.resize(t.vertices.size());
+    for (size_t v = 0; v < t.vertices.size(); ++v) {
+      PS_CHECK_LT(firstInput[v], positions.size());
+      const ProbeVisibility& pv = visibility[firstInput[v]];
+      std::copy(pv.distanceMoments.begin(), pv.distanceMoments.end(),
+                volume.visibility.begin() + std::ptrdiff_t(v * size_t(kVisibilityFloats)));
+      volume.probeInside[v] = pv.inside ? 1 : 0;
+    }
+  }
+  return volume;
 }
 
 BakeProbes gatherAcceptedProbes(const ProbeSet& set) {
@@ -69,6 +88,7 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
                   const BakeSettings& settings, const ProgressFn& progress, BakeResult& r) {
   const size_t n = probes.positions.size();
   probes.sh.assign(n, ShRgb{});
+  probes.visibility.assign(n, ProbeVisibility{});
   std::optional<CaptureCache> cache;
   if (settings.cacheDir && settings.sceneHash != 0) cache.emplace(*settings.cacheDir);
   std::vector<uint64_t> keys(n, 0);
@@ -79,8 +99,9 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
   for (size_t i = 0; i < n; ++i) {
     if (cache) {
       keys[i] = CaptureCache::key(keyBase, rig, settings.capture, probes.positions[i]);
-      if (auto sh = cache->find(keys[i])) {
-        probes.sh[i] = *sh;
+      if (auto entry = cache->find(keys[i])) {
+        probes.sh[i] = entry->sh;
+        probes.visibility[i] = {entry->distanceMoments, entry->inside};
         ++r.cacheHits;
         continue;
       }
@@ -94,7 +115,15 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
   const auto captures = captureProbes(tracer, rig, points, settings.capture, progress);
   for (size_t k = 0; k < missing.size(); ++k) {
     probes.sh[missing[k]] = captures[k].sh;
-    if (cache) cache->store(keys[missing[k]], captures[k].sh);
+    // Inside geometry by the capture's own rays (Kontkanen & Laine sec. 5), the test placement
+    // and eval use.
+    probes.visibility[missing[k]] = {
+        captures[k].distanceMoments,
+        captures[k].backfaceFraction > tol::kDefaultInvalidBackfaceFraction};
+    if (cache)
+      cache->store(keys[missing[k]],
+                   {probes.sh[missing[k]], probes.visibility[missing[k]].distanceMoments,
+                    probes.visibility[missing[k]].inside});
   }
   r.captured += missing.size();
 }
@@ -121,7 +150,7 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   if (progress) captureProgress = [&](double f) { return progress(captureShare * f); };
   captureStage(probes, set.rig, tracer, settings, captureProgress, r);
   auto t1 = std::chrono::steady_clock::now();
-  r.file.volume = volumeFromProbes(probes.positions, probes.sh);
+  r.file.volume = volumeFromProbes(probes.positions, probes.sh, probes.visibility);
   auto t2 = std::chrono::steady_clock::now();
   // Before the fit, which then fits the values that the cut interpolation reads.
   if (settings.leakRefine && settings.leakCuts)

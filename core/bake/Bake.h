@@ -19,9 +19,19 @@
 
 namespace ps {
 
+/// The visibility of one captured probe (ProbeCapture::distanceMoments, and whether the capture
+/// found it inside geometry).
+struct ProbeVisibility {
+  std::array<float, kVisibilityFloats> distanceMoments{};
+  bool inside = false;
+};
+
 /// The runtime volume over `positions` with one SH per position (duplicates merged: the first
-/// occurrence's SH is kept). Throws ps::ParameterError when the positions span less than 3D.
-ProbeVolume volumeFromProbes(std::span<const Vec3> positions, std::span<const ShRgb> sh);
+/// occurrence's SH is kept), and, when `visibility` is not empty (one per position), the
+/// visibility maps (the first occurrence's likewise). Throws ps::ParameterError when the
+/// positions span less than 3D.
+ProbeVolume volumeFromProbes(std::span<const Vec3> positions, std::span<const ShRgb> sh,
+                             std::span<const ProbeVisibility> visibility = {});
 
 struct BakeSettings {
   CaptureSettings capture{.samplesPerProbe = 1024};
@@ -72,7 +82,8 @@ struct BakeResult {
 struct BakeProbes {
   std::vector<uint64_t> ids;  ///< 0 for probes added by leak refinement (not in the set)
   std::vector<Vec3> positions;
-  std::vector<ShRgb> sh;  ///< filled by the capture stage
+  std::vector<ShRgb> sh;                    ///< filled by the capture stage
+  std::vector<ProbeVisibility> visibility;  ///< filled by the capture stage
 };
 
 /// Stage 1: the accepted probes of `set`. Throws ps::ParameterError when fewer than 4.
@@ -85,8 +96,9 @@ BakeProbes gatherAcceptedProbes(const ProbeSet& set);
 void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSettings& settings,
                      const LightingRig& rig, std::span<const Bounds3> domain, BakeResult& r);
 
-/// Stage 3: fills `probes.sh`, from the cache where it has an entry, tracing the rest (in one
-/// captureProbes call) and storing them in the cache. Adds to r.captured / r.cacheHits.
+/// Stage 3: fills `probes.sh` and `probes.visibility`, from the cache where it has an entry,
+/// tracing the rest (in one captureProbes call) and storing them in the cache. Adds to r.captured /
+/// r.cacheHits.
 void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& tracer,
                   const BakeSettings& settings, const ProgressFn& progress, BakeResult& r);
 

@@ -1,17 +1,21 @@
 #include "core/bake/CaptureCache.h"
 
+#include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
 #include "core/io/JsonFields.h"
 #include "core/io/SceneHash.h"
 
-// Entries (KeyedFileCache): magic "PSCACHE1", payload f64[27] SH (coefficient-major RGB).
+// Entries (KeyedFileCache): magic "PSCACHE2", payload f64[27] SH (coefficient-major RGB), u32
+// inside (0 or 1), f32[kVisibilityFloats] visibility map (Capture.h). Entries of the older magic
+// "PSCACHE1" (SH only) count as damaged: recaptured.
 namespace ps {
 
 namespace {
-constexpr std::array<char, 8> kMagic = {'P', 'S', 'C', 'A', 'C', 'H', 'E', '1'};
-constexpr size_t kPayloadBytes = 27 * 8;
+constexpr std::array<char, 8> kMagic = {'P', 'S', 'C', 'A', 'C', 'H', 'E', '2'};
+constexpr size_t kShBytes = 27 * 8;
+constexpr size_t kPayloadBytes = kShBytes + 4 + 4 * size_t(kVisibilityFloats);
 }  // namespace
 
 CaptureCache::CaptureCache(std::filesystem::path dir)
@@ -37,22 +41,35 @@ uint64_t CaptureCache::key(uint64_t sceneHash, const LightingRig& rig,
   return fnv1a64(xyz, sizeof xyz, h);
 }
 
-std::optional<ShRgb> CaptureCache::find(uint64_t key) const {
+std::optional<CaptureCacheEntry> CaptureCache::find(uint64_t key) const {
   const KeyedFileCache::Lookup e = files_.find(key, kPayloadBytes);
   if (e.status != KeyedFileCache::Status::Found) return std::nullopt;
-  ShRgb sh;
+  CaptureCacheEntry entry;
   for (int k = 0; k < kShCoeffCount; ++k)
-    for (int c = 0; c < 3; ++c) std::memcpy(&sh.c[k][c], e.payload.data() + 8 * (3 * k + c), 8);
-  return sh;
+    for (int c = 0; c < 3; ++c)
+      std::memcpy(&entry.sh.c[k][c], e.payload.data() + 8 * (3 * k + c), 8);
+  uint32_t inside = 0;
+  std::memcpy(&inside, e.payload.data() + kShBytes, 4);
+  if (inside > 1) return std::nullopt;
+  entry.inside = inside == 1;
+  std::memcpy(entry.distanceMoments.data(), e.payload.data() + kShBytes + 4,
+              4 * size_t(kVisibilityFloats));
+  for (float m : entry.distanceMoments)
+    if (!std::isfinite(m) || m < 0) return std::nullopt;
+  return entry;
 }
 
-void CaptureCache::store(uint64_t key, const ShRgb& sh) const {
+void CaptureCache::store(uint64_t key, const CaptureCacheEntry& entry) const {
   std::string buf(kPayloadBytes, '\0');
   for (int k = 0; k < kShCoeffCount; ++k)
     for (int c = 0; c < 3; ++c) {
-      const double v = sh.c[k][c];
+      const double v = entry.sh.c[k][c];
       std::memcpy(buf.data() + 8 * (3 * k + c), &v, 8);
     }
+  const uint32_t inside = entry.inside ? 1 : 0;
+  std::memcpy(buf.data() + kShBytes, &inside, 4);
+  std::memcpy(buf.data() + kShBytes + 4, entry.distanceMoments.data(),
+              4 * size_t(kVisibilityFloats));
   files_.store(key, buf);
 }
 

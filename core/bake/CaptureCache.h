@@ -13,6 +13,15 @@
 
 namespace ps {
 
+/// What the cache keeps of one capture: the SH, the visibility map and whether the probe is
+/// inside geometry.
+struct CaptureCacheEntry {
+  ShRgb sh;
+  std::array<float, kVisibilityFloats> distanceMoments{};
+  bool inside = false;
+  bool operator==(const CaptureCacheEntry&) const = default;
+};
+
 class CaptureCache {
  public:
   /// Opens (creating when missing) the cache folder `dir`. Throws ps::FileError when it cannot
@@ -26,11 +35,12 @@ class CaptureCache {
   static uint64_t key(uint64_t sceneHash, const LightingRig& rig, const CaptureSettings& settings,
                       Vec3 position);
 
-  /// The cached SH for `key`, or nothing when absent. A damaged entry (truncated, bad CRC,
-  /// another key) counts as absent and is overwritten by the next store().
-  std::optional<ShRgb> find(uint64_t key) const;
+  /// The cached entry for `key`, or nothing when absent. A damaged entry (truncated, bad CRC,
+  /// another key, an entry of the older layout without visibility) counts as absent and is
+  /// overwritten by the next store().
+  std::optional<CaptureCacheEntry> find(uint64_t key) const;
   /// Stores atomically (a killed bake never leaves a half entry).
-  void store(uint64_t key, const ShRgb& sh) const;
+  void store(uint64_t key, const CaptureCacheEntry& entry) const;
 
   const std::filesystem::path& dir() const { return files_.dir(); }
 

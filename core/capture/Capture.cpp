@@ -23,7 +23,8 @@
 // Ramamoorthi-Hanrahan convolution, so it is exactly the variance of the irradiance the probe
 // reports); the probe stops when the largest, relative to its brightest axis, is at most the
 // target. The decision uses only the probe's own samples: deterministic for any thread count.
-// The same rays feed the luminance and hue histograms (Capture.h gives the layout).
+// The same rays feed the luminance and hue histograms and the visibility map (Capture.h gives
+// the layouts; DDGI, Majercik et al. 2019, sec. 4, for the map).
 // A single-sided surface seen from behind ends the path with zero radiance (the inside of a
 // solid is black); the first hit from the probe counts towards backfaceFraction.
 //
@@ -46,6 +47,7 @@
 
 #include "core/common/Check.h"
 #include "core/common/Error.h"
+#include "core/math/Octahedral.h"
 #include "core/math/SinCos.h"
 
 namespace ps {
@@ -171,9 +173,12 @@ class PathTracer {
 
   /// Radiance arriving at `origin` from direction -dir (travelling along dir from origin).
   /// `firstHitBackface` is set to how much the first surface hit counts towards "inside"
-  /// (insideWeight; a path goes on from the back of double-sided geometry).
-  Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rng, double* firstHitBackface) const {
+  /// (insideWeight; a path goes on from the back of double-sided geometry), `firstHitDistance`
+  /// to the distance along dir to the first hit (infinity when the ray leaves the scene).
+  Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rng, double* firstHitBackface,
+               double* firstHitDistance = nullptr) const {
     if (firstHitBackface) *firstHitBackface = 0;
+    if (firstHitDistance) *firstHitDistance = std::numeric_limits<double>::infinity();
     Rgb L;
     Rgb beta{1, 1, 1};
     Vec3 o = origin;
@@ -201,6 +206,7 @@ class PathTracer {
       PS_CHECK_LT(size_t{materialIndex}, scene_.materials.size());
       const Material& m = scene_.materials[materialIndex];
       if (bounce == 0 && firstHitBackface) *firstHitBackface = insideWeight(scene_, *hit);
+      if (bounce == 0 && firstHitDistance) *firstHitDistance = hit->t;
       // Inside of a solid (Kontkanen & Laine sec. 5): black.
       if (!hit->frontFace && !m.doubleSided) break;
       // Emission, reached by sampled rays only; factor times texture at the hit's UV0.
@@ -359,11 +365,59 @@ struct AxisIrradianceAccumulator {
   }
 };
 
+/// The visibility map's sums (Capture.h): per texel, the ray count and the sums of the distance
+/// and of its square.
+struct DistanceAccumulator {
+  std::array<int, kVisibilityTexels> n{};
+  std::array<double, kVisibilityTexels> sum{}, sumSq{};
+
+  void add(Vec3 dir, double distance) {
+    const size_t k = size_t(octTexel(dir, kVisibilityMapSize));
+    ++n[k];
+    sum[k] += distance;
+    sumSq[k] += distance * distance;
+  }
+
+  /// The moments per texel; a texel without rays takes those of the texel nearest to it (by
+  /// angle between texel centres, the lower index on a tie) that has rays. All zero when no
+  /// texel has rays.
+  std::array<float, kVisibilityFloats> moments() const {
+    static const std::array<Vec3, kVisibilityTexels> centres = [] {
+      std::array<Vec3, kVisibilityTexels> c;
+      for (int j = 0; j < kVisibilityMapSize; ++j)
+        for (int i = 0; i < kVisibilityMapSize; ++i)
+          c[size_t(i + kVisibilityMapSize * j)] = octTexelDirection(i, j, kVisibilityMapSize);
+      return c;
+    }();
+    std::array<float, kVisibilityFloats> out{};
+    for (size_t k = 0; k < size_t(kVisibilityTexels); ++k) {
+      size_t from = k;
+      if (n[k] == 0) {
+        double best = -2;
+        for (size_t o = 0; o < size_t(kVisibilityTexels); ++o)
+          if (n[o] > 0 && dot(centres[k], centres[o]) > best) {
+            best = dot(centres[k], centres[o]);
+            from = o;
+          }
+        if (n[from] == 0) continue;
+      }
+      out[2 * k] = float(sum[from] / n[from]);
+      out[2 * k + 1] = float(sumSq[from] / n[from]);
+    }
+    return out;
+  }
+};
+
 double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace
+
+double missDistance(const Scene& scene) {
+  const double d = scene.bounds.diagonal();
+  return std::isfinite(d) ? std::max(1.0, d) : 1.0;
+}
 
 int luminanceBin(Rgb radiance) {
   const double y = luminance(radiance);
@@ -424,6 +478,7 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
 
   std::vector<ProbeCapture> out(points.size());
   const int maxSamples = adaptive ? settings.maxSamplesPerProbe : settings.samplesPerProbe;
+  const double miss = missDistance(tracer.scene());
   const std::array<Vec3, 6> axes = {Vec3{1, 0, 0},  Vec3{-1, 0, 0}, Vec3{0, 1, 0},
                                     Vec3{0, -1, 0}, Vec3{0, 0, 1},  Vec3{0, 0, -1}};
   forEachProbeInParallel(
@@ -440,6 +495,7 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
         for (size_t k = 0; k < 6; ++k) directLum[k] = luminance(direct.irradiance(axes[k]));
         ShAccumulator acc;
         AxisIrradianceAccumulator irr;
+        DistanceAccumulator dist;
         ProbeCapture& c = out[probe];
         std::array<double, kHueBins> hue{};
         double backfaces = 0;
@@ -452,9 +508,10 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
           double u, v;
           r2Point(static_cast<uint64_t>(j), offset, u, v);
           const Vec3 dir = uniformSphere(u, v);
-          double backface = 0;
-          const Rgb L = pt.radiance(p, dir, rng, &backface);
+          double backface = 0, distance = 0;
+          const Rgb L = pt.radiance(p, dir, rng, &backface, &distance);
           backfaces += backface;
+          dist.add(dir, std::min(distance, miss));
           acc.add(dir, L);
           const double lum = luminance(L);
           irr.add(dir, lum);
@@ -476,6 +533,7 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
         }
         c.sh += direct;
         c.relativeError = irr.relativeError(directLum);
+        c.distanceMoments = dist.moments();
         for (int i = 0; i < kShCoeffCount; ++i) {
           PS_CHECK(isFinite(c.sh.c[i]));
           PS_CHECK(isFinite(c.shStdError.c[i]));

@@ -53,6 +53,24 @@ inline constexpr int kLuminanceBins = 16;
 inline constexpr int kLuminanceLog2Min = -10;
 inline constexpr int kHueBins = 12;
 
+/// Visibility maps (Majercik et al. 2019, "Dynamic Diffuse Global Illumination with Ray-Traced
+/// Irradiance Probes", JCGT 8(2), sec. 4): per probe, an octahedral map (core/math/Octahedral.h)
+/// of kVisibilityMapSize x kVisibilityMapSize texels, each holding the mean and the mean square
+/// of the distance (metres) from the probe to the first surface its rays hit in that texel's
+/// directions. Every ray of the capture counts once, in the texel its direction falls in (a box
+/// filter: DDGI's cos^50 lobe over every texel would cost a power per texel per ray, as much as
+/// the path itself); a texel no ray fell in takes the moments of the nearest texel that has
+/// some. A ray that leaves the scene counts at kMissDistance (below). 8 x 8 texels: at the
+/// bake's 1024 rays a texel gets 16 rays on average, enough for a mean-square estimate; the
+/// resolution was chosen by measurement (docs/leaks.md).
+inline constexpr int kVisibilityMapSize = 16;
+inline constexpr int kVisibilityTexels = kVisibilityMapSize * kVisibilityMapSize;
+/// Floats per probe in a map: (mean, mean square) per texel, texel-major.
+inline constexpr int kVisibilityFloats = 2 * kVisibilityTexels;
+/// The distance a ray that hits nothing counts at: the diagonal of the scene's bounds (at least
+/// 1 m), farther than any point of the scene.
+double missDistance(const Scene& scene);
+
 /// The luminance bin of a radiance (the layout above).
 int luminanceBin(Rgb radiance);
 /// The hue bin of a radiance, or -1 when it is achromatic (the layout above).
@@ -76,6 +94,9 @@ struct ProbeCapture {
   double relativeError = 0;
   std::array<double, kLuminanceBins> luminanceHistogram{};  ///< layout above; sums to 1
   std::array<double, kHueBins> hueHistogram{};              ///< layout above; sums to 1 or 0
+  /// The visibility map (layout above): mean and mean square of the first-hit distance (m, and
+  /// m^2) per texel. Both are the back-face distances when the probe is inside geometry.
+  std::array<float, kVisibilityFloats> distanceMoments{};
 };
 
 /// Captures one probe per point. Deterministic for a given seed whatever the thread count.

@@ -39,6 +39,14 @@ struct ProbeVolume {
   std::vector<uint32_t> cutStart;
   std::vector<CutPlane> cutPlanes;
   static constexpr uint32_t kMaxCutsPerTet = 8;
+  /// Visibility maps (DDGI, Majercik et al. 2019, sec. 4; layout in core/capture/Capture.h):
+  /// visibilityMapSize texels per side, 0 for a volume without maps. Per probe,
+  /// 2 visibilityMapSize^2 floats in `visibility` (mean and mean square of the first-hit
+  /// distance, m and m^2, texel-major) and one entry in `probeInside` (1: the capture found the
+  /// probe inside geometry, and it gets no visibility weight). Both empty without maps.
+  int32_t visibilityMapSize = 0;
+  std::vector<float> visibility;
+  std::vector<uint8_t> probeInside;
 
   // Derived search data, rebuilt from the arrays above by buildLocator() (buildProbeVolume calls
   // it; a loader that does not store it should call it too). When empty, locate() still works:
@@ -66,6 +74,7 @@ struct ProbeVolume {
   std::array<int32_t, 3> locatorDims{};
 
   size_t probeCount() const { return positions.size() / 3; }
+  bool hasVisibility() const { return visibilityMapSize > 0; }
   Vec3 position(int32_t i) const {
     return {positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]};
   }

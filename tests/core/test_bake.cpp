@@ -98,13 +98,15 @@ TEST(Bake, ReBakeAfterMovingOneProbeRecapturesOnlyThatProbe) {
 TEST(Bake, DamagedCacheEntriesAreRecaptured) {
   const fs::path dir = tempDir();
   const CaptureCache cache(dir / "cache");
-  ShRgb sh;
-  for (int k = 0; k < kShCoeffCount; ++k) sh.c[k] = {0.1 * k, 0.2 * k, -0.3 * k};
+  CaptureCacheEntry entry;
+  for (int k = 0; k < kShCoeffCount; ++k) entry.sh.c[k] = {0.1 * k, 0.2 * k, -0.3 * k};
+  for (size_t i = 0; i < entry.distanceMoments.size(); ++i) entry.distanceMoments[i] = 0.5f * i;
+  entry.inside = true;
   const uint64_t key = CaptureCache::key(7, LightingRig{}, CaptureSettings{}, {1, 2, 3});
   EXPECT_FALSE(cache.find(key).has_value());
-  cache.store(key, sh);
+  cache.store(key, entry);
   ASSERT_TRUE(cache.find(key).has_value());
-  EXPECT_EQ(*cache.find(key), sh);
+  EXPECT_EQ(*cache.find(key), entry);
   EXPECT_NE(key, CaptureCache::key(7, LightingRig{}, CaptureSettings{}, {1, 2, 3.0000001}));
   // Flip one byte of the entry: it no longer counts.
   for (const auto& e : fs::directory_iterator(dir / "cache")) {
