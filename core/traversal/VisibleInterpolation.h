@@ -1,0 +1,79 @@
+#pragma once
+// The visibility-aware interpolant: irradiance SH at a point p (with an optional surface normal
+// n) from a probe volume that carries visibility maps (ProbeVolume::visibility). It combines the
+// tetrahedral volume's barycentric weights (Sukys 3.2.1) with DDGI's per-probe weights
+// (Majercik et al. 2019, "Dynamic Diffuse Global Illumination with Ray-Traced Irradiance
+// Probes", JCGT 8(2), sec. 5.2). For probe i of p's tetrahedron, with barycentric weight b_i
+// (leak cuts applied, as locate() gives them):
+//
+//   r = |p - x_i| (m), dir = (p - x_i) / r;
+//   mu, mu2 = the bilinear lookup (octahedral seams wrapped) of probe i's map in dir;
+//   chebyshev: c = 1 when r <= mu, else var / (var + (r - mu)^2) with
+//              var = max(0, mu2 - mu^2) + (kVisibilityVarianceBias mu)^2   (the variance bias);
+//   sharpened: v = c^3;
+//   normal term (only with n): s = ((dot(-dir, n) + 1) / 2)^2 + 0.2 ("smooth backface");
+//   f = v s, crushed below 0.2 to f^3 / 0.04, and 0 below kVisibilityMinFactor;
+//   f = 0 for a probe the capture found inside geometry; f = 1 for p within 1e-6 m of x_i;
+//   w_i = b_i f, renormalised to sum 1.
+//
+// Fallback when every w_i is 0: first f_i alone over the tetrahedron's four probes (the probes of
+// p's tetrahedron that see p, whatever p's barycentric position), renormalised; when every f_i is
+// 0 too, the barycentric weights b_i. The result's weights are therefore always finite,
+// non-negative and sum to 1 (within float rounding).
+//
+// The runtime reader (core/runtime/ps_volume_reader.h) computes the same weights with the same
+// operations in double; a volume without maps answers with its barycentric weights.
+#include <array>
+#include <cstdint>
+#include <optional>
+
+#include "core/math/Sh.h"
+#include "core/traversal/ProbeVolume.h"
+
+namespace ps {
+
+/// Added to each texel's variance as (kVisibilityVarianceBias mu)^2: a texel whose rays all hit
+/// one flat wall has a variance near 0, and without the bias its test would turn from 1 to 0
+/// within the wall's own noise.
+inline constexpr double kVisibilityVarianceBias = 0.05;
+/// A probe's factor f below this counts as 0 (the probe is taken as unseen).
+inline constexpr double kVisibilityMinFactor = 1e-3;
+
+/// How the final weights were found.
+enum class VisibleFallback : uint8_t {
+  None,         ///< b_i f_i, renormalised
+  Visibility,   ///< every b_i f_i was 0: f_i alone
+  Barycentric,  ///< every f_i was 0 too: b_i
+};
+
+/// The four probes of a query and their final weights.
+struct VisibleWeights {
+  int32_t tet = -1;                 ///< -1: the volume has no tets (all weights 0)
+  std::array<int32_t, 4> probes{};  ///< probe indices (the tet's vertices)
+  std::array<double, 4> weights{};  ///< final, non-negative, sum 1
+  std::array<double, 4> factors{};  ///< f_i (1 when the volume has no maps)
+  bool outside = false;             ///< p is outside the hull (locate() clamped it)
+  VisibleFallback fallback = VisibleFallback::None;
+};
+
+/// DDGI's visibility factor v of probe `probe` for point p (chebyshev test, sharpened; the
+/// header's formula, without the normal term and the crush). 1 when the volume has no maps.
+double probeVisibility(const ProbeVolume& v, int32_t probe, Vec3 p);
+
+/// The final weights at p for location `loc` (locate(v, p, ...)); `normal`, when given, is
+/// p's unit surface normal. Without maps: the barycentric weights.
+VisibleWeights visibleWeights(const ProbeVolume& v, const VolumeLocation& loc, Vec3 p,
+                              const std::optional<Vec3>& normal);
+
+/// locate() then visibleWeights(): the weights at p (hint as for locate()).
+VisibleWeights visibleWeights(const ProbeVolume& v, Vec3 p, const std::optional<Vec3>& normal,
+                              int32_t hintTet = -1);
+
+/// The SH blended with `w`'s weights (zero for tet = -1).
+ShRgb interpolate(const ProbeVolume& v, const VisibleWeights& w);
+
+/// Irradiance SH at p with optional normal: visibleWeights() then interpolate().
+ShRgb interpolateVisible(const ProbeVolume& v, Vec3 p, const std::optional<Vec3>& normal,
+                         int32_t hintTet = -1);
+
+}  // namespace ps
