@@ -11,16 +11,20 @@
 
 // Layout (docs/formats.md, "Probe volume"), all little-endian:
 //   char[8]  magic "PSVOLUM1"
-//   u32      version (1, or 2 with leak cuts)
+//   u32      version (1; 2 with leak cuts; 3 with visibility maps, cuts or not)
 //   u32      sh order (2 = 9 coefficients)
 //   u32      probe count P, tet count T, hull face count H, metadata byte count M
-//   u32      cut plane count C (version 2 only)
+//   u32      cut plane count C (versions 2 and 3)
+//   u32      visibility map size R, texels per side (version 3 only)
 //   f32[3P]  positions        f32[27P] SH (probe-major, coefficient-major, RGB)
 //   i32[4T]  tets             i32[4T]  neighbours (-1 on the hull)
 //   f32[9T]  barycentric matrices (row-major)
 //   i32[2H]  hull faces (tet, local vertex opposite the face)
-//   u32[T+1] first cut plane of each tet, then C (version 2 only)
-//   C x (f32 nx, ny, nz, d, u32 hide mask) cut planes (version 2 only)
+//   u32[T+1] first cut plane of each tet, then C (versions 2 and 3)
+//   C x (f32 nx, ny, nz, d, u32 hide mask) cut planes (versions 2 and 3)
+//   u8[P]    probe flags: bit 0 set when the probe is inside geometry (version 3 only)
+//   f32[2 R^2 P] visibility maps: per probe, per texel, mean and mean square of the first-hit
+//            distance (version 3 only)
 //   u8[M]    metadata (UTF-8 JSON)
 //   u32      CRC-32 (IEEE) of every byte before it
 namespace ps {
@@ -32,6 +36,8 @@ constexpr char kMagic[8] = {'P', 'S', 'V', 'O', 'L', 'U', 'M', '1'};
 // readers of version 1 read it.
 constexpr uint32_t kVersionNoCuts = 1;
 constexpr uint32_t kVersionCuts = 2;
+constexpr uint32_t kVersionVisibility = 3;
+constexpr uint32_t kMaxVisibilityMapSize = 64;
 constexpr uint32_t kShOrder = 2;
 constexpr size_t kHeaderBytes = 8 + 6 * 4;  // version 1; version 2 adds the cut plane count
 
@@ -107,26 +113,39 @@ uint32_t crc32(const void* data, size_t size, uint32_t crc) {
 
 void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
   const ProbeVolume& v = vf.volume;
-  const bool cuts = !v.cutPlanes.empty();
-  PS_CHECK(!cuts || v.cutStart.size() == v.tets.size() + 1);
+  const bool maps = v.hasVisibility();
+  // Version 3 always holds the cut section (empty when there are no cuts).
+  const bool cutSection = maps || !v.cutPlanes.empty();
+  PS_CHECK(v.cutPlanes.empty() || v.cutStart.size() == v.tets.size() + 1);
+  const size_t R = size_t(v.visibilityMapSize);
+  PS_CHECK(!maps || (v.visibility.size() == 2 * R * R * v.probeCount() &&
+                     v.probeInside.size() == v.probeCount()));
   Writer w;
   w.bytes(kMagic, 8);
-  w.u32(cuts ? kVersionCuts : kVersionNoCuts);
+  w.u32(maps ? kVersionVisibility : !v.cutPlanes.empty() ? kVersionCuts : kVersionNoCuts);
   w.u32(kShOrder);
   w.u32(static_cast<uint32_t>(v.probeCount()));
   w.u32(static_cast<uint32_t>(v.tets.size()));
   w.u32(static_cast<uint32_t>(v.hullFaces.size()));
   w.u32(static_cast<uint32_t>(vf.metadataJson.size()));
-  if (cuts) w.u32(static_cast<uint32_t>(v.cutPlanes.size()));
+  if (cutSection) w.u32(static_cast<uint32_t>(v.cutPlanes.size()));
+  if (maps) w.u32(static_cast<uint32_t>(R));
   w.array(v.positions);
   w.array(v.sh);
   w.array(v.tets);
   w.array(v.neighbors);
   w.array(v.matrices);
   w.array(v.hullFaces);
-  if (cuts) {
-    w.array(v.cutStart);
+  if (cutSection) {
+    if (v.cutPlanes.empty())
+      w.array(std::vector<uint32_t>(v.tets.size() + 1, 0));
+    else
+      w.array(v.cutStart);
     w.array(v.cutPlanes);
+  }
+  if (maps) {
+    w.array(v.probeInside);
+    w.array(v.visibility);
   }
   w.bytes(vf.metadataJson.data(), vf.metadataJson.size());
   w.u32(crc32(w.str().data(), w.str().size()));
@@ -144,24 +163,32 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
     r.fail("magic", "not a ProbeStudio volume (expected magic \"PSVOLUM1\")");
   r.skip(8);
   const uint32_t version = r.u32("version");
-  if (version != kVersionNoCuts && version != kVersionCuts)
+  if (version != kVersionNoCuts && version != kVersionCuts && version != kVersionVisibility)
     r.fail("version", "unsupported version " + std::to_string(version) + " (this build reads " +
-                          std::to_string(kVersionNoCuts) + " and " + std::to_string(kVersionCuts) +
-                          ")");
-  const bool cuts = version == kVersionCuts;
+                          std::to_string(kVersionNoCuts) + " to " +
+                          std::to_string(kVersionVisibility) + ")");
+  const bool cuts = version >= kVersionCuts;
+  const bool maps = version == kVersionVisibility;
   const uint32_t order = r.u32("sh_order");
   if (order != kShOrder) r.fail("sh_order", "expected SH order 2, got " + std::to_string(order));
   const uint64_t P = r.u32("probe_count"), T = r.u32("tet_count"), H = r.u32("hull_face_count"),
                  M = r.u32("metadata_bytes");
   const uint64_t C = cuts ? r.u32("cut_plane_count") : 0;
+  const uint64_t R = maps ? r.u32("visibility_map_size") : 0;
+  if (maps && (R < 1 || R > kMaxVisibilityMapSize))
+    r.fail("visibility_map_size", "is " + std::to_string(R) + ", expected 1 to " +
+                                      std::to_string(kMaxVisibilityMapSize) + " texels per side");
   // Refuse counts the file cannot hold before allocating anything.
-  const uint64_t header = kHeaderBytes + (cuts ? 4 : 0);
+  const uint64_t header = kHeaderBytes + (cuts ? 4 : 0) + (maps ? 4 : 0);
   const uint64_t body = P * (3 + 27) * 4 + T * (4 + 4 + 9) * 4 + H * 2 * 4 +
-                        (cuts ? (T + 1) * 4 + C * 20 : 0) + M + 4;
+                        (cuts ? (T + 1) * 4 + C * 20 : 0) + (maps ? P * (1 + 2 * R * R * 4) : 0) +
+                        M + 4;
   if (header + body != data.size())
     r.fail("header", "counts (" + std::to_string(P) + " probes, " + std::to_string(T) + " tets, " +
                          std::to_string(H) + " hull faces, " +
                          (cuts ? std::to_string(C) + " cut planes, " : std::string()) +
+                         (maps ? std::to_string(R) + "x" + std::to_string(R) + " visibility maps, "
+                               : std::string()) +
                          std::to_string(M) + " metadata bytes) need " +
                          std::to_string(header + body) + " bytes, file has " +
                          std::to_string(data.size()));
@@ -182,6 +209,11 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
   if (cuts) {
     r.array(v.cutStart, T + 1, "cut_start");
     r.array(v.cutPlanes, C, "cut_planes");
+  }
+  if (maps) {
+    r.array(v.probeInside, P, "probe_flags");
+    r.array(v.visibility, P * 2 * R * R, "visibility");
+    v.visibilityMapSize = static_cast<int32_t>(R);
   }
   vf.metadataJson.assign(data.data() + r.pos(), M);
 
@@ -224,7 +256,27 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
                "hide mask " + std::to_string(v.cutPlanes[c].hide) + " has bits above 8");
     }
   }
-  buildLocator(v);  // derived search data is not stored
+  if (maps) {
+    for (size_t i = 0; i < P; ++i)
+      if (v.probeInside[i] > 1)
+        r.fail("probe_flags[" + std::to_string(i) + "]",
+               "is " + std::to_string(v.probeInside[i]) + ", expected 0 or 1 (bit 0: inside)");
+    for (size_t k = 0; k < v.visibility.size(); k += 2) {
+      const float mu = v.visibility[k], mu2 = v.visibility[k + 1];
+      const std::string field = "visibility[probe " + std::to_string(k / (2 * R * R)) + ", texel " +
+                                std::to_string((k / 2) % (R * R)) + "]";
+      if (!std::isfinite(mu) || !std::isfinite(mu2) || mu < 0 || mu2 < 0)
+        r.fail(field, "expected finite, non-negative distance moments");
+      // mean^2 <= mean square (a variance is not negative), to the floats' rounding.
+      if (double(mu) * mu > double(mu2) * (1 + 1e-5))
+        r.fail(field, "negative variance: mean " + std::to_string(mu) +
+                          " squared exceeds mean "
+                          "square " +
+                          std::to_string(mu2));
+    }
+  }
+  if (cuts && C == 0) v.cutStart.clear();  // version 3 without cuts: no cut section in memory
+  buildLocator(v);                         // derived search data is not stored
   return vf;
 }
 

@@ -20,7 +20,7 @@
 // OUT OF OR IN CONNECTION WITH THE SOFTWARE OR THE USE OR OTHER DEALINGS IN THE SOFTWARE.
 //
 // ps_volume_reader.h: a dependency-free, header-only C++17 reader for ProbeStudio probe volumes
-// (.psv, format versions 1 and 2, docs/formats.md "Probe volume"). Copy this one file into an
+// (.psv, format versions 1 to 3, docs/formats.md "Probe volume"). Copy this one file into an
 // engine.
 //
 //   ps_runtime::Volume vol;
@@ -31,6 +31,13 @@
 //   ps_runtime::interpolate(vol, loc, sh);
 //   lastTet = loc.tet;  // coherent queries then walk a few steps
 //
+// A version 3 volume carries a visibility map per probe; query it with a surface normal (or
+// nullptr for a point in the air) for the visibility-aware weights:
+//
+//   const double n[3] = {nx, ny, nz};
+//   ps_runtime::Weights w = ps_runtime::visibleWeights(vol, loc, x, y, z, n);
+//   ps_runtime::interpolate(vol, w, sh);
+//
 // Queries follow Sukys 2014, sec. 3.2.1 ("Interpolation with barycentric coordinates",
 // "Traversal", "Drawbacks"), as ProbeStudio's core does (core/traversal/ProbeVolume.cpp): walk
 // from a start tetrahedron towards the most negative barycentric coordinate using the stored
@@ -38,7 +45,10 @@
 // the nearest point of the hull surface. A query clearly inside its hint tetrahedron is answered
 // from that tetrahedron's double-precision matrix without a walk. The answers equal the core's
 // (tests/runtime). In a tetrahedron with leak cuts (version 2), a query interpolates only the
-// probes on its own side of the cut planes (applyCuts below).
+// probes on its own side of the cut planes (applyCuts below). With visibility maps (version 3),
+// visibleWeights() multiplies each probe's barycentric weight by DDGI's visibility and normal
+// terms (Majercik et al. 2019, "Dynamic Diffuse Global Illumination with Ray-Traced Irradiance
+// Probes", JCGT 8(2), sec. 5.2), as core/traversal/VisibleInterpolation.h states and computes.
 //
 // Loading validates everything before allocating: the header's counts must match the file's
 // size exactly, the CRC-32 must match, and every index must be in range; a bad file gives
@@ -75,6 +85,14 @@ struct Volume {
   static_assert(sizeof(CutPlane) == 20, "cut planes are read as 4 floats and a u32");
   std::vector<uint32_t> cutStart;
   std::vector<CutPlane> cutPlanes;
+  // Visibility maps (version 3; 0 and empty otherwise): visibilityMapSize texels per side of an
+  // octahedral map per probe, each texel the mean and mean square of the distance (m, m^2) from
+  // the probe to the first surface in its directions (2 R^2 floats per probe, texel i + R j at
+  // octahedral (u, v) in [-1 + 2 i / R, -1 + 2 (i + 1) / R] x ...); probeFlags bit 0: the probe
+  // is inside geometry (it gets no visibility weight).
+  int32_t visibilityMapSize = 0;
+  std::vector<uint8_t> probeFlags;
+  std::vector<float> visibility;
   std::string metadataJson;
   // Derived at load: thin tets (walk with double orientations), per tet the double-precision
   // barycentric matrix with its origin v3 (the fast path of locate(); NaN for thin tets) and a
@@ -453,17 +471,22 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   const auto* b = static_cast<const uint8_t*>(data);
   if (size < 8 + 6 * 4 + 4) return fail(error, "truncated: " + std::to_string(size) + " bytes");
   if (std::memcmp(b, "PSVOLUM1", 8) != 0) return fail(error, "not a ProbeStudio volume");
-  uint32_t h[7] = {0, 0, 0, 0, 0, 0, 0};
+  uint32_t h[8] = {0, 0, 0, 0, 0, 0, 0, 0};
   std::memcpy(h, b + 8, 6 * 4);
-  if (h[0] != 1 && h[0] != 2) return fail(error, "unsupported version " + std::to_string(h[0]));
-  const bool cuts = h[0] == 2;  // version 2: a cut plane count, then the cuts after the hull
-  const size_t kHeader = 8 + (cuts ? 7 : 6) * 4;
+  if (h[0] < 1 || h[0] > 3) return fail(error, "unsupported version " + std::to_string(h[0]));
+  // Version 2: a cut plane count, then the cuts after the hull; version 3: also a visibility
+  // map size, then the probe flags and maps after the cuts.
+  const bool cuts = h[0] >= 2, maps = h[0] == 3;
+  const size_t kHeader = 8 + (maps ? 8 : cuts ? 7 : 6) * 4;
   if (size < kHeader + 4) return fail(error, "truncated: " + std::to_string(size) + " bytes");
-  if (cuts) std::memcpy(h + 6, b + 8 + 6 * 4, 4);
+  if (cuts) std::memcpy(h + 6, b + 8 + 6 * 4, maps ? 8 : 4);
   if (h[1] != 2) return fail(error, "unsupported SH order " + std::to_string(h[1]));
-  const uint64_t P = h[2], T = h[3], H = h[4], M = h[5], C = h[6];
-  const uint64_t need =
-      kHeader + P * 30 * 4 + T * 17 * 4 + H * 8 + (cuts ? (T + 1) * 4 + C * 20 : 0) + M + 4;
+  const uint64_t P = h[2], T = h[3], H = h[4], M = h[5], C = h[6], R = h[7];
+  if (maps && (R < 1 || R > 64))
+    return fail(error, "visibility map size " + std::to_string(R) + ": expected 1 to 64");
+  const uint64_t need = kHeader + P * 30 * 4 + T * 17 * 4 + H * 8 +
+                        (cuts ? (T + 1) * 4 + C * 20 : 0) + (maps ? P * (1 + 8 * R * R) : 0) + M +
+                        4;
   if (need != size)
     return fail(error, "header counts need " + std::to_string(need) + " bytes, file has " +
                            std::to_string(size));
@@ -483,6 +506,13 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   if (cuts) {
     detail::readArray(p, out.cutStart, size_t(T) + 1);
     detail::readArray(p, out.cutPlanes, size_t(C));
+  }
+  out.visibilityMapSize = int32_t(R);
+  out.probeFlags.clear();
+  out.visibility.clear();
+  if (maps) {
+    detail::readArray(p, out.probeFlags, size_t(P));
+    detail::readArray(p, out.visibility, size_t(P * 2 * R * R));
   }
   out.metadataJson.assign(reinterpret_cast<const char*>(p), size_t(M));
   for (float x : out.positions)
@@ -520,6 +550,19 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
                                "]: not a finite unit-normal plane with an 8-bit hide mask");
     }
   }
+  for (size_t i = 0; i < out.probeFlags.size(); ++i)
+    if (out.probeFlags[i] > 1)
+      return fail(error, "probe flag " + std::to_string(i) + ": expected 0 or 1");
+  for (size_t k = 0; k < out.visibility.size(); k += 2) {
+    const float mu = out.visibility[k], mu2 = out.visibility[k + 1];
+    if (!std::isfinite(mu) || !std::isfinite(mu2) || mu < 0 || mu2 < 0)
+      return fail(error, "visibility of probe " + std::to_string(k / size_t(2 * R * R)) +
+                             ": NaN, infinite or negative distance moment");
+    if (double(mu) * mu > double(mu2) * (1 + 1e-5))
+      return fail(error, "visibility of probe " + std::to_string(k / size_t(2 * R * R)) +
+                             ": negative variance (mean squared exceeds mean square)");
+  }
+  if (maps && C == 0) out.cutStart.clear();
   detail::buildLocator(out);
   return true;
 }
@@ -624,6 +667,145 @@ inline void interpolate(const Volume& v, const Location& loc, float out[27]) {
     for (int i = 0; i < 4; ++i) {
       const float* s = v.sh.data() + size_t(27) * size_t(v.tets[size_t(loc.tet)][i]);
       for (int k = 0; k < 27; ++k) acc[k] += double(loc.weights[i]) * s[k];
+    }
+  for (int k = 0; k < 27; ++k) out[k] = static_cast<float>(acc[k]);
+}
+
+/// The four probes of a query and their visibility-aware weights (visibleWeights).
+struct Weights {
+  int32_t tet = -1;
+  int32_t probes[4] = {0, 0, 0, 0};
+  double weights[4] = {0, 0, 0, 0};  // non-negative, sum 1
+  bool outside = false;              // clamped to the hull
+  int fallback = 0;  // 0: barycentric x visibility; 1: visibility alone; 2: barycentric alone
+};
+
+namespace detail {
+
+// Octahedral map of the sphere (Cigolle et al. 2014): (u, v) in [-1, 1]^2, lower hemisphere
+// folded onto the corners.
+inline void octEncode(double x, double y, double z, double& u, double& v) {
+  const double s = std::abs(x) + std::abs(y) + std::abs(z);
+  u = x / s;
+  v = y / s;
+  if (z < 0) {
+    const double fu = (1.0 - std::abs(v)) * (u >= 0 ? 1.0 : -1.0);
+    const double fv = (1.0 - std::abs(u)) * (v >= 0 ? 1.0 : -1.0);
+    u = fu;
+    v = fv;
+  }
+  u = std::min(1.0, std::max(-1.0, u));
+  v = std::min(1.0, std::max(-1.0, v));
+}
+
+// Texel (i, j), i and j in [-1, R], a step beyond an edge mirrored across the seam.
+inline int octWrappedTexel(int i, int j, int R) {
+  if (i < 0) {
+    i = 0;
+    j = R - 1 - j;
+  } else if (i >= R) {
+    i = R - 1;
+    j = R - 1 - j;
+  }
+  if (j < 0) {
+    j = 0;
+    i = R - 1 - i;
+  } else if (j >= R) {
+    j = R - 1;
+    i = R - 1 - i;
+  }
+  return i + R * j;
+}
+
+constexpr double kVisibilityVarianceBias = 0.05;
+constexpr double kVisibilityMinFactor = 1e-3;
+
+// DDGI's chebyshev visibility (sec. 5.2), sharpened to its cube, of probe `probe` for p, with
+// d = p - probe (r = |d| > 1e-6).
+inline double probeVisibility(const Volume& v, int32_t probe, V3 d, double r) {
+  const int R = v.visibilityMapSize;
+  const float* map = v.visibility.data() + size_t(probe) * size_t(2 * R * R);
+  double u, w;
+  octEncode(d.x / r, d.y / r, d.z / r, u, w);
+  const double x = (u + 1.0) * 0.5 * R - 0.5;
+  const double y = (w + 1.0) * 0.5 * R - 0.5;
+  const double fx0 = std::floor(x), fy0 = std::floor(y);
+  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  const double ax = x - fx0, ay = y - fy0;
+  const int t00 = octWrappedTexel(x0, y0, R), t10 = octWrappedTexel(x0 + 1, y0, R);
+  const int t01 = octWrappedTexel(x0, y0 + 1, R), t11 = octWrappedTexel(x0 + 1, y0 + 1, R);
+  const double w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
+  const double mu =
+      w00 * map[2 * t00] + w10 * map[2 * t10] + w01 * map[2 * t01] + w11 * map[2 * t11];
+  const double mu2 = w00 * map[2 * t00 + 1] + w10 * map[2 * t10 + 1] + w01 * map[2 * t01 + 1] +
+                     w11 * map[2 * t11 + 1];
+  if (r <= mu) return 1.0;
+  const double bias = kVisibilityVarianceBias * mu;
+  const double var = std::max(0.0, mu2 - mu * mu) + bias * bias;
+  const double c = var / (var + (r - mu) * (r - mu));
+  return c * c * c;
+}
+
+// The probe's factor: visibility times the smooth-backface normal term, tiny values crushed.
+inline double probeFactor(const Volume& v, int32_t probe, V3 p, const double* n) {
+  if (v.probeFlags[size_t(probe)] & 1) return 0.0;
+  const V3 d = p - pos(v, probe);
+  const double r = std::sqrt(dot(d, d));
+  if (!(r > 1e-6)) return 1.0;
+  double f = probeVisibility(v, probe, d, r);
+  if (n) {
+    const double s = ((-(d.x / r)) * n[0] + (-(d.y / r)) * n[1] + (-(d.z / r)) * n[2] + 1.0) * 0.5;
+    f *= s * s + 0.2;
+  }
+  if (f < 0.2) f = f * f * f / 0.04;
+  return f < kVisibilityMinFactor ? 0.0 : f;
+}
+
+}  // namespace detail
+
+/// The visibility-aware weights at (x, y, z) for `loc` (locate() of that point), with `normal`
+/// the unit surface normal there (3 doubles) or nullptr. Per probe i: w_i = b_i f_i with f_i
+/// DDGI's chebyshev visibility (variance bias 0.05 mean, cubed) times the smooth-backface term
+/// ((dot(dir to probe, n) + 1) / 2)^2 + 0.2, crushed below 0.2 to f^3 / 0.04 and 0 below 1e-3
+/// (0 for a probe inside geometry), renormalised. When every w_i is 0: f_i alone, renormalised;
+/// when every f_i is 0 too: the barycentric weights. Without maps: the barycentric weights.
+inline Weights visibleWeights(const Volume& v, const Location& loc, double x, double y, double z,
+                              const double* normal) {
+  Weights w;
+  w.tet = loc.tet;
+  w.outside = loc.outside;
+  if (loc.tet < 0) return w;
+  for (int i = 0; i < 4; ++i) {
+    w.probes[i] = v.tets[size_t(loc.tet)][i];
+    w.weights[i] = loc.weights[i];
+  }
+  if (v.visibilityMapSize <= 0) return w;
+  const detail::V3 p = {x, y, z};
+  double f[4], raw[4], sum = 0, factorSum = 0;
+  for (int i = 0; i < 4; ++i) {
+    f[i] = detail::probeFactor(v, w.probes[i], p, normal);
+    raw[i] = double(loc.weights[i]) * f[i];
+    sum += raw[i];
+    factorSum += f[i];
+  }
+  if (sum > 0) {
+    for (int i = 0; i < 4; ++i) w.weights[i] = raw[i] / sum;
+  } else if (factorSum > 0) {
+    w.fallback = 1;
+    for (int i = 0; i < 4; ++i) w.weights[i] = f[i] / factorSum;
+  } else {
+    w.fallback = 2;
+  }
+  return w;
+}
+
+/// The SH (27 floats) blended with visibility-aware weights.
+inline void interpolate(const Volume& v, const Weights& w, float out[27]) {
+  double acc[27] = {};
+  if (w.tet >= 0)
+    for (int i = 0; i < 4; ++i) {
+      const float* s = v.sh.data() + size_t(27) * size_t(w.probes[i]);
+      for (int k = 0; k < 27; ++k) acc[k] += w.weights[i] * s[k];
     }
   for (int k = 0; k < 27; ++k) out[k] = static_cast<float>(acc[k]);
 }

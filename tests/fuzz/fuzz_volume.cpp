@@ -8,6 +8,7 @@
 #include "core/io/VolumeFile.h"
 #include "core/runtime/ps_volume_reader.h"
 #include "core/traversal/ProbeVolume.h"
+#include "core/traversal/VisibleInterpolation.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data), size);
@@ -18,6 +19,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (const ps::Vec3 p : {ps::Vec3(0, 0, 0), ps::Vec3(0.3, 0.2, 0.1), ps::Vec3(1e3, -5, 2)}) {
       const ps::VolumeLocation loc = ps::locate(vf.volume, p);
       (void)ps::interpolate(vf.volume, loc);
+      (void)ps::interpolate(vf.volume, ps::visibleWeights(vf.volume, loc, p, ps::Vec3(0, 1, 0)));
     }
   } catch (const ps::Error&) {
   }
@@ -27,7 +29,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (runtimeLoaded != coreLoaded) __builtin_trap();  // both readers accept the same files
   if (runtimeLoaded) {
     float sh[27];
-    ps_runtime::interpolate(rv, ps_runtime::locate(rv, 0.3, 0.2, 0.1), sh);
+    const ps_runtime::Location loc = ps_runtime::locate(rv, 0.3, 0.2, 0.1);
+    ps_runtime::interpolate(rv, loc, sh);
+    const double n[3] = {0, 1, 0};
+    ps_runtime::interpolate(rv, ps_runtime::visibleWeights(rv, loc, 0.3, 0.2, 0.1, n), sh);
   }
   return 0;
 }

@@ -78,19 +78,25 @@ write("ps-locked-string.json", js(probe_set(probes=[probe(0, locked="yes")])))
 
 
 def volume(P=4, T=1, H=4, positions=None, tets=None, neighbors=None, order=2, version=1,
-           magic=b"PSVOLUM1", fix_crc=True, counts=None, cut_start=None, cuts=None):
-    """Version 2 (leak cuts) when cuts is given: a list of (nx, ny, nz, d, hide mask)."""
+           magic=b"PSVOLUM1", fix_crc=True, counts=None, cut_start=None, cuts=None, maps=None):
+    """Version 2 (leak cuts) when cuts is given: a list of (nx, ny, nz, d, hide mask).
+    Version 3 (visibility maps) when maps is given: (R, flags per probe, 2 R^2 P floats)."""
     positions = positions or [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1][: 3 * P] + [0.5] * max(0, 3 * P - 12)
     tets = tets or [1, 2, 3, 0] * T
     neighbors = neighbors or [-1, -1, -1, -1] * T
     meta = b'{"scene":"room.gltf"}'
     c = counts or (P, T, H, len(meta))
+    if maps is not None:
+        version = 3 if version == 1 else version
+        cuts = cuts or []
     if cuts is not None:
         version = 2 if version == 1 else version
         cut_start = cut_start or [0] * T + [len(cuts)]
     b = magic + struct.pack("<6I", version, order, *c)
     if cuts is not None:
         b += struct.pack("<I", len(cuts))
+    if maps is not None:
+        b += struct.pack("<I", maps[0])
     b += struct.pack(f"<{3 * P}f", *positions)
     b += struct.pack(f"<{27 * P}f", *[0.01 * i for i in range(27 * P)])
     b += struct.pack(f"<{4 * T}i", *tets) + struct.pack(f"<{4 * T}i", *neighbors)
@@ -100,6 +106,8 @@ def volume(P=4, T=1, H=4, positions=None, tets=None, neighbors=None, order=2, ve
         b += struct.pack(f"<{len(cut_start)}I", *cut_start)
         for nx, ny, nz, d, hide in cuts:
             b += struct.pack("<4fI", nx, ny, nz, d, hide)
+    if maps is not None:
+        b += bytes(maps[1]) + struct.pack(f"<{len(maps[2])}f", *maps[2])
     b += meta
     return b + struct.pack("<I", zlib.crc32(b) if fix_crc else zlib.crc32(b) ^ 1)
 
@@ -135,6 +143,16 @@ write("vol-cut-zero-normal.psv", volume(cuts=[(0, 0, 0, 0.5, 1)]))
 write("vol-cut-hide-mask.psv", volume(cuts=[(1, 0, 0, 0.5, 0x100)]))
 write("vol-cut-truncated.psv", volume(cuts=[(1, 0, 0, 0.5, 1)])[:-30])
 write("vol-cut-header-truncated.psv", volume(cuts=[(1, 0, 0, 0.5, 1)])[:32])
+# Version 3: 1x1 maps, mean and mean square of each probe's one texel.
+maps1 = (1, [0, 0, 0, 1], sum(([0.5 + 0.25 * i, (0.5 + 0.25 * i) ** 2 + 0.01] for i in range(4)), []))
+write("vol-vis-nan.psv", volume(maps=(1, maps1[1], maps1[2][:2] + [float("nan")] + maps1[2][3:])))
+write("vol-vis-negative-variance.psv", volume(maps=(1, maps1[1], [3.0] + maps1[2][1:])))
+write("vol-vis-negative-distance.psv", volume(maps=(1, maps1[1], [-0.5] + maps1[2][1:])))
+write("vol-vis-size-0.psv", volume(maps=(0, maps1[1], [])))
+write("vol-vis-size-65.psv", volume(maps=(65, maps1[1], maps1[2])))
+write("vol-vis-wrong-size.psv", volume(maps=(2, maps1[1], maps1[2])))
+write("vol-vis-truncated.psv", volume(maps=maps1)[:-30])
+write("vol-vis-flag.psv", volume(maps=(1, [0, 2, 0, 0], maps1[2])))
 write("vol-cut-start-end.psv", volume(cuts=[(1, 0, 0, 0.5, 1)], cut_start=[0, 0]))
 
 # ---- glTF --------------------------------------------------------------------------------
@@ -190,6 +208,7 @@ seed("probeset", "version1.json", js(dict((k, v) for k, v in probe_set(version=1
                                           if k not in ("scene_hash", "importance_volumes"))))
 seed("volume", "one-tet.psv", good)
 seed("volume", "one-tet-cut.psv", volume(cuts=[(1, 0, 0, 0.25, 0x21)]))
+seed("volume", "one-tet-visibility.psv", volume(maps=maps1))
 # Two tets sharing a face: positions 0..4, tets (1,2,3,0) and (1,3,2,4).
 seed("volume", "two-tets.psv", volume(
     P=5, T=2, H=4, positions=[0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1],
