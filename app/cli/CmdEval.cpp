@@ -83,6 +83,7 @@ ojson evalJson(const EvalResult& r, const EvalReport& report, int floorSpp) {
   ojson j;
   j["probes"] = r.probes;
   j["queries"] = r.queries;
+  j["visibility"] = r.visibility;
   j["rel_rmse"] = r.relRmse;
   j["rel_rmse_std_error"] = r.relRmseStdError;
   j["reference_rel_noise"] = r.referenceRelNoise;
@@ -117,14 +118,15 @@ ojson evalJson(const EvalResult& r, const EvalReport& report, int floorSpp) {
 void printEval(const EvalResult& r, const EvalReport& report, int floorSpp) {
   std::printf(
       "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
-      "leaking %.4f, over-cut %.4f (%.2f s%s)\n"
+      "leaking %.4f, over-cut %.4f (%.2f s%s%s)\n"
       "rel_rmse's standard error from the queries drawn %.4f; reference noise %.4f (the "
       "relative RMS error of a perfect volume against this reference)\n"
       "outside the probes' hull (clamped to it) %.4f of the queries; leaking there %.4f, "
       "inside %.4f\n",
       r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
       r.overCutFraction, r.seconds, r.referenceCached ? ", reference from the cache" : "",
-      r.relRmseStdError, r.referenceRelNoise, r.outsideHullFraction, r.leakingOutsideHullFraction,
+      r.visibility ? ", visibility-aware interpolation" : "", r.relRmseStdError,
+      r.referenceRelNoise, r.outsideHullFraction, r.leakingOutsideHullFraction,
       r.leakingFraction - r.leakingOutsideHullFraction);
   if (r.shFloorRelRmse)
     std::printf(
@@ -161,6 +163,7 @@ void registerEval(CLI::App& app) {
     uint64_t seed = 7;
     std::string cacheDir;
     bool noCache = false;
+    bool noVisibility = false;
     bool json = false;
     std::string perQuery;
     double lightClearance = kDefaultLightClearanceRelative;
@@ -181,6 +184,9 @@ void registerEval(CLI::App& app) {
                   "by every set and volume there)");
   cmd->add_flag("--no-cache", o->noCache,
                 "Trace the reference, neither reading nor writing the reference cache");
+  cmd->add_flag("--no-visibility", o->noVisibility,
+                "Interpolate with the barycentric weights alone, even when the volume carries "
+                "visibility maps (for comparison)");
   cmd->add_flag("--json", o->json, "Print JSON");
   cmd->add_option("--light-clearance", o->lightClearance,
                   "Queries keep this fraction of the domain's diagonal from point and spot lights "
@@ -241,6 +247,7 @@ void registerEval(CLI::App& app) {
     es.domain = domain;
     es.lightClearanceRelative = o->lightClearance;
     es.floorSpp = o->floorSpp;
+    es.useVisibility = !o->noVisibility;
     if (!o->noCache) {
       es.sceneHash = sceneContentHash(scenePath);
       if (!o->cacheDir.empty()) {

@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include "core/domain/DomainPoints.h"
 #include "core/eval/ReferenceCache.h"
 #include "core/math/Random.h"
+#include "core/traversal/VisibleInterpolation.h"
 
 namespace ps {
 
@@ -197,16 +199,26 @@ struct QueryMeasures {
 
 /// Query q of `reference` in `volume`: writes entry q of each of m's vectors (sized M by the
 /// caller; no other entry, so queries may run in parallel). `uncut`: the volume without its leak
-/// cuts, or null when it has none. One ray per probe of the query's tet.
+/// cuts, or null when it has none. `visibility`: interpolate with the visibility-aware weights
+/// (the volume has maps). One ray per probe of the query's tet.
 void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVolume* uncut,
-                  const EvalReference& reference, size_t q, QueryMeasures& m) {
+                  bool visibility, const EvalReference& reference, size_t q, QueryMeasures& m) {
   const Vec3 point = reference.points[q];
   m.ref[q] = luminance(reference.irradiance[q]);
   // locate() is the uncut location with the cuts applied: the same tet for both.
   const VolumeLocation before = locate(uncut ? *uncut : volume, point);
   VolumeLocation loc = before;
   if (uncut && loc.tet >= 0) applyCuts(volume, point, loc);
-  m.got[q] = luminance(interpolate(volume, loc).irradiance(reference.normals[q]));
+  // The weights the query is read with: the location's, or the visibility-aware ones.
+  std::array<double, 4> weights{};
+  if (visibility) {
+    const VisibleWeights w = visibleWeights(volume, loc, point, reference.normals[q]);
+    m.got[q] = luminance(interpolate(volume, w).irradiance(reference.normals[q]));
+    weights = w.weights;
+  } else {
+    m.got[q] = luminance(interpolate(volume, loc).irradiance(reference.normals[q]));
+    for (int k = 0; k < 4; ++k) weights[k] = loc.weights[k];
+  }
   m.outside[q] = loc.outside ? 1 : 0;
   if (loc.tet < 0) return;
   // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
@@ -214,14 +226,14 @@ void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVo
   // clamped to) is not interpolated.
   bool seesAll = true;  // every probe it interpolates without the cuts
   for (int k = 0; k < 4; ++k) {
-    if (!(loc.weights[k] > 0) && !(before.weights[k] > 0)) continue;
+    if (!(weights[k] > 0) && !(before.weights[k] > 0)) continue;
     const int32_t vi = volume.tets[size_t(loc.tet)][k];
     const Vec3 d = volume.position(vi) - point;
     const double len = length(d);
     if (len <= 2 * tracer.rayEpsilon()) continue;
     if (tracer.occluded(
             Ray{point, d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len})) {
-      if (loc.weights[k] > 0) m.leaking[q] = 1;
+      if (weights[k] > 0) m.leaking[q] = 1;
       if (before.weights[k] > 0) seesAll = false;
     }
   }
@@ -235,7 +247,7 @@ void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVo
 
 /// Every query of `reference` in `volume` (measureQuery), in parallel; deterministic, as each
 /// query writes only its own entries.
-QueryMeasures measureQueries(const Tracer& tracer, const ProbeVolume& volume,
+QueryMeasures measureQueries(const Tracer& tracer, const ProbeVolume& volume, bool visibility,
                              const EvalReference& reference) {
   const size_t M = reference.points.size();
   // With leak cuts, also the weights without them (the same tet), to see what the cuts moved.
@@ -248,7 +260,7 @@ QueryMeasures measureQueries(const Tracer& tracer, const ProbeVolume& volume,
   QueryMeasures m{std::vector<double>(M), std::vector<double>(M), std::vector<char>(M, 0),
                   std::vector<char>(M, 0), std::vector<char>(M, 0)};
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
-    measureQuery(tracer, volume, uncut ? &*uncut : nullptr, reference, q, m);
+    measureQuery(tracer, volume, uncut ? &*uncut : nullptr, visibility, reference, q, m);
   });
   return m;
 }
@@ -367,7 +379,8 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
       obtainReference(tracer, rig, s, hasPunctualLights, referenceShare, progress, r);
   const std::vector<double> floorGot =
       floorLuminance(tracer, rig, s, reference, referenceShare, progress);
-  const QueryMeasures measures = measureQueries(tracer, volume, reference);
+  r.visibility = s.useVisibility && volume.hasVisibility();
+  const QueryMeasures measures = measureQueries(tracer, volume, r.visibility, reference);
   if (progress && !progress(1.0)) throw Cancelled();
 
   r.probes = volume.probeCount();

@@ -34,6 +34,10 @@ struct EvalSettings {
   /// Queries closer than this fraction of the domain's diagonal to a point or spot light are
   /// drawn again (0: none). Part of the cache key when the scene or rig has such a light.
   double lightClearanceRelative = kDefaultLightClearanceRelative;
+  /// Interpolate with the visibility-aware interpolant (core/traversal/VisibleInterpolation.h,
+  /// with each query's normal) when the volume carries visibility maps; false: the barycentric
+  /// weights alone (`eval --no-visibility`). Not part of the reference or its cache key.
+  bool useVisibility = true;
   /// When > 0, also EvalResult::shFloorRelRmse: a probe captured at this many samples at every
   /// query point (the bake's capture). Not cached: queries x floorSpp rays, in
   /// EvalResult::seconds.
@@ -62,12 +66,17 @@ struct EvalQuery {
   double referenceStd = 0;  ///< its standard error from the path tracing (an upper bound)
   double interpolated = 0;  ///< luminance of the volume's irradiance
   double relError = 0;      ///< as for p95RelError (the denominator floored at 0.1 x the mean)
-  bool leaking = false;     ///< its tetrahedron has a probe the query cannot see
-  bool outside = false;     ///< outside the probes' hull, clamped to it (VolumeLocation::outside)
+  /// It interpolates, with a final weight above 0, a probe it cannot see (the visibility-aware
+  /// weights when EvalResult::visibility, else the barycentric ones)
+  bool leaking = false;
+  bool outside = false;  ///< outside the probes' hull, clamped to it (VolumeLocation::outside)
 };
 
 struct EvalResult {
   size_t probes = 0;
+  /// The queries were interpolated with the visibility-aware interpolant (the volume has maps
+  /// and EvalSettings::useVisibility).
+  bool visibility = false;
   size_t queries = 0;
   /// sqrt(sum (E_vol - E_ref)^2 / sum E_ref^2) over query luminances.
   double relRmse = 0;
@@ -96,8 +105,8 @@ struct EvalResult {
   double p95RelError = 0;
   double maxRelError = 0;
   /// Fraction of the queries whose tetrahedron (the hull tetrahedron they are clamped to, when
-  /// outside) has a probe not visible from the query point: light leaks through geometry
-  /// there (Sukys 3.2.2).
+  /// outside) has a probe not visible from the query point with a final weight above 0: light
+  /// leaks through geometry there (Sukys 3.2.2).
   double leakingFraction = 0;
   /// Fraction of the queries outside the probes' convex hull, where the volume clamps them to
   /// the nearest hull face and extrapolates, and of the queries that are outside and leak (a

@@ -12,6 +12,7 @@
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
+#include "core/eval/Evaluate.h"
 #include "core/io/VolumeFile.h"
 #include "core/math/Octahedral.h"
 #include "core/runtime/ps_volume_reader.h"
@@ -195,6 +196,34 @@ TEST(Visibility, FallbacksAreFiniteNonNegativeAndSumToOne) {
   }
   EXPECT_NEAR(sum, 1, 1e-12);
   EXPECT_GE(luminance(interpolate(flagged, w).irradiance({0, 1, 0})), 0);
+}
+
+// eval reads a volume with maps through the visibility-aware interpolant (unless told not to):
+// in the two rooms, fewer queries leak and the error falls.
+TEST(Visibility, EvalUsesTheInterpolantAndItLowersLeaks) {
+  const Scene s = twoRooms();
+  const Tracer tracer(s);
+  const Captured c = capture(tracer, {{0.5, 0.5, 0.5},
+                                      {0.5, 1.5, 1.5},
+                                      {1.5, 0.5, 1.5},
+                                      {1.5, 1.5, 0.5},
+                                      {2.5, 0.5, 0.5},
+                                      {2.5, 1.5, 1.5},
+                                      {3.5, 0.5, 1.5},
+                                      {3.5, 1.5, 0.5}});
+  const ProbeVolume v = volumeFromProbes(c.points, c.sh, c.vis);
+  EvalSettings es;
+  es.queries = 512;
+  es.referenceSpp = 64;
+  const EvalResult with = evaluateVolume(tracer, LightingRig{}, v, es);
+  es.useVisibility = false;
+  const EvalResult without = evaluateVolume(tracer, LightingRig{}, v, es);
+  EXPECT_TRUE(with.visibility);
+  EXPECT_FALSE(without.visibility);
+  std::printf("rel_rmse %.4f -> %.4f, leaking %.4f -> %.4f\n", without.relRmse, with.relRmse,
+              without.leakingFraction, with.leakingFraction);
+  EXPECT_LT(with.leakingFraction, 0.5 * without.leakingFraction);
+  EXPECT_LT(with.relRmse, without.relRmse);
 }
 
 // ---- Volume file version 3 ----------------------------------------------------------------
