@@ -164,6 +164,7 @@ void registerEval(CLI::App& app) {
     std::string cacheDir;
     bool noCache = false;
     bool noVisibility = false;
+    bool visibilityNormalTerm = false;
     bool json = false;
     std::string perQuery;
     double lightClearance = kDefaultLightClearanceRelative;
@@ -187,6 +188,9 @@ void registerEval(CLI::App& app) {
   cmd->add_flag("--no-visibility", o->noVisibility,
                 "Interpolate with the barycentric weights alone, even when the volume carries "
                 "visibility maps (for comparison)");
+  cmd->add_flag("--visibility-normal-term", o->visibilityNormalTerm,
+                "With visibility: weigh the probes behind each query's normal down (DDGI's "
+                "smooth backface term), as a renderer shading a surface would");
   cmd->add_flag("--json", o->json, "Print JSON");
   cmd->add_option("--light-clearance", o->lightClearance,
                   "Queries keep this fraction of the domain's diagonal from point and spot lights "
@@ -248,6 +252,7 @@ void registerEval(CLI::App& app) {
     es.lightClearanceRelative = o->lightClearance;
     es.floorSpp = o->floorSpp;
     es.useVisibility = !o->noVisibility;
+    es.visibilityNormalTerm = o->visibilityNormalTerm;
     if (!o->noCache) {
       es.sceneHash = sceneContentHash(scenePath);
       if (!o->cacheDir.empty()) {

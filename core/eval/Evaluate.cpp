@@ -200,9 +200,11 @@ struct QueryMeasures {
 /// Query q of `reference` in `volume`: writes entry q of each of m's vectors (sized M by the
 /// caller; no other entry, so queries may run in parallel). `uncut`: the volume without its leak
 /// cuts, or null when it has none. `visibility`: interpolate with the visibility-aware weights
-/// (the volume has maps). One ray per probe of the query's tet.
+/// (the volume has maps), with the query's normal for their normal term when `normalTerm`. One
+/// ray per probe of the query's tet.
 void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVolume* uncut,
-                  bool visibility, const EvalReference& reference, size_t q, QueryMeasures& m) {
+                  bool visibility, bool normalTerm, const EvalReference& reference, size_t q,
+                  QueryMeasures& m) {
   const Vec3 point = reference.points[q];
   m.ref[q] = luminance(reference.irradiance[q]);
   // locate() is the uncut location with the cuts applied: the same tet for both.
@@ -212,7 +214,10 @@ void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVo
   // The weights the query is read with: the location's, or the visibility-aware ones.
   std::array<double, 4> weights{};
   if (visibility) {
-    const VisibleWeights w = visibleWeights(volume, loc, point, reference.normals[q]);
+    // The query is a point in the air: its normal picks the irradiance's direction, not a side
+    // of a surface, so the normal term is off unless asked for (docs/leaks.md measures both).
+    const VisibleWeights w = visibleWeights(
+        volume, loc, point, normalTerm ? std::optional<Vec3>(reference.normals[q]) : std::nullopt);
     m.got[q] = luminance(interpolate(volume, w).irradiance(reference.normals[q]));
     weights = w.weights;
   } else {
@@ -248,7 +253,7 @@ void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVo
 /// Every query of `reference` in `volume` (measureQuery), in parallel; deterministic, as each
 /// query writes only its own entries.
 QueryMeasures measureQueries(const Tracer& tracer, const ProbeVolume& volume, bool visibility,
-                             const EvalReference& reference) {
+                             bool normalTerm, const EvalReference& reference) {
   const size_t M = reference.points.size();
   // With leak cuts, also the weights without them (the same tet), to see what the cuts moved.
   std::optional<ProbeVolume> uncut;
@@ -260,7 +265,8 @@ QueryMeasures measureQueries(const Tracer& tracer, const ProbeVolume& volume, bo
   QueryMeasures m{std::vector<double>(M), std::vector<double>(M), std::vector<char>(M, 0),
                   std::vector<char>(M, 0), std::vector<char>(M, 0)};
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
-    measureQuery(tracer, volume, uncut ? &*uncut : nullptr, visibility, reference, q, m);
+    measureQuery(tracer, volume, uncut ? &*uncut : nullptr, visibility, normalTerm, reference, q,
+                 m);
   });
   return m;
 }
@@ -380,7 +386,8 @@ EvalResult evaluateVolume(const Tracer& tracer, const LightingRig& rig, const Pr
   const std::vector<double> floorGot =
       floorLuminance(tracer, rig, s, reference, referenceShare, progress);
   r.visibility = s.useVisibility && volume.hasVisibility();
-  const QueryMeasures measures = measureQueries(tracer, volume, r.visibility, reference);
+  const QueryMeasures measures =
+      measureQueries(tracer, volume, r.visibility, s.visibilityNormalTerm, reference);
   if (progress && !progress(1.0)) throw Cancelled();
 
   r.probes = volume.probeCount();

@@ -34,10 +34,15 @@ struct EvalSettings {
   /// Queries closer than this fraction of the domain's diagonal to a point or spot light are
   /// drawn again (0: none). Part of the cache key when the scene or rig has such a light.
   double lightClearanceRelative = kDefaultLightClearanceRelative;
-  /// Interpolate with the visibility-aware interpolant (core/traversal/VisibleInterpolation.h,
-  /// with each query's normal) when the volume carries visibility maps; false: the barycentric
-  /// weights alone (`eval --no-visibility`). Not part of the reference or its cache key.
+  /// Interpolate with the visibility-aware interpolant (core/traversal/VisibleInterpolation.h)
+  /// when the volume carries visibility maps; false: the barycentric weights alone
+  /// (`eval --no-visibility`). Not part of the reference or its cache key.
   bool useVisibility = true;
+  /// With visibility: pass each query's normal to the interpolant, for its smooth-backface
+  /// term (`eval --visibility-normal-term`). Off by default: a query is a point in the air,
+  /// whose normal picks the irradiance's direction rather than a side of a surface, and the
+  /// term then only biases the blend towards the probes in front (docs/leaks.md).
+  bool visibilityNormalTerm = false;
   /// When > 0, also EvalResult::shFloorRelRmse: a probe captured at this many samples at every
   /// query point (the bake's capture). Not cached: queries x floorSpp rays, in
   /// EvalResult::seconds.
