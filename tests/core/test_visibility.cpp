@@ -352,3 +352,23 @@ TEST(VolumeFileV3, TheFuzzSeedLoads) {
   std::ifstream in(seed, std::ios::binary);
   EXPECT_EQ(readerError(std::string((std::istreambuf_iterator<char>(in)), {})), "ok");
 }
+
+// Volumes of versions 1 and 2 still load, without maps, and the interpolant answers with their
+// barycentric weights, as before.
+TEST(VolumeFileV3, OlderVersionsLoadAndAnswerAsBefore) {
+  for (const char* name : {"one-tet.psv", "one-tet-cut.psv", "two-tets.psv"}) {
+    const fs::path file = fs::path(PS_SOURCE_DIR) / "tests/fuzz/seeds/volume" / name;
+    const VolumeFile vf = loadVolume(file);
+    EXPECT_FALSE(vf.volume.hasVisibility()) << name;
+    for (const Vec3 p : {Vec3{0.1, 0.2, 0.3}, Vec3{0.25, 0.25, 0.25}, Vec3{2, -1, 0.5}}) {
+      const VolumeLocation loc = locate(vf.volume, p);
+      const VisibleWeights w = visibleWeights(vf.volume, loc, p, Vec3{0, 1, 0});
+      EXPECT_EQ(w.fallback, VisibleFallback::None);
+      for (int k = 0; k < 4; ++k) EXPECT_EQ(w.weights[k], double(loc.weights[k])) << name;
+      const ShRgb a = interpolate(vf.volume, loc), b = interpolate(vf.volume, w);
+      for (int k = 0; k < kShCoeffCount; ++k) EXPECT_EQ(a.c[k], b.c[k]) << name;
+    }
+    std::ifstream in(file, std::ios::binary);
+    EXPECT_EQ(readerError(std::string((std::istreambuf_iterator<char>(in)), {})), "ok");
+  }
+}
