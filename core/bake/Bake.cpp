@@ -112,14 +112,19 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
   std::vector<Vec3> points;
   points.reserve(missing.size());
   for (size_t i : missing) points.push_back(probes.positions[i]);
-  const auto captures = captureProbes(tracer, rig, points, settings.capture, progress);
+  // The volume's probes always carry their visibility maps.
+  CaptureSettings cs = settings.capture;
+  cs.visibilityMaps = true;
+  const auto captures = captureProbes(tracer, rig, points, cs, progress);
   for (size_t k = 0; k < missing.size(); ++k) {
     probes.sh[missing[k]] = captures[k].sh;
+    ProbeVisibility& vis = probes.visibility[missing[k]];
+    PS_CHECK_EQ(captures[k].distanceMoments.size(), vis.distanceMoments.size());
+    std::copy(captures[k].distanceMoments.begin(), captures[k].distanceMoments.end(),
+              vis.distanceMoments.begin());
     // Inside geometry by the capture's own rays (Kontkanen & Laine sec. 5), the test placement
     // and eval use.
-    probes.visibility[missing[k]] = {
-        captures[k].distanceMoments,
-        captures[k].backfaceFraction > tol::kDefaultInvalidBackfaceFraction};
+    vis.inside = captures[k].backfaceFraction > tol::kDefaultInvalidBackfaceFraction;
     if (cache)
       cache->store(keys[missing[k]],
                    {probes.sh[missing[k]], probes.visibility[missing[k]].distanceMoments,

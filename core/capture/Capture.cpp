@@ -381,7 +381,7 @@ struct DistanceAccumulator {
   /// The moments per texel; a texel without rays takes those of the texel nearest to it (by
   /// angle between texel centres, the lower index on a tie) that has rays. All zero when no
   /// texel has rays.
-  std::array<float, kVisibilityFloats> moments() const {
+  std::vector<float> moments() const {
     static const std::array<Vec3, kVisibilityTexels> centres = [] {
       std::array<Vec3, kVisibilityTexels> c;
       for (int j = 0; j < kVisibilityMapSize; ++j)
@@ -389,7 +389,7 @@ struct DistanceAccumulator {
           c[size_t(i + kVisibilityMapSize * j)] = octTexelDirection(i, j, kVisibilityMapSize);
       return c;
     }();
-    std::array<float, kVisibilityFloats> out{};
+    std::vector<float> out(size_t(kVisibilityFloats), 0.0f);
     for (size_t k = 0; k < size_t(kVisibilityTexels); ++k) {
       size_t from = k;
       if (n[k] == 0) {
@@ -511,7 +511,7 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
           double backface = 0, distance = 0;
           const Rgb L = pt.radiance(p, dir, rng, &backface, &distance);
           backfaces += backface;
-          dist.add(dir, std::min(distance, miss));
+          if (settings.visibilityMaps) dist.add(dir, std::min(distance, miss));
           acc.add(dir, L);
           const double lum = luminance(L);
           irr.add(dir, lum);
@@ -533,7 +533,7 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
         }
         c.sh += direct;
         c.relativeError = irr.relativeError(directLum);
-        c.distanceMoments = dist.moments();
+        if (settings.visibilityMaps) c.distanceMoments = dist.moments();
         for (int i = 0; i < kShCoeffCount; ++i) {
           PS_CHECK(isFinite(c.sh.c[i]));
           PS_CHECK(isFinite(c.shStdError.c[i]));

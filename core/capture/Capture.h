@@ -32,6 +32,10 @@ struct CaptureSettings {
   uint64_t seed = 1;               ///< per-probe streams derive from (seed, probe index)
   CaptureMode mode = CaptureMode::Full;
   int threads = 0;  ///< 0 = all hardware threads; results do not depend on it
+  /// Record each probe's visibility map (ProbeCapture::distanceMoments). Off by default: the
+  /// bake turns it on for the probes it stores; placement's many cheap captures do not need
+  /// the 2 KB per probe.
+  bool visibilityMaps = false;
 };
 
 /// Adaptive sampling checks its error after every this many rays.
@@ -97,9 +101,10 @@ struct ProbeCapture {
   double relativeError = 0;
   std::array<double, kLuminanceBins> luminanceHistogram{};  ///< layout above; sums to 1
   std::array<double, kHueBins> hueHistogram{};              ///< layout above; sums to 1 or 0
-  /// The visibility map (layout above): mean and mean square of the first-hit distance (m, and
-  /// m^2) per texel. Both are the back-face distances when the probe is inside geometry.
-  std::array<float, kVisibilityFloats> distanceMoments{};
+  /// The visibility map (layout above) when CaptureSettings::visibilityMaps, else empty:
+  /// kVisibilityFloats floats, the mean and mean square of the first-hit distance (m, and m^2)
+  /// per texel. Both are the back-face distances when the probe is inside geometry.
+  std::vector<float> distanceMoments;
 };
 
 /// Captures one probe per point. Deterministic for a given seed whatever the thread count.

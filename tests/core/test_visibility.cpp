@@ -49,12 +49,17 @@ struct Captured {
 Captured capture(const Tracer& tracer, std::vector<Vec3> points, int spp = 1024) {
   CaptureSettings cs;
   cs.samplesPerProbe = spp;
+  cs.visibilityMaps = true;
   const auto caps = captureProbes(tracer, LightingRig{}, points, cs);
   Captured c;
   c.points = std::move(points);
   for (const ProbeCapture& p : caps) {
     c.sh.push_back(p.sh);
-    c.vis.push_back({p.distanceMoments, p.backfaceFraction > 0.25});
+    ProbeVisibility v;
+    EXPECT_EQ(p.distanceMoments.size(), v.distanceMoments.size());
+    std::copy(p.distanceMoments.begin(), p.distanceMoments.end(), v.distanceMoments.begin());
+    v.inside = p.backfaceFraction > 0.25;
+    c.vis.push_back(v);
   }
   return c;
 }
@@ -105,6 +110,12 @@ TEST(Visibility, CaptureRecordsTheDistanceToTheWallsPerTexel) {
   EXPECT_FALSE(c.vis[0].inside);
   // A probe inside the wall is flagged inside.
   EXPECT_TRUE(capture(tracer, {{2, 1, 1}}).vis[0].inside);
+  // Without CaptureSettings::visibilityMaps, no map (and the same SH: the same rays).
+  CaptureSettings plain;
+  plain.samplesPerProbe = 1024;
+  const ProbeCapture without = captureProbes(tracer, LightingRig{}, std::vector<Vec3>{p}, plain)[0];
+  EXPECT_TRUE(without.distanceMoments.empty());
+  EXPECT_EQ(without.sh, c.sh[0]);
 }
 
 TEST(Visibility, NoLightCrossesTheWallAndAProbeInsideItGetsNoWeight) {
