@@ -32,8 +32,11 @@ void registerInfo(CLI::App& app) {
     if (isVolumePath(*file)) {
       const VolumeFile vf = loadVolume(*file);
       const VolumeSource src = volumeSource(vf, *file);
+      // The version saveVolume writes for this content (the loader accepts 1 to 3).
       std::printf("%s: probe volume, format version %d, SH order 2\n", file->c_str(),
-                  vf.volume.cutPlanes.empty() ? 1 : 2);
+                  vf.volume.hasVisibility()     ? 3
+                  : vf.volume.cutPlanes.empty() ? 1
+                                                : 2);
       std::printf("  probes %zu, tetrahedra %zu, hull faces %zu\n", vf.volume.probeCount(),
                   vf.volume.tets.size(), vf.volume.hullFaces.size());
       if (!vf.volume.cutPlanes.empty()) {
@@ -42,6 +45,12 @@ void registerInfo(CLI::App& app) {
           cutTets += vf.volume.cutStart[t + 1] > vf.volume.cutStart[t];
         std::printf("  leak cuts: %zu planes in %zu tetrahedra\n", vf.volume.cutPlanes.size(),
                     cutTets);
+      }
+      if (vf.volume.hasVisibility()) {
+        size_t inside = 0;
+        for (uint8_t f : vf.volume.probeInside) inside += f;
+        std::printf("  visibility maps: %dx%d texels per probe, %zu probes inside geometry\n",
+                    vf.volume.visibilityMapSize, vf.volume.visibilityMapSize, inside);
       }
       std::printf("  scene %s, %zu rig lights\n", src.scenePath.c_str(), src.rig.lights.size());
       // How the probes' values were made (volumeSource has checked the metadata is JSON).

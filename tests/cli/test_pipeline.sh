@@ -16,6 +16,13 @@ cmp "$tmp/v.psv" "$tmp/v2.psv"
 "$cli" bake "$tmp/set.json" -o "$tmp/v3.psv" --target-error 0.1 --max-spp 1024 --no-leak-refine |
   grep -q "([0-9]* captured, 0 from the cache).*target error 0.1 (at most 1024 spp)"
 "$cli" info "$tmp/set.json" | grep -q "matches the scene"
+# The bake records a visibility map per probe (volume format version 3); eval reads the volume
+# through them unless --no-visibility.
+"$cli" info "$tmp/v.psv" | grep -q "format version 3"
+"$cli" info "$tmp/v.psv" | grep -q "visibility maps: 16x16 texels per probe"
+"$cli" eval "$tmp/v.psv" --queries 64 --reference-spp 16 --no-cache --json | grep -q '"visibility": true'
+"$cli" eval "$tmp/v.psv" --queries 64 --reference-spp 16 --no-cache --json --no-visibility |
+  grep -q '"visibility": false'
 # Least-squares fit: the same probes and tetrahedra, other values, said on stdout and recorded
 # in the volume's metadata; the same bake twice gives the same file.
 "$cli" bake "$tmp/set.json" -o "$tmp/vfit.psv" --spp 128 --no-leak-refine --fit --fit-points 16 \
