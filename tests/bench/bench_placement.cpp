@@ -11,6 +11,7 @@
 
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
+#include "core/placement/GreedyMethod.h"
 #include "core/placement/Place.h"
 #include "core/placement/Uniform.h"
 #include "core/scene/Scene.h"
