@@ -415,6 +415,41 @@ class TestPanels : public QObject {
     QVERIFY(!panel->cancelButton()->isEnabled());
   }
 
+  void cancelOfAGreedyPlacementIsQuick() {
+    // Greedy 64 on two-rooms (about 20 s on two cores): Cancel, clicked in each of its stages,
+    // ends the job within a second and leaves the document as it was.
+    const QString stages[] = {QStringLiteral("field"), QStringLiteral("greedy"),
+                              QStringLiteral("last step")};
+    for (const QString& stage : stages) {
+      Window win;
+      QVERIFY(win.w.openScene(kScene));
+      Document* doc = win.doc;
+      PlacementPanel* panel = win.w.placementPanel();
+      panel->methodBox()->setCurrentText(QStringLiteral("greedy"));
+      panel->budgetBox()->setValue(64);
+      panel->captureSamplesBox()->setValue(4096);  // a last step long enough to cancel in
+      QSignalSpy done(doc, &Document::jobFinished);
+      QElapsedTimer clock;
+      // Clicked at the first progress report of the stage, as an artist reading the bar would.
+      connect(doc, &Document::jobProgress, panel, [&](const QString& message) {
+        if (clock.isValid() || !message.contains(stage)) return;
+        clock.start();
+        panel->cancelButton()->click();
+      });
+      QVERIFY(panel->run());
+      QVERIFY(done.wait(120000));
+      QVERIFY2(clock.isValid(), qPrintable(stage + QStringLiteral(": never reported")));
+      const double seconds = double(clock.nsecsElapsed()) * 1e-9;
+      qInfo("Cancel in %s: the job ended %.3f s later", qPrintable(stage), seconds);
+      QCOMPARE(done.at(0).at(0).toString(), QStringLiteral("cancelled"));
+      QVERIFY2(seconds < 1.0, qPrintable(QString::number(seconds)));
+      QVERIFY(!doc->isBusy());
+      QCOMPARE(doc->probes().size(), size_t(0));
+      QCOMPARE(doc->undoStack()->count(), 0);
+      QVERIFY(!doc->isModified());
+    }
+  }
+
   void bakeSavesTheVolumeBesideTheProbeSet() {
     Window win;
     QVERIFY(win.w.openScene(kScene));
