@@ -4,8 +4,11 @@
 #include <QFormLayout>
 #include <QGroupBox>
 #include <QHBoxLayout>
+#include <QHeaderView>
+#include <QLabel>
 #include <QListWidget>
 #include <QPushButton>
+#include <QTableWidget>
 #include <QVBoxLayout>
 #include <QtMath>
 #include <cmath>
@@ -31,6 +34,34 @@ QWidget* row(QDoubleSpinBox* const (&boxes)[3]) {
   for (QDoubleSpinBox* b : boxes) h->addWidget(b);
   return w;
 }
+QString vec(Vec3 v, int decimals) {
+  return QStringLiteral("(%1, %2, %3)")
+      .arg(v.x, 0, 'f', decimals)
+      .arg(v.y, 0, 'f', decimals)
+      .arg(v.z, 0, 'f', decimals);
+}
+QString lightName(const Light& l) {
+  return QString::fromStdString(l.name.empty() ? std::string("unnamed") : l.name);
+}
+QString typeName(LightType t) {
+  switch (t) {
+    case LightType::Directional:
+      return QObject::tr("sun");
+    case LightType::Point:
+      return QObject::tr("point");
+    case LightType::Spot:
+      return QObject::tr("spot");
+  }
+  return {};
+}
+/// A directional light's source as the sun group gives it: azimuth (0 = +Z, 90 = +X) and
+/// elevation of the direction towards the light, in degrees.
+QString sourceAngles(Vec3 travels) {
+  const Vec3 t = -travels / std::max(length(travels), 1e-12);
+  return QObject::tr("from azimuth %1°, elevation %2°")
+      .arg(qRadiansToDegrees(std::atan2(t.x, t.z)), 0, 'f', 1)
+      .arg(qRadiansToDegrees(std::asin(std::clamp(t.y, -1.0, 1.0))), 0, 'f', 1);
+}
 }  // namespace
 
 Vec3 LightingPanel::towardsSun(double azimuthDeg, double elevationDeg) {
@@ -41,7 +72,24 @@ Vec3 LightingPanel::towardsSun(double azimuthDeg, double elevationDeg) {
 LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), doc_(doc) {
   auto* layout = new QVBoxLayout(this);
 
-  sunBox_ = new QGroupBox(tr("Sun"));
+  auto* sceneBox = new QGroupBox(tr("Scene lights (from the scene file, not editable here)"));
+  auto* sceneLayout = new QVBoxLayout(sceneBox);
+  sceneLights_ = new QTableWidget(0, 4);
+  sceneLights_->setHorizontalHeaderLabels(
+      {tr("Type"), tr("Name"), tr("Direction / position (m)"), tr("Intensity")});
+  sceneLights_->setEditTriggers(QAbstractItemView::NoEditTriggers);
+  sceneLights_->setSelectionMode(QAbstractItemView::NoSelection);
+  sceneLights_->verticalHeader()->hide();
+  sceneLights_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
+  sceneLights_->horizontalHeader()->setStretchLastSection(true);
+  sceneLights_->setMaximumHeight(110);
+  sceneLayout->addWidget(sceneLights_);
+  capturesUse_ = new QLabel;
+  capturesUse_->setWordWrap(true);
+  sceneLayout->addWidget(capturesUse_);
+  layout->addWidget(sceneBox);
+
+  sunBox_ = new QGroupBox(tr("Sun (rig)"));
   sunBox_->setCheckable(true);
   auto* sunForm = new QFormLayout(sunBox_);
   sunAz_ = spin(-360, 360, 30, 1, QStringLiteral("°"));
@@ -54,14 +102,14 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
   sunForm->addRow(tr("Colour (RGB)"), row(sunColor_));
   layout->addWidget(sunBox_);
 
-  skyBox_ = new QGroupBox(tr("Sky (constant radiance, W/m²/sr)"));
+  skyBox_ = new QGroupBox(tr("Sky (rig; constant radiance, W/m²/sr)"));
   skyBox_->setCheckable(true);
   auto* skyForm = new QFormLayout(skyBox_);
   for (int i = 0; i < 3; ++i) sky_[i] = spin(0, 1e6, 0.5, 3);
   skyForm->addRow(tr("RGB"), row(sky_));
   layout->addWidget(skyBox_);
 
-  auto* pointBox = new QGroupBox(tr("Point lights"));
+  auto* pointBox = new QGroupBox(tr("Point lights (rig)"));
   auto* pointLayout = new QVBoxLayout(pointBox);
   points_ = new QListWidget;
   points_->setMaximumHeight(90);
@@ -125,7 +173,83 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
     apply(tr("Remove point light"));
   });
   connect(doc_, &Document::rigChanged, this, &LightingPanel::refresh);
+  connect(doc_, &Document::sceneChanged, this, [this] {
+    refreshSceneLights();
+    refreshCapturesUse();
+  });
+  refreshSceneLights();
   refresh();
+}
+
+void LightingPanel::refreshSceneLights() {
+  const Scene* scene = doc_->scene();
+  const std::vector<Light> none;
+  const std::vector<Light>& lights = scene ? scene->lights : none;
+  sceneLights_->setRowCount(int(lights.size()));
+  for (size_t i = 0; i < lights.size(); ++i) {
+    const Light& l = lights[i];
+    const int r = int(i);
+    QString where, intensity;
+    const double e = std::max({l.intensity.r, l.intensity.g, l.intensity.b});
+    const Rgb c = e > 0 ? l.intensity / e : Rgb(1, 1, 1);
+    if (l.type == LightType::Directional) {
+      where = sourceAngles(l.direction);
+      intensity = tr("%1 W/m²").arg(e, 0, 'g', 4);
+    } else {
+      where = tr("at %1").arg(vec(l.position, 2));
+      if (l.type == LightType::Spot) where += tr(", along %1").arg(vec(l.direction, 2));
+      intensity = tr("%1 W/sr").arg(e, 0, 'g', 4);
+    }
+    QString tip =
+        l.type == LightType::Directional
+            ? tr("Travels along %1; irradiance on a surface facing it").arg(vec(l.direction, 3))
+            : tr("Radiant intensity, inverse-square falloff");
+    tip += tr("; colour (RGB) %1").arg(vec(Vec3(c.r, c.g, c.b), 3));
+    if (l.rangeMeters > 0) tip += tr("; range %1 m").arg(l.rangeMeters, 0, 'g', 4);
+    const QString cells[] = {typeName(l.type), lightName(l), where, intensity};
+    for (int col = 0; col < 4; ++col) {
+      auto* item = new QTableWidgetItem(cells[col]);
+      item->setToolTip(tip);
+      sceneLights_->setItem(r, col, item);
+    }
+  }
+  sceneLights_->setVisible(!lights.empty());
+}
+
+void LightingPanel::refreshCapturesUse() {
+  const Scene* scene = doc_->scene();
+  const LightingRig& rig = doc_->probeSet().rig;
+  QStringList sceneNames, rigNames;
+  int sceneSuns = 0, rigSuns = 0;
+  if (scene)
+    for (const Light& l : scene->lights) {
+      sceneNames << QStringLiteral("%1 \"%2\"").arg(typeName(l.type), lightName(l));
+      sceneSuns += l.type == LightType::Directional ? 1 : 0;
+    }
+  if (scene && scene->hasEmissiveSurfaces()) sceneNames << tr("emissive surfaces");
+  for (const Light& l : rig.lights) {
+    rigNames << (l.type == LightType::Directional
+                     ? typeName(l.type)
+                     : QStringLiteral("%1 \"%2\"").arg(typeName(l.type), lightName(l)));
+    rigSuns += l.type == LightType::Directional ? 1 : 0;
+  }
+  if (!rig.skyRadiance.isBlack()) rigNames << tr("sky");
+  if (!rig.envMapPath.empty() || rig.envMap) rigNames << tr("environment map");
+  QString text;
+  if (sceneNames.isEmpty() && rigNames.isEmpty())
+    text = tr("No light: the scene brings none. Add a sun, a sky or a point light below.");
+  else if (rigNames.isEmpty())
+    text = tr("Captures use the scene's lights: %1. The rig below adds none.")
+               .arg(sceneNames.join(QStringLiteral(", ")));
+  else if (sceneNames.isEmpty())
+    text = tr("The scene brings no light. Captures use the rig's: %1.")
+               .arg(rigNames.join(QStringLiteral(", ")));
+  else
+    text = tr("Captures use both the scene's lights (%1) and the rig's (%2).")
+               .arg(sceneNames.join(QStringLiteral(", ")), rigNames.join(QStringLiteral(", ")));
+  if (sceneSuns > 0 && rigSuns > 0)
+    text += QLatin1Char(' ') + tr("The scene's sun and the rig's sun both light the captures.");
+  capturesUse_->setText(text);
 }
 
 LightingRig LightingPanel::rigFromWidgets() const {
@@ -155,6 +279,7 @@ void LightingPanel::apply(const QString& text) {
 }
 
 void LightingPanel::refresh() {
+  refreshCapturesUse();
   refreshing_ = true;
   const LightingRig& rig = doc_->probeSet().rig;
   const Light* sun = nullptr;

@@ -1,7 +1,10 @@
 #pragma once
-// The lighting dock, to add and edit the sun, sky and lights of the rig: the probe set's
-// LightingRig, edited as one undoable step per change (Document::setRig). Conventions as the
-// command line's --sun / --env / --point (README):
+// The lighting dock. It lists the scene's own lights (glTF KHR_lights_punctual, read-only: they
+// are the scene file's) and edits the rig's sun, sky and point lights: the probe set's
+// LightingRig, one undoable step per change (Document::setRig). Every capture, bake and
+// evaluation lights the scene with both, the scene's lights and the rig's (allLights), and a
+// line under the list says which those are. Conventions as the command line's --sun / --env /
+// --point (README):
 //   sun: azimuth and elevation of the direction from the scene towards the sun, irradiance E
 //        (W/m^2) on a surface facing it, and a colour; stored as a Directional light named "sun"
 //        whose direction is the one the light travels (the negation);
@@ -14,7 +17,9 @@
 class QDoubleSpinBox;
 class QGroupBox;
 class QListWidget;
+class QLabel;
 class QPushButton;
+class QTableWidget;
 
 namespace ps::ui {
 
@@ -33,6 +38,10 @@ class LightingPanel : public QWidget {
   static Vec3 towardsSun(double azimuthDeg, double elevationDeg);
 
   // Widgets, for tests.
+  /// The scene's lights, one row each: type, name, direction or position, intensity.
+  QTableWidget* sceneLightsTable() const { return sceneLights_; }
+  /// Which lights the captures use: the scene's and the rig's, in one or two lines.
+  QLabel* capturesUseLabel() const { return capturesUse_; }
   QGroupBox* sunGroup() const { return sunBox_; }
   QDoubleSpinBox* sunAzimuth() const { return sunAz_; }
   QDoubleSpinBox* sunElevation() const { return sunEl_; }
@@ -48,10 +57,14 @@ class LightingPanel : public QWidget {
 
  private:
   void refresh();
+  void refreshSceneLights();
+  void refreshCapturesUse();
   void apply(const QString& text);
   void showPoint(int row);
 
   Document* doc_;
+  QTableWidget* sceneLights_;
+  QLabel* capturesUse_;
   QGroupBox* sunBox_;
   QDoubleSpinBox *sunAz_, *sunEl_, *sunE_, *sunColor_[3];
   QGroupBox* skyBox_;

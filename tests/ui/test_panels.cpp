@@ -8,6 +8,7 @@
 #include <QDoubleSpinBox>
 #include <QFileInfo>
 #include <QGroupBox>
+#include <QLabel>
 #include <QListWidget>
 #include <QMessageBox>
 #include <QProcess>
@@ -632,6 +633,76 @@ class TestPanels : public QObject {
     // A new scene starts a new plot.
     QVERIFY(win.w.openScene(QStringLiteral(PS_SOURCE_DIR "/resources/scenes/cornell.gltf")));
     QCOMPARE(panel->rmseSeries()->count(), 0);
+  }
+
+  void lightingPanelListsTheScenesLightsAndSaysWhichLightTheCapturesUse() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    LightingPanel* panel = win.w.lightingPanel();
+    // two-rooms brings a point light and a sun (KHR_lights_punctual): one row each, as the
+    // scene file gives them (the point's node at (-3.2, 2.55, 0.6), 15 and 4 times its colour).
+    const QTableWidget* table = panel->sceneLightsTable();
+    QVERIFY(table->isVisibleTo(panel));
+    QCOMPARE(table->rowCount(), 2);
+    QCOMPARE(table->item(0, 0)->text(), QStringLiteral("point"));
+    QCOMPARE(table->item(0, 1)->text(), QStringLiteral("room-a-light"));
+    QCOMPARE(table->item(0, 2)->text(), QStringLiteral("at (-3.20, 2.55, 0.60)"));
+    QCOMPARE(table->item(0, 3)->text(), QStringLiteral("15 W/sr"));
+    QVERIFY(table->item(0, 3)->toolTip().contains(QStringLiteral("colour (RGB) (1.000, 0.780")));
+    QCOMPARE(table->item(1, 0)->text(), QStringLiteral("sun"));
+    QCOMPARE(table->item(1, 1)->text(), QStringLiteral("sun"));
+    QCOMPARE(table->item(1, 3)->text(), QStringLiteral("4 W/m²"));
+    // Its source in the sun group's terms: the direction towards it, as azimuth and elevation.
+    const Vec3 travels = doc->scene()->lights[1].direction;
+    const Vec3 towards =
+        LightingPanel::towardsSun(qRadiansToDegrees(std::atan2(-travels.x, -travels.z)),
+                                  qRadiansToDegrees(std::asin(-travels.y)));
+    QVERIFY(length(towards + travels) < 1e-9);
+    QCOMPARE(table->item(1, 2)->text(),
+             QStringLiteral("from azimuth %1°, elevation %2°")
+                 .arg(qRadiansToDegrees(std::atan2(-travels.x, -travels.z)), 0, 'f', 1)
+                 .arg(qRadiansToDegrees(std::asin(-travels.y)), 0, 'f', 1));
+    QVERIFY(travels.y < 0);  // it shines down
+
+    // The captures use the scene's lights; the empty rig adds none.
+    const QLabel* uses = panel->capturesUseLabel();
+    QCOMPARE(uses->text(),
+             QStringLiteral("Captures use the scene's lights: point \"room-a-light\", sun "
+                            "\"sun\". The rig below adds none."));
+    // The rig's sun is added to them, and the panel says that two suns now light the scene.
+    panel->sunGroup()->setChecked(true);
+    QCOMPARE(uses->text(),
+             QStringLiteral("Captures use both the scene's lights (point \"room-a-light\", sun "
+                            "\"sun\") and the rig's (sun). The scene's sun and the rig's sun "
+                            "both light the captures."));
+    // The rig is edited as before; the scene's lights stay as the file gives them.
+    panel->sunIrradiance()->setValue(2);
+    QCOMPARE(doc->probeSet().rig.lights.size(), size_t(1));
+    QCOMPARE(doc->probeSet().rig.lights[0].intensity, Rgb(2, 2, 2));
+    QCOMPARE(doc->scene()->lights.size(), size_t(2));
+    QCOMPARE(table->rowCount(), 2);
+    doc->undoStack()->undo();
+    doc->undoStack()->undo();
+    QVERIFY(doc->probeSet().rig.empty());
+    QVERIFY(uses->text().endsWith(QStringLiteral("The rig below adds none.")));
+
+    // cornell brings no punctual light but an emissive ceiling panel: no rows, and the line
+    // names what lights it.
+    QVERIFY(win.w.openScene(QStringLiteral(PS_SOURCE_DIR "/resources/scenes/cornell.gltf")));
+    QCOMPARE(table->rowCount(), 0);
+    QVERIFY(!table->isVisibleTo(panel));
+    QCOMPARE(uses->text(), QStringLiteral("Captures use the scene's lights: emissive surfaces. "
+                                          "The rig below adds none."));
+    // A scene without any light, built in memory: the line asks for one.
+    Scene dark = *doc->scene();
+    for (Material& m : dark.materials) m.emission = Rgb(0, 0, 0);
+    doc->setScene(std::move(dark));
+    QCOMPARE(uses->text(), QStringLiteral("No light: the scene brings none. Add a sun, a sky "
+                                          "or a point light below."));
+    panel->skyGroup()->setChecked(true);
+    QCOMPARE(uses->text(),
+             QStringLiteral("The scene brings no light. Captures use the rig's: sky."));
   }
 
   void lightingPanelEditsTheRig() {
