@@ -125,6 +125,12 @@ uniform mat4 uViewProj;
 uniform int uImpostor;  // 1: aPos.xy is a quad corner; the sphere is ray cast per fragment
 uniform vec3 uRight;
 uniform vec3 uUp;
+uniform vec3 uEye;
+uniform vec3 uForward;
+// Probes show at least this radius in pixels (times their state's factor): the radius is scaled
+// by max(1, uMinRadiusScale * depth), uMinRadiusScale = minimum pixels * metres per pixel at unit
+// depth / the base radius (Viewport::drawnRadius).
+uniform float uMinRadiusScale;
 out vec3 vWorld;
 out vec3 vNormal;
 flat out vec4 vStyle;
@@ -132,11 +138,12 @@ flat out int vInstance;  // the SH is fetched from the instance buffer (few vary
 flat out vec4 vSphere;
 void main() {
   vNormal = aPos;
-  vSphere = iPosRadius;
+  float depth = max(dot(iPosRadius.xyz - uEye, uForward), 0.0);
+  vSphere = vec4(iPosRadius.xyz, iPosRadius.w * max(1.0, uMinRadiusScale * depth));
   if (uImpostor == 1)  // a camera-facing quad large enough for the perspective silhouette
-    vWorld = iPosRadius.xyz + (uRight * aPos.x + uUp * aPos.y) * (iPosRadius.w * 1.6);
+    vWorld = vSphere.xyz + (uRight * aPos.x + uUp * aPos.y) * (vSphere.w * 1.6);
   else
-    vWorld = iPosRadius.xyz + aPos * iPosRadius.w;
+    vWorld = vSphere.xyz + aPos * vSphere.w;
   vStyle = iStyle;
   vInstance = gl_InstanceID;
   gl_Position = uViewProj * vec4(vWorld, 1.0);
@@ -444,10 +451,24 @@ float Viewport::baseRadius() const {
   return baseRadius_;
 }
 
-float Viewport::drawnRadius(const Probe& p) const {
+float Viewport::worldRadius(const Probe& p) const {
   float r = baseRadius_ * (p.state == ProbeState::Accepted ? 1.0f : 0.7f);
   if (selection_.contains(p.id)) r *= 1.25f;
   return r;
+}
+
+float Viewport::metresPerPixelPerMetre() const {
+  return 2.0f * std::tan(qDegreesToRadians(camera_.fovYDeg) * 0.5f) / float(std::max(height(), 1));
+}
+
+float Viewport::drawnRadius(const Probe& p) const {
+  // As the probe vertex shader computes it (uMinRadiusScale): the depth along the view
+  // direction gives the metres per pixel.
+  const float r = worldRadius(p);
+  const float depth = QVector3D::dotProduct(toQ(p.position) - camera_.eye(), -camera_.backward());
+  const float atLeast =
+      kMinProbeRadiusPx * std::max(depth, 0.0f) * metresPerPixelPerMetre() / baseRadius_;
+  return r * std::max(1.0f, atLeast);
 }
 
 void Viewport::frameAll() {
@@ -465,7 +486,7 @@ void Viewport::frameSelection() {
   Bounds3 b;
   for (const Probe& p : doc_->probes())
     if (selection_.contains(p.id)) {
-      const double r = drawnRadius(p) * 4.0;
+      const double r = worldRadius(p) * 4.0;
       b.extend(p.position - Vec3(r, r, r));
       b.extend(p.position + Vec3(r, r, r));
     }
@@ -813,7 +834,7 @@ void Viewport::uploadProbes() {
     const float alpha = p.state == ProbeState::Rejected && !selected ? 0.45f : 1.0f;
     const float code = float(int(p.state) + (isInvalid(p) ? 8 : 0));  // state, +8: invalid
     inst.insert(inst.end(),
-                {float(p.position.x), float(p.position.y), float(p.position.z), drawnRadius(p),
+                {float(p.position.x), float(p.position.y), float(p.position.z), worldRadius(p),
                  code, selected ? 1.0f : 0.0f, p.sh ? 1.0f : 0.0f, alpha});
     for (int i = 0; i < kShCoeffCount; ++i) {
       const Rgb c = p.sh ? p.sh->c[size_t(i)] * shCosineLobe(i) : Rgb();
@@ -939,6 +960,11 @@ void Viewport::paintGL() {
     const QVector3D right = camera_.right(), up = camera_.up();
     glUniform3f(glGetUniformLocation(probeProgram_, "uRight"), right.x(), right.y(), right.z());
     glUniform3f(glGetUniformLocation(probeProgram_, "uUp"), up.x(), up.y(), up.z());
+    const QVector3D forward = -camera_.backward();
+    glUniform3f(glGetUniformLocation(probeProgram_, "uForward"), forward.x(), forward.y(),
+                forward.z());
+    glUniform1f(glGetUniformLocation(probeProgram_, "uMinRadiusScale"),
+                kMinProbeRadiusPx * metresPerPixelPerMetre() / baseRadius_);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_BUFFER, instanceTex_);
     glUniform1i(glGetUniformLocation(probeProgram_, "uInstances"), 0);

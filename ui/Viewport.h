@@ -62,8 +62,16 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   bool onScreen(QPointF p) const { return rect().contains(p.toPoint()); }
   /// The probe whose sphere the ray under the pixel hits first, if any.
   std::optional<quint64> pickProbe(QPointF widgetPos) const;
-  /// The drawn radius of a probe in metres (depends on its state and on the selection).
+  /// The drawn radius of a probe in metres, as this view draws it: its radius in the scene
+  /// (worldRadius), enlarged where that would show less than kMinProbeRadiusPx pixels (times
+  /// the state's and the selection's factor) so that probes stay visible when the view is far,
+  /// as at Frame all, or small.
   float drawnRadius(const Probe& p) const;
+  /// A probe's radius in the scene, metres: baseRadius() times 1 (accepted) or 0.7, times 1.25
+  /// when selected.
+  float worldRadius(const Probe& p) const;
+  /// The smallest drawn radius of an accepted, unselected probe, in logical pixels.
+  static constexpr float kMinProbeRadiusPx = 9.0f;
 
   /// What a left click does: select (and drag the move handle), add a probe on the surface, or
   /// (DrawVolume) drag out an importance volume's footprint from the surface point pressed.
@@ -265,6 +273,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void clipPlanes(float& nearDist, float& farDist) const;
   float baseRadius() const;
   void updateBaseRadius();
+  /// Metres per logical pixel at unit distance along the view direction (perspective).
+  float metresPerPixelPerMetre() const;
   void updateAutoExposure();
   void onProbesChanged();
   void drawHandle(const QMatrix4x4& vp);

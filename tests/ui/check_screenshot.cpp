@@ -25,6 +25,12 @@
 // without. Of the points at 1/8 ... 7/8 along each on-screen box edge (from the sidecar), at
 // least 60 % have a pixel within 2 px that differs from BASE by more than 20 and has the box's
 // hue: orange (red above blue by 25) for a weight >= 1, blue (blue above red by 25) below 1.
+//
+// check_screenshot --min-radius PX SHOT.png NOPROBES.png: the probes are drawn at least PX
+// pixels in radius (accepted; 0.7 PX for the others, the viewport's factors), however far the
+// view. Every on-screen probe's sidecar radiusPx is at least that, and of the probes drawn at
+// their centre (as above), at least 80 % differ from NOPROBES by more than 12 at both pixels
+// 0.8 of that radius left and right of the centre.
 #include <QFile>
 #include <QImage>
 #include <QJsonArray>
@@ -211,7 +217,45 @@ int checkCuts(const char* cutPath, const char* noCutPath) {
   return 0;
 }
 
+int checkMinRadius(double minPx, const char* shotPath, const char* basePath) {
+  Pair pair;
+  if (const char* why = loadPair(shotPath, basePath, pair); *why) return fail(why);
+  const QImage &shot = pair.shot, &bare = pair.base;
+  const int w = shot.width(), h = shot.height();
+  auto differs = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < w && y < h &&
+           channelDiff(shot.pixel(x, y), bare.pixel(x, y)) > 12;
+  };
+  int onScreen = 0, drawn = 0, wide = 0;
+  double smallest = 1e9;
+  for (const QJsonValue& v : pair.root["probes"].toArray()) {
+    const QJsonObject p = v.toObject();
+    if (!p["onScreen"].toBool()) continue;
+    ++onScreen;
+    const double least = minPx * (p["state"].toString() == QLatin1String("accepted") ? 1.0 : 0.7);
+    const double radius = p["radiusPx"].toDouble();
+    smallest = std::min(smallest, radius / least);
+    const int cx = int(std::lround(p["x"].toDouble())), cy = int(std::lround(p["y"].toDouble()));
+    if (!differs(cx, cy)) continue;  // hidden (behind another probe's ghost or a wall)
+    ++drawn;
+    const int d = int(0.8 * least);
+    if (differs(cx - d, cy) && differs(cx + d, cy)) ++wide;
+  }
+  std::printf(
+      "probes on screen %d, drawn %d, of them as wide as the minimum %d; sidecar radius / "
+      "minimum >= %.2f\n",
+      onScreen, drawn, wide, smallest);
+  if (onScreen < 10) return fail("fewer than 10 probes on screen");
+  if (smallest < 0.99) return fail("a probe's sidecar radius is below the minimum");
+  if (wide < 0.8 * drawn)
+    return fail("fewer than 80% of the drawn probes are as wide as the minimum");
+  std::printf("check_screenshot: OK\n");
+  return 0;
+}
+
 int main(int argc, char** argv) {
+  if (argc == 5 && QString::fromLatin1(argv[1]) == QLatin1String("--min-radius"))
+    return checkMinRadius(QString::fromLatin1(argv[2]).toDouble(), argv[3], argv[4]);
   if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--overlays"))
     return checkOverlays(argv[2], argv[3]);
   if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--volumes"))

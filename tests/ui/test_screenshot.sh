@@ -49,6 +49,14 @@ done
 "$checker" --volumes "$tmp/volumes.png" "$tmp/novolumes.png"
 "$checker" --cuts "$tmp/cuts.png" "$tmp/nocuts.png"
 
+# Probes stay visible however far the view: in a small viewport the same set's probes are drawn
+# at least 9 px in radius (accepted; candidates 0.7 of that), Viewport::kMinProbeRadiusPx.
+run "$scene" --probes "$tmp/set.json" --size 320x240 --screenshot "$tmp/small.png"
+run "$scene" --probes "$tmp/set.json" --size 320x240 --no-probes --screenshot "$tmp/smallbare.png"
+cp "$tmp/small.png" "$artifacts/editor-two-rooms-small.png"
+cp "$tmp/small.png.json" "$artifacts/editor-two-rooms-small.png.json"
+"$checker" --min-radius 9 "$tmp/small.png" "$tmp/smallbare.png"
+
 # A file that fails to load: one line on stderr, exit 1, no screenshot.
 if run "$tmp/missing.gltf" --screenshot "$tmp/none.png" 2> "$tmp/err.txt"; then
   echo "FAIL: a missing scene exited 0"; exit 1
