@@ -565,7 +565,9 @@ void Document::setImportanceVolumesRaw(const std::vector<ImportanceVolume>& volu
 }
 
 void Document::requestCancel() {
-  if (jobCancel_) jobCancel_->store(true);
+  if (!jobCancel_) return;
+  const bool first = busy_ && !jobCancel_->exchange(true);
+  if (first) emit jobProgress(tr("Cancelling…"), jobFraction_);
 }
 
 void Document::startJob(const QString& kind, const QString& firstMessage, JobFn work) {
@@ -586,11 +588,14 @@ void Document::startJob(const QString& kind, const QString& firstMessage, JobFn 
       QMetaObject::invokeMethod(
           this,
           [this, what, fraction, generation] {
-            if (generation_ == generation && busy_) emit jobProgress(what, fraction);
+            if (generation_ != generation || !busy_ || isCancelling()) return;
+            jobFraction_ = fraction;
+            emit jobProgress(what, fraction);
           },
           Qt::QueuedConnection);
     return true;
   };
+  jobFraction_ = 0;
   emit jobProgress(firstMessage, 0.0);
   if (!watcher_) {
     watcher_ = new QFutureWatcher<std::shared_ptr<JobResult>>(this);

@@ -210,7 +210,12 @@ class Document : public QObject {
   /// What the last finished job reported it did (a placement method's notes), one line each.
   QStringList lastJobNotes() const { return jobNotes_; }
   /// Asks the running job to stop at its next progress report; jobFinished("cancelled") follows.
+  /// Emits jobProgress("Cancelling…") at once, at the fraction last reported, so that the
+  /// artist sees the request taken while the job runs on to its next report (the core's
+  /// stages without reports, as a bake's leak cuts, can take a minute).
   void requestCancel();
+  /// A cancel was asked for and the job has not ended yet.
+  bool isCancelling() const { return busy_ && jobCancel_ && jobCancel_->load(); }
 
   /// Runs a placement method in the background. When it finishes, one undo step replaces the
   /// unlocked candidates by the new ones (or, with replaceCandidates off, keeps them and only
@@ -342,6 +347,7 @@ class Document : public QObject {
   bool liveRunningFinal_ = false;
   std::set<uint64_t> liveRunningIds_;  ///< the probes of the running live capture
   std::shared_ptr<std::atomic<bool>> jobCancel_;
+  double jobFraction_ = 0;  ///< the running job's last reported fraction
 };
 
 }  // namespace ps::ui

@@ -115,6 +115,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   overlayReason_->setObjectName("overlayReason");
   overlayReason_->setStyleSheet("color: #b35c00");
   jobLabel_ = new QLabel;
+  jobLabel_->setObjectName("jobLabel");
   progress_ = new QProgressBar;
   progress_->setRange(0, 100);
   progress_->setMaximumWidth(160);
@@ -496,7 +497,7 @@ void MainWindow::onJobProgress(const QString& what, double fraction) {
   progress_->setValue(percent);
   QString text = what;
   const double elapsed = jobTimer_.isValid() ? jobTimer_.elapsed() * 1e-3 : 0.0;
-  if (busy && percent >= 3 && elapsed >= 2.0) {
+  if (busy && !doc_->isCancelling() && percent >= 3 && elapsed >= 2.0) {
     const double left = elapsed * (100 - percent) / percent;
     text += left < 60 ? tr(" (about %1 s left)").arg(std::max(1, int(std::lround(left))))
                       : tr(" (about %1 min left)").arg(int(std::lround(left / 60)));

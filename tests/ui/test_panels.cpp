@@ -431,11 +431,16 @@ class TestPanels : public QObject {
       panel->captureSamplesBox()->setValue(4096);  // a last step long enough to cancel in
       QSignalSpy done(doc, &Document::jobFinished);
       QElapsedTimer clock;
-      // Clicked at the first progress report of the stage, as an artist reading the bar would.
+      // Clicked at the first progress report of the stage, as an artist reading the bar would;
+      // the status bar says at once that the job is being cancelled.
+      const QLabel* jobLabel = win.w.findChild<QLabel*>(QStringLiteral("jobLabel"));
+      QVERIFY(jobLabel);
+      QString shownAtCancel;
       connect(doc, &Document::jobProgress, panel, [&](const QString& message) {
         if (clock.isValid() || !message.contains(stage)) return;
         clock.start();
         panel->cancelButton()->click();
+        shownAtCancel = jobLabel->text();
       });
       QVERIFY(panel->run());
       QVERIFY(done.wait(120000));
@@ -443,6 +448,7 @@ class TestPanels : public QObject {
       const double seconds = double(clock.nsecsElapsed()) * 1e-9;
       qInfo("Cancel in %s: the job ended %.3f s later", qPrintable(stage), seconds);
       QCOMPARE(done.at(0).at(0).toString(), QStringLiteral("cancelled"));
+      QCOMPARE(shownAtCancel, QStringLiteral("Cancelling…"));
       QVERIFY2(seconds < 1.0, qPrintable(QString::number(seconds)));
       QVERIFY(!doc->isBusy());
       QCOMPARE(doc->probes().size(), size_t(0));
