@@ -149,25 +149,29 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   if (fit) checkFitSettings(*fit, probes.positions.size());  // with the added probes
   r.probes = probes.positions.size();
   auto t0 = std::chrono::steady_clock::now();
-  // Progress: the capture, then the fit (when asked) in as much again.
-  const double captureShare = fit ? 0.45 : 0.95;
-  ProgressFn captureProgress;
-  if (progress) captureProgress = [&](double f) { return progress(captureShare * f); };
+  // Progress: the capture, the leak cuts (when asked; on real scenes they can take longer than
+  // the capture) and the fit (when asked), each a share of it, so that each also cancels.
+  const bool cuts = settings.leakRefine && settings.leakCuts;
+  const double fitShare = fit ? 0.5 : 0.0, cutsShare = cuts ? 0.45 : 0.0;
+  const double captureShare = 0.95 - fitShare - cutsShare;
+  auto share = [&](double from, double width) -> ProgressFn {
+    if (!progress) return {};
+    return [&progress, from, width](double f) { return progress(from + width * f); };
+  };
+  const ProgressFn captureProgress = share(0, captureShare);
   captureStage(probes, set.rig, tracer, settings, captureProgress, r);
   auto t1 = std::chrono::steady_clock::now();
   r.file.volume = volumeFromProbes(probes.positions, probes.sh, probes.visibility);
   auto t2 = std::chrono::steady_clock::now();
   // Before the fit, which then fits the values that the cut interpolation reads.
-  if (settings.leakRefine && settings.leakCuts)
+  if (cuts)
     r.leakCuts = computeLeakCuts(tracer, r.file.volume, importanceBoxes(set.importanceVolumes),
-                                 settings.leakCutSettings);
+                                 settings.leakCutSettings, share(captureShare, cutsShare));
   r.captureSeconds = std::chrono::duration<double>(t1 - t0).count();
   r.tetraSeconds = std::chrono::duration<double>(t2 - t1).count();
   if (fit) {
-    ProgressFn fitProgress;
-    if (progress) fitProgress = [&](double f) { return progress(0.45 + 0.5 * f); };
     r.fit = fitProbeValues(tracer, set.rig, r.file.volume, importanceBoxes(set.importanceVolumes),
-                           *fit, fitProgress);
+                           *fit, share(captureShare + cutsShare, fitShare));
   }
 
   nlohmann::ordered_json meta;

@@ -106,6 +106,8 @@ void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& trac
 /// builds the volume and, when settings.fit is set, fits its values. The volume's metadata JSON
 /// records the scene path (absolute; saveVolume's caller may relativize), the rig, the probe ids
 /// and the leak probes added. Throws ps::ParameterError when fewer than 4 probes are accepted.
+/// `progress` covers the capture, the leak cuts and the fit, each a share of [0, 1]; returning
+/// false from it during any of them throws ps::Cancelled.
 BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSettings& settings,
                         const ProgressFn& progress = {});
 

@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "core/capture/Capture.h"
+#include "core/capture/ParallelProbes.h"
 #include "core/common/Check.h"
 #include "core/common/Error.h"
 #include "core/common/Tolerances.h"
@@ -865,7 +866,7 @@ void storeCuts(const std::vector<TetCuts>& out, ProbeVolume& v, LeakCutResult& r
 // any tetrahedralization of probes on both sides of a wall has tetrahedra across it. The cuts
 // split those tetrahedra along the surfaces that hide a vertex.
 LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<const Bounds3> domain,
-                              const LeakCutSettings& s) {
+                              const LeakCutSettings& s, const ProgressFn& progress) {
   checkLeakCutSettings(s);
   if (domain.empty()) domain = std::span<const Bounds3>(&tracer.scene().bounds, 1);
   // Planes closer than this (and parallel) are one surface's.
@@ -886,7 +887,8 @@ LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<co
       clampedPointsByTet(tracer, v, domain, s, perVolume);
   const CutShared shared{tracer, s, domain, samePlane, perVolume, inside};
   std::vector<TetCuts> out(v.tets.size());
-  tbb::parallel_for(size_t(0), v.tets.size(), [&](size_t t) {
+  // A cancel leaves `aside` to put v back as it was.
+  forEachProbeInParallel(v.tets.size(), 0, progress, [&](size_t t, const std::atomic<bool>&) {
     out[t] = cutTet(shared, v, t, hullFacesOf[t], volume[t], clampedOf[t]);
   });
   LeakCutResult result;

@@ -148,9 +148,12 @@ struct LeakCutResult {
 /// count falls), up to the cap on planes; the shortest run of picks with the lowest cost is
 /// kept. Deterministic for a seed. Throws ps::ParameterError for settings out of range.
 /// `domain`: where queries can be (the importance volumes' boxes; empty: the scene bounds),
-/// which bounds the points drawn outside the hull.
+/// which bounds the points drawn outside the hull. `progress` gets the fraction of tetrahedra
+/// cut, after each one; when it returns false no further tetrahedron starts, v is left as it
+/// was and ps::Cancelled is thrown.
 LeakCutResult computeLeakCuts(const Tracer& tracer, ProbeVolume& v, std::span<const Bounds3> domain,
-                              const LeakCutSettings& settings = {});
+                              const LeakCutSettings& settings = {},
+                              const ProgressFn& progress = {});
 
 /// Where the cuts cannot stop a leak (a query sees none of the probes its cell keeps, as beside
 /// a box whose faces' planes cut off the probes it sees, or outside the hull in a window's

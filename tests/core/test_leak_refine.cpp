@@ -2,6 +2,7 @@
 // on each side of them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -420,6 +421,28 @@ TEST(LeakCuts, QueriesClampedToAHullEdgeGetCutsToo) {
   EXPECT_EQ(onEdge, n);
   EXPECT_GT(leakBefore, n / 2);
   EXPECT_LT(leakAfter, leakBefore / 10);
+}
+
+TEST(LeakCuts, ProgressReportsEachTetrahedronAndCancelLeavesTheVolumeAsItWas) {
+  const Tracer& tracer = twoRooms().tracer;
+  const std::vector<Vec3> probes = coarseSet(tracer);
+  const Tetrahedralization t = tetrahedralize(probes);
+  ProbeVolume v = buildProbeVolume(t, std::vector<ShRgb>(t.vertices.size()));
+  // Reported after each tetrahedron, increasing, ending at 1.
+  std::vector<double> seen;
+  ProbeVolume whole = v;
+  computeLeakCuts(tracer, whole, {}, {}, [&](double f) {
+    seen.push_back(f);
+    return true;
+  });
+  ASSERT_EQ(seen.size(), v.tets.size());
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_EQ(seen.back(), 1.0);
+  // Cancelled at the first report: no cuts, the volume as it was (here, with whole's cuts).
+  ProbeVolume cut = whole;
+  EXPECT_THROW(computeLeakCuts(tracer, cut, {}, {}, [](double) { return false; }), Cancelled);
+  EXPECT_EQ(cut.cutStart, whole.cutStart);
+  EXPECT_EQ(cut.cutPlanes.size(), whole.cutPlanes.size());
 }
 
 TEST(LeakCuts, BadSettingsThrowParameterError) {
