@@ -39,6 +39,8 @@ import os
 import struct
 import sys
 
+from make_scenes import box_mesh
+
 # ----------------------------------------------------------------------------- constants (mm)
 
 STOREY = 3500         # floor-to-floor height
@@ -123,30 +125,20 @@ class Mesh:
         self.hi = [float("-inf")] * 3
 
     def box(self, lo, hi):
-        """The closed box [lo, hi] (mm). The face with outward normal +e_a spans in-plane axes
-        u = a+1, v = a+2 (e_u x e_v = e_a); the -e_a face swaps them: CCW seen from outside."""
+        """The closed box [lo, hi] (mm), its faces CCW seen from outside (make_scenes.box_mesh)."""
         assert all(lo[a] < hi[a] for a in range(3)), (lo, hi)
         lo_m = [c / 1000.0 for c in lo]
         hi_m = [c / 1000.0 for c in hi]
         for a in range(3):
             self.lo[a] = min(self.lo[a], lo_m[a])
             self.hi[a] = max(self.hi[a], hi_m[a])
-        for axis in range(3):
-            for sign in (-1, 1):
-                u, v = (axis + 1) % 3, (axis + 2) % 3
-                if sign < 0:
-                    u, v = v, u
-                coord = hi_m[axis] if sign > 0 else lo_m[axis]
-                base = len(self.positions) // 3
-                n = [0.0, 0.0, 0.0]
-                n[axis] = float(sign)
-                for cu, cv in ((lo_m[u], lo_m[v]), (hi_m[u], lo_m[v]), (hi_m[u], hi_m[v]),
-                               (lo_m[u], hi_m[v])):
-                    p = [0.0, 0.0, 0.0]
-                    p[axis], p[u], p[v] = coord, cu, cv
-                    self.positions.extend(p)
-                    self.normals.extend(n)
-                self.indices.extend((base, base + 1, base + 2, base, base + 2, base + 3))
+        positions, normals, indices = box_mesh(lo_m, hi_m)
+        base = len(self.positions) // 3
+        for p in positions:
+            self.positions.extend(p)
+        for n in normals:
+            self.normals.extend(n)
+        self.indices.extend(base + i for i in indices)
 
     def triangles(self):
         return len(self.indices) // 3
