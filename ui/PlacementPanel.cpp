@@ -85,10 +85,11 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   replace_->setToolTip(tr("Off: keep the current candidates and only add new ones"));
   form->addRow(replace_);
   placeLeakRefine_ = new QCheckBox(tr("Add probes against leaks"));
-  placeLeakRefine_->setChecked(true);
+  placeLeakRefine_->setChecked(false);
   placeLeakRefine_->setToolTip(
       tr("After the method, add candidates (method \"leak\") on both sides of the walls that "
-         "tetrahedron edges cross (Sukys 3.2.2), as `probestudio place` does"));
+         "tetrahedron edges cross (Sukys 3.2.2), beyond the budget. Off by default: the baked "
+         "volume's visibility maps keep light from crossing walls without them"));
   form->addRow(placeLeakRefine_);
   run_ = new QPushButton(tr("Run placement"));
   run_->setToolTip(
@@ -132,18 +133,18 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
           [this](int n) { doc_->liveCaptureSettings().finalSamples = n; });
   doc_->liveCaptureSettings().finalSamples = bakeSpp_->value();
   leakRefine_ = new QCheckBox(tr("Refine leaks"));
-  leakRefine_->setChecked(true);
+  leakRefine_->setChecked(false);
   leakRefine_->setToolTip(
       tr("Add probes on both sides of the walls that tetrahedron edges cross (Sukys 3.2.2); they "
-         "go into the volume, not into the probe set"));
+         "go into the volume, not into the probe set. Off by default: the volume's visibility "
+         "maps keep light from crossing walls, and the volume holds exactly the accepted probes"));
   bakeForm->addRow(leakRefine_);
   leakCuts_ = new QCheckBox(tr("Cut leaks"));
-  leakCuts_->setChecked(true);
+  leakCuts_->setChecked(false);
   leakCuts_->setToolTip(
       tr("Planes through the walls that hide a tetrahedron's probes from part of it; a query "
          "there interpolates only the probes on its side (one dot product per plane in the "
-         "renderer; the volume file's version 2). Without \"Refine leaks\", the volume holds "
-         "exactly the accepted probes"));
+         "renderer). Off by default: on top of the visibility maps they do not lower the error"));
   bakeForm->addRow(leakCuts_);
   fit_ = new QCheckBox(tr("Least-squares values"));
   fit_->setToolTip(

@@ -37,6 +37,7 @@ void registerBake(CLI::App& app) {
     std::string cacheDir;
     bool noCache = false;
     bool noLeakRefine = false;
+    bool leakRefine = false;
     bool noLeakCuts = false;
     bool leakCutProbes = false;
     bool leakCutsOnly = false;
@@ -55,15 +56,20 @@ void registerBake(CLI::App& app) {
                   "Capture cache folder (default: SET.capture-cache beside the probe set)");
   cmd->add_flag("--no-cache", o->noCache,
                 "Capture every probe, neither reading nor writing a cache");
+  cmd->add_flag("--leak-refine", o->leakRefine,
+                "Leak handling: add probes where the probe mesh's edges cross geometry (Sukys "
+                "3.2.2), then cut the tetrahedra that still span walls. Off by default: the "
+                "volume's visibility maps keep light from crossing walls, the volume holds "
+                "exactly the set's accepted probes, and neither lowers the error on top of the "
+                "maps (docs/leaks.md)");
   cmd->add_flag("--no-leak-refine", o->noLeakRefine,
-                "Do not add probes where the probe mesh's edges cross geometry (Sukys 3.2.2)");
+                "No leak handling: the default, the volume holds the set's accepted probes");
   cmd->add_flag("--no-leak-cuts", o->noLeakCuts,
-                "With leak refinement, only Sukys's probes: no leak cuts (planes that keep a "
+                "With --leak-refine, only Sukys's probes: no leak cuts (planes that keep a "
                 "query from interpolating probes behind the surfaces in its tetrahedron)");
-  cmd->add_flag(
-      "--leak-cuts-only", o->leakCutsOnly,
-      "Leak cuts without Sukys's probes: the volume holds exactly the set's accepted probes "
-      "(compare sets at equal probe counts, or keep an artist's hand-placed set as it is)");
+  cmd->add_flag("--leak-cuts-only", o->leakCutsOnly,
+                "Leak cuts without Sukys's probes: the volume holds exactly the set's accepted "
+                "probes, with cuts");
   cmd->add_option("--over-cut-weight", o->overCutWeight,
                   "What a leak cut costs, in leaking points, per unit of weight it moves at a "
                   "point that sees every probe (a plane also cuts off probes in plain view; eval's "
@@ -102,14 +108,25 @@ void registerBake(CLI::App& app) {
     }
     if (!std::isfinite(o->overCutWeight))
       throw ParameterError("--over-cut-weight: expected a finite number >= 0");
-    if (cmd->count("--over-cut-weight") && (o->noLeakRefine || o->noLeakCuts))
+    // Leak handling is on with --leak-refine, or with an option that only means something
+    // with the cuts.
+    const bool leakHandling = o->leakRefine || o->leakCutsOnly || o->leakCutProbes;
+    if (o->leakCutsOnly && (o->leakRefine || o->noLeakCuts || o->leakCutProbes))
       throw ParameterError(
-          "--over-cut-weight: it weighs the leak cuts, which --no-leak-refine and --no-leak-cuts "
-          "turn off");
-    if (o->leakCutsOnly && (o->noLeakRefine || o->noLeakCuts || o->leakCutProbes))
-      throw ParameterError(
-          "--leak-cuts-only: cuts without Sukys's probes; it cannot go with --no-leak-refine, "
+          "--leak-cuts-only: cuts without Sukys's probes; it cannot go with --leak-refine, "
           "--no-leak-cuts or --leak-cut-probes");
+    if (o->noLeakRefine && leakHandling)
+      throw ParameterError(
+          "--no-leak-refine: it cannot go with --leak-refine, --leak-cuts-only or "
+          "--leak-cut-probes");
+    if (o->noLeakCuts && !o->leakRefine)
+      throw ParameterError(
+          "--no-leak-cuts: it leaves Sukys's probes of --leak-refine alone; "
+          "expected --leak-refine with it");
+    if (cmd->count("--over-cut-weight") && (!leakHandling || o->noLeakCuts))
+      throw ParameterError(
+          "--over-cut-weight: it weighs the leak cuts, which need --leak-refine, "
+          "--leak-cuts-only or --leak-cut-probes, and --no-leak-cuts turns off");
     if (o->sampling.spp > kMaxSamplesPerProbe)
       throw ParameterError("--spp: " + std::to_string(o->sampling.spp) +
                            " samples per probe is above the " + "limit of " +
@@ -123,7 +140,7 @@ void registerBake(CLI::App& app) {
     o->sampling.apply(bs.capture);
     bs.capture.seed = o->seed;
     bs.sceneHash = sceneContentHash(set.scenePath);
-    bs.leakRefine = !o->noLeakRefine;
+    bs.leakRefine = leakHandling;
     bs.leakCuts = !o->noLeakCuts;
     bs.leakCutProbes = o->leakCutProbes;
     bs.leakRefineProbes = !o->leakCutsOnly;

@@ -37,6 +37,11 @@ const ParameterFlag kParameterFlags[] = {
      "reference irradiance, in stops, floored at 5 % of the median; a dim room counts as much "
      "as a bright one) or energy (rel_rmse, dominated by the bright places)",
      false, true},
+    {"--interpolant", "interpolant",
+     "greedy: how its error interpolates the probes: visible (default: as the runtime reads a "
+     "baked volume, each probe weighed by whether its visibility map sees the point, so no "
+     "light crosses a wall) or barycentric (the tetrahedron's weights alone)",
+     false, true},
     {"--spacing", "spacingMeters",
      "Grid spacing in metres (uniform, and the start grid of ascent and spawn-merge; default: "
      "the scene diagonal / 10, at least 0.25 m)"},
@@ -114,6 +119,7 @@ struct PlaceOpts {
   PlaceRequest request;
   bool accept = false;
   bool noLeakRefine = false;
+  bool leakRefine = false;
   RigOptions rig;
 };
 
@@ -172,8 +178,12 @@ void registerPlace(CLI::App& app) {
                   "Existing probe set whose locked probes are kept (with their ids) and built "
                   "around, and whose rejected probes stay rejected; its rig is used when no rig "
                   "option is given");
+  cmd->add_flag("--leak-refine", o->leakRefine,
+                "Also add probes (method \"leak\") where the mesh's edges cross geometry, "
+                "beyond the budget (off by default: with the baked volume's visibility maps "
+                "they do not lower the error at equal probe count)");
   cmd->add_flag("--no-leak-refine", o->noLeakRefine,
-                "Do not add probes (method \"leak\") where the mesh's edges cross geometry");
+                "No leak refinement: the default, the set holds the budget's probes");
   cmd->add_flag("--accept", o->accept, "Mark the proposals accepted instead of candidates");
   cmd->add_option("--seed", o->request.seed, "Random seed");
   cmd->add_option("-o,--output", o->out, "Probe set to write (.json)")->required();
@@ -181,7 +191,9 @@ void registerPlace(CLI::App& app) {
   cmd->callback([o] {
     const auto t0 = std::chrono::steady_clock::now();
     PlaceRequest& request = o->request;
-    request.refineLeaks = !o->noLeakRefine;
+    if (o->leakRefine && o->noLeakRefine)
+      throw ParameterError("--leak-refine: it cannot go with --no-leak-refine");
+    request.refineLeaks = o->leakRefine;
     request.newState = o->accept ? ProbeState::Accepted : ProbeState::Candidate;
     ProbeSet set;
     set.scenePath = fs::absolute(o->scene).string();

@@ -40,8 +40,12 @@ struct BakeSettings {
   /// sceneContentHash() of the scene the tracer was built from; part of every cache key. The
   /// cache is used only when this is non-zero.
   uint64_t sceneHash = 0;
-  /// Leak refinement (Sukys 3.2.2) before the capture; on by default (`bake --no-leak-refine`).
-  bool leakRefine = true;
+  /// Leak handling (Sukys 3.2.2 and the leak cuts) before and after the capture; off by default
+  /// (`bake --leak-refine` turns it on): the volume's visibility maps keep the light from
+  /// crossing walls, and neither Sukys's probes (at equal probe count) nor the cuts lower the
+  /// error on top of them (docs/leaks.md). Off, the volume holds exactly the set's accepted
+  /// probes.
+  bool leakRefine = false;
   /// With leak refinement: Sukys's probes on both sides of the walls the mesh's edges cross.
   /// Off (`bake --leak-cuts-only`), the edges are traced and counted but nothing is added: with
   /// the cuts, the volume holds exactly the set's accepted probes.

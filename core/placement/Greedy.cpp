@@ -94,11 +94,12 @@ class GreedySearch {
   // Probe values.
   void captureValues(std::span<const size_t> samples);
   const IrrVec& valueAsProbe(size_t i) const;
+  greedy::SlotVisibility visibilityAsProbe(size_t i) const;
   void addSample(size_t i, double score);
 
   // The error state.
   Trial evaluate(size_t extraProbe, size_t absent, TrialScope scope) const {
-    return error_.evaluate(pos_, vals_, isProbe_, extraProbe, absent, scope);
+    return error_.evaluate(pos_, vals_, vis_, isProbe_, extraProbe, absent, scope);
   }
   double currentWeightedErrSq() const { return error_.committed().weightedErrSq; }
   /// The current error of field sample i as a probe's score (ErrorPoints::scoreUnit).
@@ -135,11 +136,17 @@ class GreedySearch {
   /// The probes, kept ones first: positions (metres) and irradiance (IrrVec).
   std::vector<Vec3> pos_;
   std::vector<IrrVec> vals_;
+  /// With GreedySettings::visibility: per slot, the probe's map and validity; else empty.
+  std::vector<greedy::SlotVisibility> vis_;
   /// Per point: a probe (a kept probe's position, or a sample added): error 0, no candidate.
   std::vector<char> isProbe_;
   /// With captureProbeValues: each field sample's own capture, once made (haveProbeVal_).
   std::vector<IrrVec> probeVal_;
   std::vector<char> haveProbeVal_;
+  /// With visibility: each captured sample's map (kVisibilityFloats floats, or empty) and
+  /// validity. Sized once, so that the maps' storage never moves under vis_.
+  std::vector<std::vector<float>> probeMap_;
+  std::vector<char> probeInside_;
   GreedyResult result_;
   // Progress: the steps counted in all, and the fraction reported so far (never lowered).
   double steps_ = 0;
@@ -160,6 +167,10 @@ GreedySearch::GreedySearch(const DenseField& field, std::span<const KeptProbe> k
   for (const KeptProbe& k : kept) {
     pos_.push_back(k.position);
     vals_.push_back(greedyErrorNormalsIrradiance(k.sh));
+    if (s.visibility) {
+      PS_CHECK(k.distanceMoments.empty() || k.distanceMoments.size() == size_t(kVisibilityFloats));
+      vis_.push_back({k.distanceMoments.empty() ? nullptr : k.distanceMoments.data(), k.inside});
+    }
   }
   // A sample at a kept probe's position is that probe: never a candidate, error 0.
   isProbe_.assign(points_.count, 0);
@@ -189,6 +200,10 @@ GreedySearch::GreedySearch(const DenseField& field, std::span<const KeptProbe> k
   if (s.captureProbeValues) {
     probeVal_.resize(points_.fieldCount);
     haveProbeVal_.assign(points_.fieldCount, 0);
+    if (s.visibility) {
+      probeMap_.resize(points_.fieldCount);
+      probeInside_.assign(points_.fieldCount, 0);
+    }
   }
   // Progress: an addition and a probe taken out in a swap pass count as one step each (with a
   // budget; else 0). Before the passes, each is counted as taking out every probe; once they
@@ -216,11 +231,17 @@ void GreedySearch::captureValues(std::span<const size_t> samples) {
   if (missing.empty()) return;
   std::vector<Vec3> at;
   for (size_t i : missing) at.push_back(points_.position[i]);
-  const std::vector<ShRgb> sh = s_.captureProbeValues(at);
-  PS_CHECK_EQ(sh.size(), missing.size());
+  std::vector<GreedyProbeValue> got = s_.captureProbeValues(at);
+  PS_CHECK_EQ(got.size(), missing.size());
   for (size_t k = 0; k < missing.size(); ++k) {
-    probeVal_[missing[k]] = greedyErrorNormalsIrradiance(sh[k]);
+    probeVal_[missing[k]] = greedyErrorNormalsIrradiance(got[k].sh);
     haveProbeVal_[missing[k]] = 1;
+    if (s_.visibility) {
+      PS_CHECK(got[k].distanceMoments.empty() ||
+               got[k].distanceMoments.size() == size_t(kVisibilityFloats));
+      probeMap_[missing[k]] = std::move(got[k].distanceMoments);
+      probeInside_[missing[k]] = got[k].inside ? 1 : 0;
+    }
   }
 }
 
@@ -230,12 +251,18 @@ const IrrVec& GreedySearch::valueAsProbe(size_t i) const {
   return s_.captureProbeValues ? probeVal_[i] : points_.ref[i];
 }
 
+/// Field sample i's part in the visibility-aware interpolant (captureValues must have made it).
+greedy::SlotVisibility GreedySearch::visibilityAsProbe(size_t i) const {
+  return {probeMap_[i].empty() ? nullptr : probeMap_[i].data(), probeInside_[i] != 0};
+}
+
 /// Makes field sample i a new probe (the next slot) with provenance `score`.
 void GreedySearch::addSample(size_t i, double score) {
   captureValues(std::span<const size_t>(&i, 1));
   isProbe_[i] = 1;
   pos_.push_back(field_.samples[i].position);
   vals_.push_back(valueAsProbe(i));
+  if (s_.visibility) vis_.push_back(visibilityAsProbe(i));
   result_.positions.push_back(field_.samples[i].position);
   result_.sampleIndex.push_back(i);
   result_.scores.push_back(score);
@@ -385,15 +412,18 @@ void GreedySearch::tryCandidates(std::span<const size_t> candidates, size_t slot
   tbb::parallel_for(size_t(0), candidates.size(), [&](size_t k) {
     std::vector<Vec3> probes = pos_;
     std::vector<IrrVec> values = vals_;
+    std::vector<greedy::SlotVisibility> vis = vis_;
     if (append) {
       probes.emplace_back();
       values.emplace_back();
+      if (s_.visibility) vis.emplace_back();
     }
     probes[slot] = field_.samples[candidates[k]].position;
     values[slot] = valueAsProbe(candidates[k]);
+    if (s_.visibility) vis[slot] = visibilityAsProbe(candidates[k]);
     Trial trial;
     try {
-      trial = error_.evaluate(probes, values, isProbe_, candidates[k], kNone,
+      trial = error_.evaluate(probes, values, vis, isProbe_, candidates[k], kNone,
                               TrialScope::kChangedWeightedPoints);
     } catch (const FlatProbes&) {  // a swap's candidate in the plane of the other probes
       return;
@@ -544,6 +574,7 @@ bool GreedySearch::swapOne(size_t j, std::vector<uint8_t>& look, std::vector<uin
   }
   pos_[slot] = field_.samples[best].position;
   vals_[slot] = valueAsProbe(best);
+  if (s_.visibility) vis_[slot] = visibilityAsProbe(best);
   isProbe_[best] = 1;
   if (std::find(local.begin(), local.end(), best) != local.end()) ++result_.localSwaps;
   result_.positions[j] = field_.samples[best].position;
@@ -640,6 +671,11 @@ void checkGreedySettings(const GreedySettings& s, size_t keptCount) {
                          "expected 0 or more samples, got " + std::to_string(s.swapNeighbours));
   if (!(s.swapMinGain >= 0 && s.swapMinGain < 1))
     throw ParameterError("swapMinGain", "expected a share in [0, 1)");
+  if (s.visibility && !s.captureProbeValues)
+    throw ParameterError("interpolant",
+                         "the visibility-aware interpolant needs the probes' own captures "
+                         "(their visibility maps); expected candidate samples per probe above "
+                         "the field's, or the barycentric interpolant");
 }
 
 GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,

@@ -24,6 +24,15 @@ struct HeldOutSample {
   double weight = 1;  ///< the volume it stands for (any unit, the same for all)
 };
 
+/// A probe's value for greedy's interpolation: its SH and, for the visibility-aware interpolant
+/// (GreedySettings::visibility), its visibility map and validity as the bake records them.
+struct GreedyProbeValue {
+  ShRgb sh;
+  /// kVisibilityFloats floats (core/capture/Capture.h), or empty: the probe's visibility is 1.
+  std::vector<float> distanceMoments;
+  bool inside = false;  ///< the capture found the probe inside geometry: visibility 0
+};
+
 /// What greedy lowers at its points (GreedySettings::objective).
 enum class GreedyObjective {
   /// The error as the eye sees it: per point, the mean over the 14 normals of the squared
@@ -69,8 +78,14 @@ struct GreedySettings {
   /// When set, a candidate's value as a probe is its capture by this function (the bake's
   /// samples per probe) rather than its field sample's cheap capture, whose noise the
   /// interpolation would carry to every point around it. Called once per sample, with batches
-  /// of positions; returns one SH each.
-  std::function<std::vector<ShRgb>(std::span<const Vec3>)> captureProbeValues;
+  /// of positions; returns one value each (with its visibility map when `visibility`).
+  std::function<std::vector<GreedyProbeValue>(std::span<const Vec3>)> captureProbeValues;
+  /// The error interpolates as the runtime does with a volume that carries visibility maps
+  /// (core/traversal/VisibleInterpolation.h: barycentric weights times each probe's DDGI
+  /// visibility of the point, renormalised), from the maps captureProbeValues and the kept
+  /// probes give; a probe without one weighs by its barycentric weight alone. Needs
+  /// captureProbeValues (ParameterError otherwise). Off: barycentric weights alone.
+  bool visibility = false;
   /// Passes of swaps after the additions (placeGreedy), at most; a pass without a swap ends
   /// them, as does one that lowers the error by less than swapMinGain of it. 0: none.
   int swapPasses = 0;
@@ -87,6 +102,8 @@ struct GreedySettings {
 struct KeptProbe {
   Vec3 position;
   ShRgb sh;
+  std::vector<float> distanceMoments;  ///< as GreedyProbeValue's
+  bool inside = false;
 };
 
 struct GreedyResult {

@@ -10,6 +10,7 @@
 #include "core/math/Stops.h"
 #include "core/tessellation/Tetrahedralization.h"
 #include "core/traversal/ProbeVolume.h"
+#include "core/traversal/VisibleInterpolation.h"
 
 namespace ps::greedy {
 
@@ -157,6 +158,11 @@ bool clampMayChange(const NewParts& parts, const std::vector<uint64_t>& hull, co
   return false;
 }
 
+/// A point's visibility-aware weights are fragile when the barycentric weight of the probes that
+/// see it sums to less than this: float rounding of the barycentric weights (a point on a face
+/// shared by two tetrahedra) then moves the result by far more than rounding.
+constexpr double kFragileVisibleWeight = 1e-4;
+
 /// The points a trial interpolates again when it is not the first: those of the committed
 /// tetrahedra the trial's mesh does not have (every point's tetrahedron is one of the committed
 /// mesh's), `extraProbe`, and those outside the hull whose clamp may change. A point outside
@@ -193,8 +199,8 @@ std::vector<size_t> pointsToRedo(const TrialMesh& mesh, const Trial& trial,
 /// Interpolates trial.changed's points from `mesh` with the probe irradiance `values` (per
 /// slot) into trial.changedState. In parallel, one point per task.
 void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values,
-                        const ErrorPoints& points, const std::vector<char>& isProbe,
-                        size_t extraProbe, Trial& trial) {
+                        const std::vector<SlotVisibility>& visibility, const ErrorPoints& points,
+                        const std::vector<char>& isProbe, size_t extraProbe, Trial& trial) {
   const ProbeVolume& volume = mesh.volume;
   trial.changedState.resize(trial.changed.size());
   tbb::parallel_for(size_t(0), trial.changed.size(), [&](size_t q) {
@@ -202,12 +208,30 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
     const VolumeLocation loc = locate(volume, points.position[i], -1, &mesh.hullClamp);
     PS_CHECK_LE(0, loc.tet);
     const auto& tv = volume.tets[size_t(loc.tet)];
-    // Barycentric blend of the probes' irradiance (linear in SH, so equal to the irradiance of
-    // the interpolated SH: core/traversal interpolate).
+    // Blend of the probes' irradiance (linear in SH, so equal to the irradiance of the
+    // interpolated SH: core/traversal interpolate), with the barycentric weights or the
+    // visibility-aware ones.
+    std::array<double, 4> weights{};
+    for (int c = 0; c < 4; ++c) weights[size_t(c)] = double(loc.weights[size_t(c)]);
+    bool fragile = false;
+    if (!visibility.empty()) {
+      const std::array<double, 4> barycentric = weights;
+      std::array<double, 4> factors{};
+      for (int c = 0; c < 4; ++c) {
+        const int32_t v = tv[size_t(c)];
+        const SlotVisibility& sv = visibility[size_t(mesh.slotOf(v))];
+        factors[size_t(c)] = visibilityFactor(sv.map, kVisibilityMapSize, sv.inside,
+                                              volume.position(v), points.position[i], {});
+      }
+      double seen = 0;
+      for (int c = 0; c < 4; ++c) seen += barycentric[size_t(c)] * factors[size_t(c)];
+      fragile = combineVisibleWeights(barycentric, factors, weights) != VisibleFallback::None ||
+                seen < kFragileVisibleWeight;
+    }
     IrrVec interp{};
     for (int c = 0; c < 4; ++c) {
       const size_t p = size_t(mesh.slotOf(tv[size_t(c)]));
-      const double w = double(loc.weights[size_t(c)]);
+      const double w = weights[size_t(c)];
       for (int k = 0; k < kNormals; ++k) interp[k] += w * values[p][k];
     }
     const IrrVec& ref = points.ref[i];
@@ -225,6 +249,7 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
                    : std::clamp(e / kNormals - points.noiseVar[i], 0.0, points.errSqCap);
     st.tet = mesh.tetKeyOf(tv);
     st.outside = loc.outside;
+    st.fragile = fragile;
     if (loc.outside) {
       // The clamped point, and the hull face it lies on: the one opposite a vertex of weight
       // 0 (on an edge or a corner of the hull, any of its faces there holds it).
@@ -413,6 +438,7 @@ GreedyErrorState::GreedyErrorState(const ErrorPoints& points) : points_(points) 
 }
 
 Trial GreedyErrorState::evaluate(const std::vector<Vec3>& probes, const std::vector<IrrVec>& values,
+                                 const std::vector<SlotVisibility>& visibility,
                                  const std::vector<char>& isProbe, size_t extraProbe, size_t absent,
                                  TrialScope scope) const {
   const TrialMesh mesh(probes, absent);
@@ -436,7 +462,8 @@ Trial GreedyErrorState::evaluate(const std::vector<Vec3>& probes, const std::vec
         trial.changed.push_back(i);
     }
   }
-  interpolateChanged(mesh, values, points_, isProbe, extraProbe, trial);
+  if (!visibility.empty()) PS_CHECK_EQ(visibility.size(), probes.size());
+  interpolateChanged(mesh, values, visibility, points_, isProbe, extraProbe, trial);
   double sum = all ? 0.0 : mesh_.weightedErrSq;
   for (size_t q = 0; q < trial.changed.size(); ++q) {
     const size_t i = trial.changed[q];
@@ -494,8 +521,12 @@ size_t GreedyErrorState::countMismatches(const Trial& full) const {
     // bundled scenes). A point outside the hull must also keep a face of the hull, at the
     // distance of the nearest (a stale clamp can keep a face and tetrahedron that still
     // exist, with an error close to the right one).
+    // A point whose visibility-aware weights are fragile rests on probes it barely lies
+    // towards (or, fallen back, on all four), so that on a shared face each tetrahedron gives
+    // its own error: any of the mesh's tetrahedra holding it is right.
     const bool sameTet = have.tet == want.tet;
     const double tolerance = sameTet ? 1e-5 : 1e-3;
+    const bool eitherFragile = have.fragile || want.fragile;
     const bool clampRight =
         !want.outside ||
         (std::binary_search(full.hull.begin(), full.hull.end(), have.face) &&
@@ -503,7 +534,8 @@ size_t GreedyErrorState::countMismatches(const Trial& full) const {
     const bool same =
         (sameTet || std::binary_search(full.tets.begin(), full.tets.end(), have.tet)) &&
         have.outside == want.outside && clampRight &&
-        std::abs(have.errSq - want.errSq) <= tolerance * want.errSq + 1e-12 * unit * unit;
+        ((eitherFragile && !sameTet) ||
+         std::abs(have.errSq - want.errSq) <= tolerance * want.errSq + 1e-12 * unit * unit);
     mismatches += same ? 0 : 1;
   }
   return mismatches;

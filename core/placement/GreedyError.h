@@ -102,12 +102,24 @@ ErrorPoints gatherErrorPoints(const DenseField& field, const GreedySettings& set
 /// lit sample of the field is in the light clearance. O(points).
 void weighErrorPoints(ErrorPoints& points, const DenseField& field, const GreedySettings& settings);
 
+/// A probe slot's part in the visibility-aware interpolant (GreedySettings::visibility): its
+/// map (kVisibilityFloats floats, core/capture/Capture.h; null: visibility 1) and whether its
+/// capture found it inside geometry (visibility 0). The map must outlive the trials.
+struct SlotVisibility {
+  const float* map = nullptr;
+  bool inside = false;
+};
+
 /// A point's interpolation from a mesh.
 struct SampleState {
   /// Mean over the normals of the squared error (the objective's), noise and cap applied.
   double errSq = 0;
   uint64_t tet = 0;     ///< tetKey of the point's tetrahedron
   bool outside = true;  ///< outside the hull (clamped), or never interpolated
+  /// The visibility-aware weights are fragile: they fell back (VisibleFallback), or the probes
+  /// that see the point hold less than 1e-4 of its barycentric weight, so that a point on a
+  /// face shared by two tetrahedra reads differently in each (countMismatches allows it).
+  bool fragile = false;
   /// Outside: the hull face it is clamped to (as in Trial::hull; 0 when not known) and its
   /// squared distance to it (m^2).
   uint64_t face = 0;
@@ -163,11 +175,16 @@ class GreedyErrorState {
   /// outside the hull near a change of its faces, and `extraProbe`. `isProbe` (per point) and
   /// `extraProbe` (a point index or kNone) count as probes: error 0. Reads the committed state
   /// and writes nothing shared, so that several trials can run at once. Throws FlatProbes when
-  /// the probes span less than 3D. Cost: the tetrahedralization (O(P log P) expected for P
-  /// probes) plus a point location per point interpolated, those in parallel.
+  /// the probes span less than 3D. `visibility` (per slot, or empty): the points interpolate
+  /// with the visibility-aware weights (combineVisibleWeights, core/traversal/
+  /// VisibleInterpolation.h, without the normal term, as eval's default), else with the
+  /// barycentric weights. A point's weights depend on its tetrahedron's probes alone, so the
+  /// points a change can move are the same either way. Cost: the tetrahedralization (O(P log P)
+  /// expected for P probes) plus a point location (and four map lookups) per point
+  /// interpolated, those in parallel.
   Trial evaluate(const std::vector<Vec3>& probes, const std::vector<IrrVec>& values,
-                 const std::vector<char>& isProbe, size_t extraProbe, size_t absent,
-                 TrialScope scope) const;
+                 const std::vector<SlotVisibility>& visibility, const std::vector<char>& isProbe,
+                 size_t extraProbe, size_t absent, TrialScope scope) const;
 
   /// Makes `trial` (not partial) the committed mesh and returns its weighted squared error,
   /// summed in full over every point so that no rounding accumulates. O(points log tets).

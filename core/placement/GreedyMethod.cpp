@@ -9,6 +9,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Check.h"
 #include "core/common/Error.h"
+#include "core/common/Tolerances.h"
 #include "core/domain/DomainPoints.h"
 #include "core/math/Random.h"
 #include "core/placement/PlacementMethod.h"
@@ -206,27 +207,38 @@ class GreedyPlacer : public Placer {
                    field.seconds));
     // A probe's value: its own capture at probeSpp (as the bake will capture it) when that has
     // more samples than the field's; each batch of candidates from another stream.
-    const int probeSpp = r.probeSpp > fs.samplesPerProbe ? r.probeSpp : 0;
+    // With the visible interpolant every probe needs its own capture's map, at the field's
+    // samples per probe at least.
+    const int probeSpp = r.probeSpp > fs.samplesPerProbe ? r.probeSpp
+                         : r.visibility                  ? fs.samplesPerProbe
+                                                         : 0;
+    gs.visibility = r.visibility;
     uint64_t batch = 0;
     auto captureAt = [&](std::span<const Vec3> at, int spp) {
       CaptureSettings cs;
       cs.samplesPerProbe = spp;
       cs.seed = (c.seed ^ 0x9B0BE5ull) + 0x100000000ull * batch++;
       cs.mode = fs.mode;
-      const auto caps = captureProbes(c.tracer, c.rig, at, cs);
-      std::vector<ShRgb> sh;
-      for (const ProbeCapture& cap : caps) sh.push_back(cap.sh);
-      return sh;
+      cs.visibilityMaps = r.visibility;
+      std::vector<ProbeCapture> caps = captureProbes(c.tracer, c.rig, at, cs);
+      std::vector<GreedyProbeValue> values;
+      for (ProbeCapture& cap : caps)
+        values.push_back({cap.sh, std::move(cap.distanceMoments),
+                          cap.backfaceFraction > tol::kDefaultInvalidBackfaceFraction});
+      return values;
     };
     if (probeSpp > 0)
       gs.captureProbeValues = [&](std::span<const Vec3> at) { return captureAt(at, probeSpp); };
-    // The kept probes take part with their SH captured like the candidates'.
+    // The kept probes take part with their SH (and maps) captured like the candidates'.
     std::vector<KeptProbe> kept;
     if (!c.kept.empty()) {
       std::vector<Vec3> points;
       for (const Probe& k : c.kept) points.push_back(k.position);
-      const auto sh = captureAt(points, probeSpp > 0 ? probeSpp : fs.samplesPerProbe);
-      for (size_t i = 0; i < points.size(); ++i) kept.push_back({points[i], sh[i]});
+      std::vector<GreedyProbeValue> values =
+          captureAt(points, probeSpp > 0 ? probeSpp : fs.samplesPerProbe);
+      for (size_t i = 0; i < points.size(); ++i)
+        kept.push_back(
+            {points[i], values[i].sh, std::move(values[i].distanceMoments), values[i].inside});
     }
     // The light clearance eval keeps its queries out of (kDefaultLightClearanceRelative).
     gs.avoid = punctualLightPositions(c.tracer.scene(), c.rig);
@@ -283,6 +295,7 @@ class GreedyPlacer : public Placer {
 };
 
 constexpr std::string_view kParameters[] = {"objective",
+                                            "interpolant",
                                             "maxError",
                                             "fieldSpacingMeters",
                                             "fieldDepth",
@@ -302,6 +315,8 @@ std::unique_ptr<Placer> create(const PlaceParameters& p, const PlaceBasics& b) {
   s.objective = p.choice("objective", greedyObjectiveName(s.objective), kObjectives) == "energy"
                     ? GreedyObjective::kEnergy
                     : GreedyObjective::kPerceptual;
+  constexpr std::string_view kInterpolants[] = {"visible", "barycentric"};
+  s.visibility = p.choice("interpolant", "visible", kInterpolants) == "visible";
   s.maxError = p.number("maxError", s.maxError);
   const FieldParameters field = readFieldParameters(p);
   s.field = field.field;

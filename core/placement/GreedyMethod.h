@@ -56,8 +56,13 @@ struct GreedyMethodSettings {
   /// energy (greedyHeldOutUniformShare). [heldOutUniformShare]
   double heldOutUniformShare = -1;
   /// Samples per probe of each candidate's own capture (GreedySettings::captureProbeValues);
-  /// at most field.samplesPerProbe: the field sample's capture. [candidateSamplesPerProbe]
+  /// at most field.samplesPerProbe: the field sample's capture, or with `visibility` a capture
+  /// of its own at the field's samples per probe (for its map). [candidateSamplesPerProbe]
   int probeSpp = kGreedyProbeSpp;
+  /// The error interpolates as the runtime reads a volume with visibility maps
+  /// (GreedySettings::visibility): "visible" (true, the default), or "barycentric".
+  /// [interpolant]
+  bool visibility = true;
   int swapPasses = kGreedySwapPasses;          ///< >= 0; 0: none [swapPasses]
   int swapNeighbours = kGreedySwapNeighbours;  ///< >= 0 [swapNeighbours]
 };

@@ -30,8 +30,10 @@ struct PlaceRequest {
   bool keepAccepted = false;
   bool keepCandidates = false;
   /// Leak refinement of the kept and new probes: probes (method "leak") added where the
-  /// tetrahedra's edges cross geometry.
-  bool refineLeaks = true;
+  /// tetrahedra's edges cross geometry, beyond the budget. Off by default: with the volume's
+  /// visibility maps it does not lower the error at equal probe count (docs/leaks.md), and the
+  /// budget is then the volume's probe count.
+  bool refineLeaks = false;
   ProbeState newState = ProbeState::Candidate;  ///< of the new probes
 };
 

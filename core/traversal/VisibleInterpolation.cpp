@@ -12,10 +12,9 @@ namespace ps {
 
 namespace {
 
-/// Bilinear lookup of probe `probe`'s moments in unit direction d: mean and mean square.
-void lookupMoments(const ProbeVolume& v, int32_t probe, Vec3 d, double& mu, double& mu2) {
-  const int R = v.visibilityMapSize;
-  const float* map = v.visibility.data() + size_t(probe) * size_t(2 * R * R);
+/// Bilinear lookup of a map of R x R texels (layout in core/capture/Capture.h) in unit direction
+/// d: mean and mean square.
+void lookupMoments(const float* map, int R, Vec3 d, double& mu, double& mu2) {
   const OctUv o = octEncode(d);
   // Texel centres at integer coordinates.
   const double x = (o.u + 1.0) * 0.5 * R - 0.5;
@@ -31,14 +30,36 @@ void lookupMoments(const ProbeVolume& v, int32_t probe, Vec3 d, double& mu, doub
         w11 * map[2 * t11 + 1];
 }
 
-/// The factor f of the header (normal term, crush and floor included) for probe `probe`.
-double probeFactor(const ProbeVolume& v, int32_t probe, Vec3 p, const std::optional<Vec3>& n) {
-  if (v.probeInside[size_t(probe)]) return 0.0;
-  const Vec3 d = p - v.position(probe);
+/// The map of probe `probe` of `v` (which has maps).
+const float* probeMap(const ProbeVolume& v, int32_t probe) {
+  const int R = v.visibilityMapSize;
+  return v.visibility.data() + size_t(probe) * size_t(2 * R * R);
+}
+
+}  // namespace
+
+double mapVisibility(const float* map, int mapSize, Vec3 x, Vec3 p) {
+  if (map == nullptr) return 1.0;
+  const Vec3 d = p - x;
+  const double r = length(d);
+  if (!(r > 1e-6)) return 1.0;
+  double mu = 0, mu2 = 0;
+  lookupMoments(map, mapSize, d / r, mu, mu2);
+  if (r <= mu) return 1.0;
+  const double bias = kVisibilityVarianceBias * mu;
+  const double var = std::max(0.0, mu2 - mu * mu) + bias * bias;
+  const double c = var / (var + (r - mu) * (r - mu));
+  return c * c * c;
+}
+
+double visibilityFactor(const float* map, int mapSize, bool inside, Vec3 x, Vec3 p,
+                        const std::optional<Vec3>& n) {
+  if (inside) return 0.0;
+  const Vec3 d = p - x;
   const double r = length(d);
   if (!(r > 1e-6)) return 1.0;
   const Vec3 dir = d / r;
-  double f = probeVisibility(v, probe, p);
+  double f = mapVisibility(map, mapSize, x, p);
   if (n) {
     const double s = (dot(-dir, *n) + 1.0) * 0.5;
     f *= s * s + 0.2;
@@ -47,21 +68,32 @@ double probeFactor(const ProbeVolume& v, int32_t probe, Vec3 p, const std::optio
   return f < kVisibilityMinFactor ? 0.0 : f;
 }
 
-}  // namespace
+VisibleFallback combineVisibleWeights(const std::array<double, 4>& barycentric,
+                                      const std::array<double, 4>& factors,
+                                      std::array<double, 4>& weights) {
+  double sum = 0, factorSum = 0;
+  std::array<double, 4> raw{};
+  for (int i = 0; i < 4; ++i) {
+    raw[i] = barycentric[i] * factors[i];
+    sum += raw[i];
+    factorSum += factors[i];
+  }
+  if (sum > 0) {
+    for (int i = 0; i < 4; ++i) weights[i] = raw[i] / sum;
+    return VisibleFallback::None;
+  }
+  if (factorSum > 0) {
+    for (int i = 0; i < 4; ++i) weights[i] = factors[i] / factorSum;
+    return VisibleFallback::Visibility;
+  }
+  weights = barycentric;
+  return VisibleFallback::Barycentric;
+}
 
 double probeVisibility(const ProbeVolume& v, int32_t probe, Vec3 p) {
   if (!v.hasVisibility()) return 1.0;
   PS_CHECK(probe >= 0 && size_t(probe) < v.probeCount());
-  const Vec3 d = p - v.position(probe);
-  const double r = length(d);
-  if (!(r > 1e-6)) return 1.0;
-  double mu = 0, mu2 = 0;
-  lookupMoments(v, probe, d / r, mu, mu2);
-  if (r <= mu) return 1.0;
-  const double bias = kVisibilityVarianceBias * mu;
-  const double var = std::max(0.0, mu2 - mu * mu) + bias * bias;
-  const double c = var / (var + (r - mu) * (r - mu));
-  return c * c * c;
+  return mapVisibility(probeMap(v, probe), v.visibilityMapSize, v.position(probe), p);
 }
 
 VisibleWeights visibleWeights(const ProbeVolume& v, const VolumeLocation& loc, Vec3 p,
@@ -80,22 +112,14 @@ VisibleWeights visibleWeights(const ProbeVolume& v, const VolumeLocation& loc, V
   PS_CHECK_EQ(v.visibility.size(),
               v.probeCount() * size_t(2 * v.visibilityMapSize * v.visibilityMapSize));
   PS_CHECK_EQ(v.probeInside.size(), v.probeCount());
-  double sum = 0, factorSum = 0;
-  std::array<double, 4> raw{};
+  std::array<double, 4> barycentric{};
   for (int i = 0; i < 4; ++i) {
-    w.factors[i] = probeFactor(v, tet[i], p, normal);
-    raw[i] = double(loc.weights[i]) * w.factors[i];
-    sum += raw[i];
-    factorSum += w.factors[i];
+    barycentric[i] = double(loc.weights[i]);
+    w.factors[i] =
+        visibilityFactor(probeMap(v, tet[i]), v.visibilityMapSize,
+                         v.probeInside[size_t(tet[i])] != 0, v.position(tet[i]), p, normal);
   }
-  if (sum > 0) {
-    for (int i = 0; i < 4; ++i) w.weights[i] = raw[i] / sum;
-  } else if (factorSum > 0) {
-    w.fallback = VisibleFallback::Visibility;
-    for (int i = 0; i < 4; ++i) w.weights[i] = w.factors[i] / factorSum;
-  } else {
-    w.fallback = VisibleFallback::Barycentric;  // the barycentric weights, as set above
-  }
+  w.fallback = combineVisibleWeights(barycentric, w.factors, w.weights);
   return w;
 }
 

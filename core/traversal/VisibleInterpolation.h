@@ -56,6 +56,23 @@ struct VisibleWeights {
   VisibleFallback fallback = VisibleFallback::None;
 };
 
+/// DDGI's visibility v (chebyshev test, sharpened: the header's formula without the normal term
+/// and the crush) of point p from a probe at x whose map is `map` (mapSize x mapSize texels,
+/// the layout of core/capture/Capture.h); 1 for a null map.
+double mapVisibility(const float* map, int mapSize, Vec3 x, Vec3 p);
+
+/// The factor f of the header (normal term, crush and floor included) of a probe at x with
+/// `map` (null: v = 1) for point p; 0 for a probe the capture found `inside` geometry.
+double visibilityFactor(const float* map, int mapSize, bool inside, Vec3 x, Vec3 p,
+                        const std::optional<Vec3>& n);
+
+/// The final weights from a tetrahedron's barycentric weights and its probes' factors: b_i f_i
+/// renormalised, or the header's fallbacks. Every interpolant of the project (eval, greedy's
+/// error, the runtime reader's twin in double) goes through these steps.
+VisibleFallback combineVisibleWeights(const std::array<double, 4>& barycentric,
+                                      const std::array<double, 4>& factors,
+                                      std::array<double, 4>& weights);
+
 /// DDGI's visibility factor v of probe `probe` for point p (chebyshev test, sharpened; the
 /// header's formula, without the normal term and the crush). 1 when the volume has no maps.
 double probeVisibility(const ProbeVolume& v, int32_t probe, Vec3 p);

@@ -1,23 +1,28 @@
 #!/usr/bin/env bash
 # Leak refinement through the CLI on two-rooms (a thin wall between a lit and a sunlit room):
-# place adds "leak" probes unless --no-leak-refine; bake refines by default; eval reports
-# leaking_fraction, lower after refinement, and lower again with the leak cuts (bake's default;
-# --no-leak-cuts leaves Sukys's refinement alone; --leak-cuts-only keeps the set's probes and
-# cuts); info reports the cuts.
+# place adds "leak" probes with --leak-refine and none by default; bake holds exactly the set's
+# probes by default and refines with --leak-refine; eval reports leaking_fraction, lower after
+# refinement, and lower again with the leak cuts (--leak-refine's; --no-leak-cuts leaves
+# Sukys's refinement alone; --leak-cuts-only keeps the set's probes and cuts); info reports the
+# cuts.
 # Usage: test_leak_refine.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
 cli="$1"; root="$2"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 scene="$root/resources/scenes/two-rooms.gltf"
 
-"$cli" place "$scene" --spacing 1.2 --accept -o "$tmp/refined.json" | tee "$tmp/place.txt"
+"$cli" place "$scene" --spacing 1.2 --accept --leak-refine -o "$tmp/refined.json" | tee "$tmp/place.txt"
 grep -q "leak refinement added" "$tmp/place.txt"
-"$cli" place "$scene" --spacing 1.2 --accept --no-leak-refine -o "$tmp/plain.json"
-"$cli" bake "$tmp/plain.json" -o "$tmp/plain.psv" --spp 128 --no-leak-refine
-"$cli" bake "$tmp/plain.json" -o "$tmp/baked-refined.psv" --spp 128 | tee "$tmp/bake.txt"
+"$cli" place "$scene" --spacing 1.2 --accept -o "$tmp/plain.json" | tee "$tmp/place-plain.txt"
+if grep -q "leak refinement" "$tmp/place-plain.txt"; then echo "place refined by default" >&2; exit 1; fi
+"$cli" place "$scene" --spacing 1.2 --accept --no-leak-refine -o "$tmp/plain-flag.json"
+cmp "$tmp/plain.json" "$tmp/plain-flag.json"
+"$cli" bake "$tmp/plain.json" -o "$tmp/plain.psv" --spp 128 | tee "$tmp/bake-plain.txt"
+if grep -q "leak" "$tmp/bake-plain.txt"; then echo "bake refined or cut by default" >&2; exit 1; fi
+"$cli" bake "$tmp/plain.json" -o "$tmp/baked-refined.psv" --spp 128 --leak-refine | tee "$tmp/bake.txt"
 grep -q "leak refinement added" "$tmp/bake.txt"
 grep -q "leak cuts: " "$tmp/bake.txt"
-"$cli" bake "$tmp/plain.json" -o "$tmp/sukys.psv" --spp 128 --no-leak-cuts | tee "$tmp/bake-sukys.txt"
+"$cli" bake "$tmp/plain.json" -o "$tmp/sukys.psv" --spp 128 --leak-refine --no-leak-cuts | tee "$tmp/bake-sukys.txt"
 if grep -q "leak cuts: " "$tmp/bake-sukys.txt"; then echo "cuts with --no-leak-cuts" >&2; exit 1; fi
 "$cli" bake "$tmp/plain.json" -o "$tmp/cuts-only.psv" --spp 128 --leak-cuts-only | tee "$tmp/bake-cuts.txt"
 grep -q "leak refinement added 0 probes" "$tmp/bake-cuts.txt"
@@ -29,17 +34,21 @@ grep -q -- "--leak-cuts-only" "$tmp/err.txt"
 [ ! -e "$tmp/x.psv" ]
 "$cli" eval "$tmp/cuts-only.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-cuts-only.json"
 # The cuts chosen for the leaks alone take more weight from probes in plain view.
-"$cli" bake "$tmp/plain.json" -o "$tmp/leaks-alone.psv" --spp 128 --over-cut-weight 0
+"$cli" bake "$tmp/plain.json" -o "$tmp/leaks-alone.psv" --spp 128 --leak-refine --over-cut-weight 0
 "$cli" eval "$tmp/leaks-alone.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-leaks-alone.json"
 # With probes for what the cuts leave, the cuts count the leaks alone unless a weight is given.
 "$cli" bake "$tmp/plain.json" -o "$tmp/cut-probes.psv" --spp 128 --leak-cut-probes | tee "$tmp/bake-cut-probes.txt"
 grep -q "are for the cuts" "$tmp/bake-cut-probes.txt"
 "$cli" bake "$tmp/plain.json" -o "$tmp/cut-probes-w.psv" --spp 128 --leak-cut-probes --over-cut-weight 0.25
+if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" --no-leak-cuts 2>"$tmp/err.txt"; then
+  echo "--no-leak-cuts without --leak-refine was accepted" >&2; exit 1
+fi
+grep -q -- "--no-leak-cuts" "$tmp/err.txt"
 if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" --over-cut-weight -1 2>"$tmp/err.txt"; then
   echo "a negative --over-cut-weight was accepted" >&2; exit 1
 fi
 grep -q -- "--over-cut-weight" "$tmp/err.txt"
-for bad in "--over-cut-weight nan" "--over-cut-weight 0.5 --no-leak-cuts" "--over-cut-weight 1 --no-leak-refine"; do
+for bad in "--over-cut-weight nan" "--over-cut-weight 0.5 --leak-refine --no-leak-cuts" "--over-cut-weight 1 --no-leak-refine" "--over-cut-weight 1"; do
   # shellcheck disable=SC2086
   if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" $bad 2>"$tmp/err.txt"; then
     echo "bake $bad was accepted" >&2; exit 1

@@ -128,7 +128,7 @@ PY
 start=$SECONDS
 "$cli" place "$tmp/a.glb" --method greedy --budget 16 --field-depth 1 --field-spp 32 \
   --probe-spp 32 --held-out 32 --accept "${sky[@]}" -o "$tmp/set.json"
-"$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128 --no-leak-cuts
+"$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128 --leak-refine --no-leak-cuts
 "$cli" eval "$tmp/v.psv" --queries 128 --reference-spp 256 --json >"$tmp/eval.json"
 took=$((SECONDS - start))
 echo "small level: place, bake and eval in $took s"

@@ -94,7 +94,7 @@ expect_error() {  # expect_error "expected text" cmd...
   grep -qF -- "$expected" "$tmp/err" || { echo "FAIL: $*: $(cat "$tmp/err")"; fail=1; }
 }
 expect_error "--budget: expected a probe count: greedy needs a budget, an error target or both" "$cli" place "$scene" --method greedy -o "$tmp/x.json"
-expect_error "--spacing: not an option of --method greedy (its options: --budget, --objective, --max-error" "$cli" place "$scene" --method greedy --spacing 1 --max-error 0.2 -o "$tmp/x.json"
+expect_error "--spacing: not an option of --method greedy (its options: --budget, --objective, --interpolant, --max-error" "$cli" place "$scene" --method greedy --spacing 1 --max-error 0.2 -o "$tmp/x.json"
 expect_error "--max-error: not an option of --method uniform (its options: --budget, --spacing)" "$cli" place "$scene" --max-error 0.1 -o "$tmp/x.json"
 expect_error "--objective: expected one of perceptual, energy, got \"loudness\"" "$cli" place "$scene" --method greedy --budget 8 --objective loudness -o "$tmp/x.json"
 expect_error "budget: expected at least 4 probes, got 3" "$cli" place "$scene" --method greedy --budget 3 -o "$tmp/x.json"

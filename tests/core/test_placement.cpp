@@ -29,6 +29,7 @@
 #include "core/tessellation/Tetrahedralization.h"
 #include "core/trace/Tracer.h"
 #include "core/traversal/ProbeVolume.h"
+#include "core/traversal/VisibleInterpolation.h"
 #include "tests/core/SceneBuilders.h"
 
 namespace fs = std::filesystem;
@@ -684,16 +685,16 @@ TEST(Greedy, ProbeValuesFromTheirOwnCapture) {
   const GreedyResult plain = placeGreedy(f, {}, s);
   std::vector<Vec3> captured;
   auto fieldValues = [&](std::span<const Vec3> at) {
-    std::vector<ShRgb> sh;
+    std::vector<GreedyProbeValue> values;
     for (const Vec3& p : at) {
       captured.push_back(p);
       for (const FieldSample& fs : f.samples)
         if (fs.position == p) {
-          sh.push_back(fs.sh);
+          values.push_back({fs.sh, {}, false});
           break;
         }
     }
-    return sh;
+    return values;
   };
   s.captureProbeValues = fieldValues;
   const GreedyResult own = placeGreedy(f, {}, s);
@@ -706,7 +707,7 @@ TEST(Greedy, ProbeValuesFromTheirOwnCapture) {
   EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end());
   // Values that differ from the field's move the probes.
   s.captureProbeValues = [&](std::span<const Vec3> at) {
-    return std::vector<ShRgb>(at.size(), ShRgb{});
+    return std::vector<GreedyProbeValue>(at.size());
   };
   EXPECT_NE(placeGreedy(f, {}, s).positions, plain.positions);
   // The swaps' candidates, the nearby samples too, are captured before they are tried.
@@ -828,12 +829,95 @@ TEST(Greedy, PerceptualObjectiveIsRmsStopsAndFillsBothRoomsByVolume) {
   EXPECT_GT(pb, eb);
 }
 
+TEST(Greedy, VisibleInterpolantIsTheRuntimesAndKeepsItsStateExact) {
+  // With visibility, greedy's error at its held-out points is the volume's visibility-aware
+  // interpolant (core/traversal/VisibleInterpolation.h, as eval and the runtime read a baked
+  // volume) of the probes' own values and maps; its incremental state stays that of a fresh
+  // interpolation after every change.
+  const DenseField& f = noiselessTwoRoomsField();
+  const TwoRoomsHeldOut& h = twoRoomsHeldOut();
+  const Tracer& tracer = *loaded("two-rooms.gltf").tracer;
+  // Each probe's value: its field SH (noiseless) and the map of a real capture at its place.
+  std::map<std::tuple<double, double, double>, GreedyProbeValue> captured;
+  auto capture = [&](std::span<const Vec3> at) {
+    CaptureSettings cs;
+    cs.samplesPerProbe = 256;
+    cs.visibilityMaps = true;
+    const std::vector<ProbeCapture> caps = captureProbes(tracer, {}, at, cs);
+    std::vector<GreedyProbeValue> values;
+    for (size_t k = 0; k < at.size(); ++k) {
+      GreedyProbeValue v{{}, caps[k].distanceMoments, caps[k].backfaceFraction > 0.25};
+      for (const FieldSample& fs : f.samples)
+        if (fs.position == at[k]) v.sh = fs.sh;
+      captured[{at[k].x, at[k].y, at[k].z}] = v;
+      values.push_back(std::move(v));
+    }
+    return values;
+  };
+  GreedySettings s;
+  s.budget = 24;
+  s.heldOut = h.samples;
+  s.objective = GreedyObjective::kPerceptual;
+  s.captureProbeValues = capture;
+  s.visibility = true;
+  s.swapPasses = 1;
+  s.verifyState = true;
+  const GreedyResult r = placeGreedy(f, {}, s);
+  ASSERT_EQ(r.positions.size(), 24u);
+  EXPECT_EQ(r.stateMismatches, 0u);
+  std::vector<ShRgb> sh;
+  std::vector<ProbeVisibility> vis(r.positions.size());
+  for (size_t i = 0; i < r.positions.size(); ++i) {
+    const Vec3 p = r.positions[i];
+    const GreedyProbeValue& v = captured.at({p.x, p.y, p.z});
+    sh.push_back(v.sh);
+    ASSERT_EQ(v.distanceMoments.size(), size_t(kVisibilityFloats));
+    std::copy(v.distanceMoments.begin(), v.distanceMoments.end(), vis[i].distanceMoments.begin());
+    vis[i].inside = v.inside;
+  }
+  const ProbeVolume volume = volumeFromProbes(r.positions, sh, vis);
+  ASSERT_TRUE(volume.hasVisibility());
+  std::vector<double> level;
+  for (const ShRgb& x : h.sh) {
+    double m = 0;
+    for (double e : greedyErrorNormalsIrradiance(x)) m += e;
+    level.push_back(m / 14);
+  }
+  std::sort(level.begin(), level.end());
+  const double floor = kAdaptationFloorFraction * level[(level.size() + 1) / 2 - 1];
+  double sq = 0, barycentricSq = 0;
+  for (size_t i = 0; i < h.points.size(); ++i) {
+    const auto ref = greedyErrorNormalsIrradiance(h.sh[i]);
+    const auto got = greedyErrorNormalsIrradiance(interpolateVisible(volume, h.points[i], {}));
+    const auto bary =
+        greedyErrorNormalsIrradiance(interpolate(volume, locate(volume, h.points[i])));
+    for (size_t k = 0; k < ref.size(); ++k) {
+      const double e = errorStops(got[k], ref[k], floor), b = errorStops(bary[k], ref[k], floor);
+      sq += e * e / double(ref.size());
+      barycentricSq += b * b / double(ref.size());
+    }
+  }
+  const double rmsStops = std::sqrt(sq / double(h.points.size()));
+  EXPECT_NEAR(r.fieldError, rmsStops, 1e-4 * rmsStops);
+  // The same probes read without their maps: visibility must be doing something here.
+  EXPECT_GT(std::abs(std::sqrt(barycentricSq / double(h.points.size())) - rmsStops), 1e-3);
+  // Without captures there are no maps: refused, naming the parameter.
+  GreedySettings bad = s;
+  bad.captureProbeValues = nullptr;
+  try {
+    placeGreedy(f, {}, bad);
+    ADD_FAILURE() << "expected a ParameterError";
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.parameter(), "interpolant");
+  }
+}
+
 TEST(Greedy, KeepsLockedProbesAndBuildsAroundThem) {
   const DenseField& f = noiselessTwoRoomsField();
   // Two kept probes at field samples, with their SH, so that the error can be recomputed.
   const size_t far = f.samples.size() / 2;
-  std::vector<KeptProbe> kept = {{f.samples[7].position, f.samples[7].sh},
-                                 {f.samples[far].position, f.samples[far].sh}};
+  std::vector<KeptProbe> kept = {{f.samples[7].position, f.samples[7].sh, {}, false},
+                                 {f.samples[far].position, f.samples[far].sh, {}, false}};
   GreedySettings s;
   s.budget = 20;
   s.verifyState = true;
@@ -997,16 +1081,24 @@ TEST(Greedy, DefaultFieldBeatsUniformAndKeepsOffTheLight) {
   ASSERT_EQ(p.probes.size(), 64u);
   CaptureSettings cs;
   cs.samplesPerProbe = 256;
+  cs.visibilityMaps = true;
   EvalSettings es;
   es.queries = 4096;
   es.referenceSpp = 64;
+  // Each set read as a baked volume is: with its probes' visibility maps.
   auto eval = [&](const ProbeSet& o) {
     std::vector<Vec3> pts;
     for (const Probe& probe : o.probes) pts.push_back(probe.position);
     const auto caps = captureProbes(*l.tracer, {}, pts, cs);
     std::vector<ShRgb> sh;
-    for (const auto& c : caps) sh.push_back(c.sh);
-    return evaluateVolume(*l.tracer, {}, volumeFromProbes(pts, sh), es);
+    std::vector<ProbeVisibility> vis(caps.size());
+    for (size_t i = 0; i < caps.size(); ++i) {
+      sh.push_back(caps[i].sh);
+      std::copy(caps[i].distanceMoments.begin(), caps[i].distanceMoments.end(),
+                vis[i].distanceMoments.begin());
+      vis[i].inside = caps[i].backfaceFraction > 0.25;
+    }
+    return evaluateVolume(*l.tracer, {}, volumeFromProbes(pts, sh, vis), es);
   };
   const EvalResult vu = eval(u), vg = eval(g), vp = eval(p);
   const double eu = vu.relRmse, eg = vg.relRmse;
