@@ -313,10 +313,10 @@ void MainWindow::createActions() {
                       [this] { viewport_->setCutFraction(viewport_->cutFraction() - 0.05f); });
   a->setShortcut(Qt::Key_PageDown);
   view->addSeparator();
-  a = view->addAction(tr("&Brighter probes (+1/2 stop)"), this,
+  a = view->addAction(tr("&Brighter (+1/2 stop)"), this,
                       [this] { viewport_->setExposureStops(viewport_->exposureStops() + 0.5f); });
   a->setShortcut(Qt::Key_BracketRight);
-  a = view->addAction(tr("&Darker probes (-1/2 stop)"), this,
+  a = view->addAction(tr("&Darker (-1/2 stop)"), this,
                       [this] { viewport_->setExposureStops(viewport_->exposureStops() - 0.5f); });
   a->setShortcut(Qt::Key_BracketLeft);
   a = view->addAction(tr("&Auto exposure"), this, [this] { viewport_->setExposureStops(0); });
@@ -325,9 +325,17 @@ void MainWindow::createActions() {
   overlayBar->setObjectName("overlayToolBar");
   a = view->addAction(tr("Probe &lighting preview"), viewport_, &Viewport::setPreviewLighting);
   a->setCheckable(true);
+  a->setChecked(viewport_->previewLighting());
   a->setShortcut(Qt::Key_I);
-  a->setToolTip(tr("Shade surfaces with the probes' interpolated irradiance"));
+  a->setToolTip(
+      tr("Shade surfaces with the probes' interpolated irradiance (off, or before "
+         "any capture: the scene's own lights)"));
   overlayBar->addAction(a);
+  a = view->addAction(tr("&Flat colours"), viewport_, &Viewport::setFlatShading);
+  a->setObjectName("flatShadingAction");
+  a->setCheckable(true);
+  a->setShortcut(QKeySequence(Qt::SHIFT | Qt::Key_I));
+  a->setToolTip(tr("Draw the surfaces in their flat colours instead of lit"));
   const struct {
     Viewport::Overlay overlay;
     const char* text;

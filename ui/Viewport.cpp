@@ -70,7 +70,7 @@ uniform usamplerBuffer uTriMaterial;  // material index per triangle
 uniform vec3 uEye;
 uniform float uClipY;  // cut-away: nothing above this height is drawn
 uniform int uCaps;     // 1: back faces are the insides of closed solids cut open: draw as caps
-uniform int uPreview;  // 1: "probe lighting": lit by the preview volume's SH grid
+uniform int uPreview;  // 1: lit by an SH irradiance grid (the probes', or the scene lights')
 uniform sampler3D uSh0, uSh1, uSh2, uSh3, uSh4, uSh5, uSh6;  // 27 floats A_l c_lm per cell
 uniform vec3 uGridLo;
 uniform vec3 uGridSize;
@@ -332,13 +332,26 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
   connect(doc, &Document::probeChanged, this, [this] {
     probesDirty_ = true;
     fieldsDirty_ = true;
-    updateAutoExposure();
+    update();
+  });
+  // The scene's direct light follows the scene and the rig (a sun edit, a sky).
+  connect(doc, &Document::sceneChanged, this, [this] {
+    sceneGridDirty_ = true;
+    sceneGrid_ = {};
+    overlaysDirty_ = true;
+    if (sceneGridCancel_) sceneGridCancel_->store(true);
+  });
+  connect(doc, &Document::rigChanged, this, [this] {
+    sceneGridDirty_ = true;
+    if (sceneGridCancel_) sceneGridCancel_->store(true);
     update();
   });
 }
 
 Viewport::~Viewport() {
   if (fieldsWatcher_) fieldsWatcher_->waitForFinished();
+  if (sceneGridCancel_) sceneGridCancel_->store(true);
+  if (sceneGridWatcher_) sceneGridWatcher_->waitForFinished();
   cleanup();
   // ~QOpenGLWidget destroys the context, whose aboutToBeDestroyed must not reach this half
   // destroyed object (UBSan).
@@ -349,7 +362,6 @@ void Viewport::onProbesChanged() {
   probesDirty_ = true;
   fieldsDirty_ = true;
   updateBaseRadius();
-  updateAutoExposure();
   update();
 }
 
@@ -359,6 +371,7 @@ void Viewport::setSelection(const QSet<quint64>& ids) {
   probesDirty_ = true;
   // The slice measures the distance to the selected probe; glyphs at probes follow visibility.
   if (overlays_) overlaysDirty_ = true;
+  sliceTexDirty_ = true;
   update();
 }
 
@@ -416,18 +429,31 @@ float Viewport::exposure() const {
   return autoExposure_ * std::exp2(exposureStops_);
 }
 
-void Viewport::updateAutoExposure() {
-  // Log-average ("key", Reinhard et al. 2002) of the probes' mean radiance (L00 term) maps to
-  // a mid-tone, so dim rooms stay readable while ACES rolls off the bright ones.
-  double sumLog = 0;
-  int n = 0;
-  for (const Probe& p : doc_->probes())
-    if (p.sh) {
-      sumLog += std::log(std::max(luminance(p.sh->c[0]) * 0.282095, 0.0) + 1e-4);
-      ++n;
+void Viewport::meterExposureNow() {
+  const QMatrix4x4 vp = viewProjection();
+  meteredView_ = vp;
+  meteredSize_ = size();
+  meteredVersion_ = lightingVersion_;
+  const Tracer* tracer = doc_->tracer();
+  const ShGrid* grid = meteringGrid();
+  if (!tracer || !grid || width() < 1 || height() < 1) return;
+  // One ray through the centre of each cell of a kMeterColumns x kMeterRows grid of the view,
+  // starting at the cut plane above it as surfaceRay() does (the artist sees the rooms below).
+  const QMatrix4x4 inv = vp.inverted();
+  const float cut = cutHeight();
+  std::vector<Ray> rays;
+  rays.reserve(size_t(kMeterColumns) * kMeterRows);
+  for (int j = 0; j < kMeterRows; ++j)
+    for (int i = 0; i < kMeterColumns; ++i) {
+      const float x = (2.0f * (float(i) + 0.5f) / kMeterColumns) - 1.0f;
+      const float y = 1.0f - (2.0f * (float(j) + 0.5f) / kMeterRows);
+      QVector3D a = inv.map(QVector3D(x, y, -1.0f));
+      const QVector3D d = (inv.map(QVector3D(x, y, 1.0f)) - a).normalized();
+      if (cutaway_ && a.y() > cut && d.y() < 0) a += d * ((cut - a.y()) / d.y());
+      rays.push_back(Ray{Vec3(a.x(), a.y(), a.z()), Vec3(d.x(), d.y(), d.z()), 0.0});
     }
-  if (n == 0) return;
-  autoExposure_ = float(0.6 / std::exp(sumLog / n));
+  if (const auto e = meterExposure(litSurfaceLuminances(*tracer, *grid, rays)))
+    autoExposure_ = float(*e);
 }
 
 void Viewport::updateBaseRadius() {
@@ -867,7 +893,15 @@ void Viewport::paintGL() {
   // rebuild shows it; the frame shows the previous ones until then.
   if ((previewLighting_ || overlays_) && drag_ != Drag::Handle && !doc_->isQuickCapturePending())
     startFieldsRebuild();
+  // The scene's own light is computed when the view falls back to it (no probe lighting).
+  if (!flatShading_ && !(previewLighting_ && previewVolume_ && previewGrid_.size() > 0))
+    startSceneLightRebuild();
+  if (shading() != uploadedShading_) overlaysDirty_ = true;
   if (overlaysDirty_) uploadOverlays();
+  if (sliceTexDirty_ && overlay(Overlay::Slice)) uploadSliceTexture();
+  if (meteredVersion_ != lightingVersion_ || meteredSize_ != size() ||
+      meteredView_ != viewProjection())
+    meterExposureNow();
 
   glClearColor(0, 0, 0, 1);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
@@ -910,14 +944,15 @@ void Viewport::paintGL() {
     glUniformMatrix4fv(glGetUniformLocation(sceneProgram_, "uViewProj"), 1, GL_FALSE,
                        vp.constData());
     glUniform3f(glGetUniformLocation(sceneProgram_, "uEye"), eye.x(), eye.y(), eye.z());
-    const bool preview = previewLighting_ && previewTexValid_;
+    const ShGrid* lightGrid = shadingGrid();
+    const bool preview = lightGrid && previewTexValid_;
     glUniform1i(glGetUniformLocation(sceneProgram_, "uPreview"), preview ? 1 : 0);
     glUniform1f(glGetUniformLocation(sceneProgram_, "uExposure"), exposure());
-    const Vec3 gridSize(previewGrid_.dims[0] * previewGrid_.cellMeters.x,
-                        previewGrid_.dims[1] * previewGrid_.cellMeters.y,
-                        previewGrid_.dims[2] * previewGrid_.cellMeters.z);
-    glUniform3f(glGetUniformLocation(sceneProgram_, "uGridLo"), float(previewGrid_.lo.x),
-                float(previewGrid_.lo.y), float(previewGrid_.lo.z));
+    const ShGrid& g = lightGrid ? *lightGrid : previewGrid_;
+    const Vec3 gridSize(g.dims[0] * g.cellMeters.x, g.dims[1] * g.cellMeters.y,
+                        g.dims[2] * g.cellMeters.z);
+    glUniform3f(glGetUniformLocation(sceneProgram_, "uGridLo"), float(g.lo.x), float(g.lo.y),
+                float(g.lo.z));
     glUniform3f(glGetUniformLocation(sceneProgram_, "uGridSize"), float(std::max(gridSize.x, 1e-6)),
                 float(std::max(gridSize.y, 1e-6)), float(std::max(gridSize.z, 1e-6)));
     for (int i = 0; i < 7; ++i) {

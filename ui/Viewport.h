@@ -1,13 +1,16 @@
 #pragma once
-// The 3D viewport: the scene shaded (albedo x headlight + key light, plus a little emission) and
-// the probes as instanced spheres shaded by their own SH irradiance, tone mapped (exposure,
-// ACES, sRGB). Turns document data into GL buffers and nothing more (STYLE.md rule 10).
-// OpenGL 3.3 core; GL resources are made in initializeGL and freed on aboutToBeDestroyed.
+// The 3D viewport: the scene lit by the probes' interpolated light, or before any capture by the
+// scene's own lights (SceneLighting.h), or in flat colours (albedo x headlight + key light), and
+// the probes as instanced spheres shaded by their own SH irradiance, tone mapped (exposure
+// metered from the lit surfaces in view, ACES, sRGB). Turns document data into GL buffers and
+// nothing more (STYLE.md rule 10). OpenGL 3.3 core; GL resources are made in initializeGL and freed
+// on aboutToBeDestroyed.
 #include <QFutureWatcher>
 #include <QOpenGLFunctions_3_3_Core>
 #include <QOpenGLWidget>
 #include <QSet>
 #include <QSurfaceFormat>
+#include <atomic>
 #include <memory>
 #include <optional>
 #include <unordered_map>
@@ -17,6 +20,7 @@
 #include "ui/DragHandle.h"
 #include "ui/LightingField.h"
 #include "ui/OrbitCamera.h"
+#include "ui/SceneLighting.h"
 
 class QRubberBand;
 class QTimer;
@@ -102,11 +106,27 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void setFlyKey(int key, bool down);
 
   // ---- lighting preview and overlays (ViewportOverlays.cpp) ----
-  /// "Probe lighting": surfaces shaded by the preview volume's interpolated irradiance
-  /// (albedo x E(n) / pi, tone mapped), sampled on a grid of previewResolution() cells along the
-  /// longest side and filtered trilinearly on the GPU.
+  /// "Probe lighting" (on by default): surfaces shaded by the preview volume's interpolated
+  /// irradiance (albedo x E(n) / pi + emission, tone mapped), sampled on a grid of
+  /// previewResolution() cells along the longest side and filtered trilinearly on the GPU.
+  /// Without a preview volume (before any capture), or with it off, the surfaces are lit by the
+  /// scene's lights instead (Shading::SceneLights).
   void setPreviewLighting(bool on);
   bool previewLighting() const { return previewLighting_; }
+  /// How the surfaces are drawn now: by the probes (Probe lighting with a preview volume), by
+  /// the scene's and the rig's lights, direct and one bounce (sceneLightGrid(): the same
+  /// shader and trilinear grid as the probes), or in flat colours (the flat toggle, or a scene
+  /// without any light, or while its light grid is first computed).
+  enum class Shading { Probes, SceneLights, Flat };
+  Shading shading() const;
+  /// Flat colours (albedo under a headlight and a fixed key light, no exposure) instead of light.
+  void setFlatShading(bool on);
+  bool flatShading() const { return flatShading_; }
+  /// The scene's own light on a grid of kSceneLightCells cells along the longest side
+  /// (directLightGrid, SceneLighting.h), brought up to date now: computed on a worker thread when
+  /// the scene or the rig changes, and waited for here. Empty without a tracer or any light.
+  const ShGrid& sceneLightGrid();
+  static constexpr int kSceneLightCells = 64;
   /// ErrorPoints: the last evaluation's queries (Document::evaluations()), a dot each, coloured
   /// by their error in stops (blue at 0, red from 1 stop).
   enum class Overlay { Glyphs, Slice, TetMesh, TestObject, ErrorPoints };
@@ -223,11 +243,21 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   float cutFraction() const { return cutFraction_; }
   /// World height above which the cut-away hides the scene.
   float cutHeight() const;
-  /// Exposure offset in stops on top of the automatic exposure (from the probes' mean light).
+  /// Exposure offset in stops on top of the automatic exposure.
   void setExposureStops(float stops);
   float exposureStops() const { return exposureStops_; }
-  /// The linear scale applied to probe radiance before tone mapping.
+  /// The linear scale applied to radiance before tone mapping: the automatic exposure times
+  /// 2^exposureStops().
   float exposure() const;
+  /// The automatic exposure, metered from what the view shows: meterExposure (SceneLighting.h)
+  /// over the lit surfaces seen through a grid of kMeterColumns x kMeterRows pixels (through the
+  /// cut-away as clicks go), lit by the grid the surfaces are drawn with (the probes', else the
+  /// scene lights'). Metered again when the view or the light changes; 1 before any light.
+  float autoExposure() const { return autoExposure_; }
+  /// Meters the exposure now for the current view and light (paintGL does it when needed).
+  void meterExposureNow();
+  static constexpr int kMeterColumns = 48, kMeterRows = 36;
+
   /// Background gradient (top and bottom of the viewport, sRGB).
   static QColor backgroundTop();
   static QColor backgroundBottom();
@@ -247,6 +277,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void fieldsUpdated();
   /// The preview, an overlay, the slice's mode or the preview's source was switched.
   void overlaysToggled();
+  /// The scene's direct light grid was recomputed (sceneLightGrid()).
+  void sceneLightingUpdated();
   /// The preview volume was brought up to date with the document by local edits
   /// (EditableProbeVolume) rather than rebuilt: the wall time of the edits and the tet slots
   /// they rewrote.
@@ -275,7 +307,14 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void updateBaseRadius();
   /// Metres per logical pixel at unit distance along the view direction (perspective).
   float metresPerPixelPerMetre() const;
-  void updateAutoExposure();
+  /// Starts computing the scene's direct light grid on a worker thread when it is out of date.
+  void startSceneLightRebuild();
+  /// The grid the surfaces are lit by (Probes, SceneLights), else nullptr.
+  const ShGrid* shadingGrid() const;
+  /// The grid the exposure is metered with: shadingGrid(), or in flat colours the probes' or the
+  /// scene lights' grid, whichever exists.
+  const ShGrid* meteringGrid() const;
+  void uploadSliceTexture();
   void onProbesChanged();
   void drawHandle(const QMatrix4x4& vp);
   /// Brings the lighting fields up to date now (waits for a background rebuild).
@@ -308,7 +347,18 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   OrbitCamera camera_;
   QSet<quint64> selection_;
   bool probesVisible_ = true;
-  bool previewLighting_ = false;
+  bool previewLighting_ = true;
+  bool flatShading_ = false;
+  // The scene's direct light (sceneLightGrid), rebuilt on a worker thread when dirty.
+  ShGrid sceneGrid_;
+  bool sceneGridDirty_ = true, sceneGridPending_ = false;
+  QFutureWatcher<std::shared_ptr<ShGrid>>* sceneGridWatcher_ = nullptr;
+  std::shared_ptr<std::atomic<bool>> sceneGridCancel_;
+  /// What the lighting textures hold (uploadOverlays), and the view they were metered in.
+  Shading uploadedShading_ = Shading::Flat;
+  quint64 lightingVersion_ = 0, meteredVersion_ = ~quint64(0);
+  QMatrix4x4 meteredView_;
+  QSize meteredSize_;
   unsigned overlays_ = 0;
   PreviewSource previewSource_ = PreviewSource::AllCaptured;
   bool leakCuts_ = true;
@@ -372,6 +422,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   GLuint previewTex_[7] = {0, 0, 0, 0, 0, 0, 0};  // 3D RGBA32F: 27 SH floats + 1 per cell
   bool previewTexValid_ = false;
   GLuint sliceProgram_ = 0, sliceTex_ = 0;
+  bool sliceTexDirty_ = true;
   GLuint meshVbo_ = 0;  // tet mesh lines
   GLsizei meshVertexCount_ = 0;
   GLuint testVao_ = 0, testInstanceVbo_ = 0, testInstanceTex_ = 0;

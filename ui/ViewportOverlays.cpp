@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/Error.h"
 #include "core/placement/Uniform.h"
 #include "core/scene/Scene.h"
 #include "ui/Document.h"
@@ -112,6 +113,102 @@ void Viewport::setPreviewLighting(bool on) {
   emit overlaysToggled();
 }
 
+void Viewport::setFlatShading(bool on) {
+  flatShading_ = on;
+  update();
+  emit overlaysToggled();
+}
+
+Viewport::Shading Viewport::shading() const {
+  if (flatShading_) return Shading::Flat;
+  if (previewLighting_ && previewVolume_ && previewGrid_.size() > 0) return Shading::Probes;
+  if (sceneGrid_.size() > 0) return Shading::SceneLights;
+  return Shading::Flat;
+}
+
+const ShGrid* Viewport::shadingGrid() const {
+  switch (shading()) {
+    case Shading::Probes:
+      return &previewGrid_;
+    case Shading::SceneLights:
+      return &sceneGrid_;
+    case Shading::Flat:
+      break;
+  }
+  return nullptr;
+}
+
+const ShGrid* Viewport::meteringGrid() const {
+  if (const ShGrid* g = shadingGrid()) return g;
+  if (previewVolume_ && previewGrid_.size() > 0) return &previewGrid_;
+  if (sceneGrid_.size() > 0) return &sceneGrid_;
+  return nullptr;
+}
+
+namespace {
+/// The scene's direct light, on a worker thread: a pure function of its inputs (the tracer is
+/// shared and thread-safe for queries). An unreadable environment map gives an empty grid.
+std::shared_ptr<ShGrid> computeSceneLight(std::shared_ptr<const Tracer> tracer, LightingRig rig,
+                                          Bounds3 bounds, std::shared_ptr<std::atomic<bool>> stop) {
+  try {
+    return std::make_shared<ShGrid>(directLightGrid(*tracer, rig, bounds,
+                                                    Viewport::kSceneLightCells, kDirectSkyRays,
+                                                    [stop] { return stop->load(); }));
+  } catch (const Error&) {
+    return std::make_shared<ShGrid>();
+  }
+}
+}  // namespace
+
+void Viewport::startSceneLightRebuild() {
+  if (!sceneGridDirty_ || sceneGridPending_) return;
+  sceneGridDirty_ = false;
+  const Scene* scene = doc_->scene();
+  const auto tracer = doc_->tracerShared();
+  if (!scene || !tracer || scene->bounds.empty() || !hasAnyLight(*scene, doc_->probeSet().rig)) {
+    sceneGrid_ = {};
+    overlaysDirty_ = true;
+    return;
+  }
+  if (!sceneGridWatcher_) {
+    sceneGridWatcher_ = new QFutureWatcher<std::shared_ptr<ShGrid>>(this);
+    connect(sceneGridWatcher_, &QFutureWatcherBase::finished, this, [this] {
+      if (!sceneGridPending_) return;  // already taken by sceneLightGrid()
+      sceneGridPending_ = false;
+      // A result computed for a scene or a rig that changed since is dropped.
+      if (!sceneGridDirty_)
+        if (auto r = sceneGridWatcher_->result()) {
+          sceneGrid_ = std::move(*r);
+          overlaysDirty_ = true;
+          emit sceneLightingUpdated();
+        }
+      update();
+    });
+  }
+  sceneGridPending_ = true;
+  sceneGridCancel_ = std::make_shared<std::atomic<bool>>(false);
+  sceneGridWatcher_->setFuture(QtConcurrent::run(computeSceneLight, tracer, doc_->probeSet().rig,
+                                                 scene->bounds, sceneGridCancel_));
+}
+
+const ShGrid& Viewport::sceneLightGrid() {
+  if (sceneGridPending_) {
+    sceneGridWatcher_->waitForFinished();
+    sceneGridPending_ = false;
+    if (!sceneGridDirty_)
+      if (auto r = sceneGridWatcher_->result()) {
+        sceneGrid_ = std::move(*r);
+        overlaysDirty_ = true;
+        emit sceneLightingUpdated();
+      }
+  }
+  if (sceneGridDirty_) {
+    startSceneLightRebuild();
+    if (sceneGridPending_) return sceneLightGrid();
+  }
+  return sceneGrid_;
+}
+
 void Viewport::setOverlay(Overlay o, bool on) {
   const bool cut = cutsReference();
   if (on)
@@ -159,13 +256,15 @@ bool Viewport::cutsReference() const {
 
 void Viewport::setSliceAxis(int axis) {
   sliceAxis_ = std::clamp(axis, 0, 2);
-  overlaysDirty_ = true;
+  sliceTexDirty_ = true;
   update();
 }
 
 void Viewport::setSliceFraction(float f) {
-  sliceFraction_ = std::clamp(f, 0.0f, 1.0f);
-  overlaysDirty_ = true;
+  const float clamped = std::clamp(f, 0.0f, 1.0f);
+  if (clamped == sliceFraction_) return;
+  sliceFraction_ = clamped;
+  sliceTexDirty_ = true;
   update();
 }
 
@@ -528,21 +627,25 @@ void Viewport::cleanupOverlayGL() {
 
 void Viewport::uploadOverlays() {
   overlaysDirty_ = false;
-  // Preview lighting: the SH grid (with the cosine lobes A_l folded in) as seven RGBA textures.
+  sliceTexDirty_ = true;
+  // The light the surfaces are drawn with (the probes' grid or the scene lights'): the SH grid
+  // (with the cosine lobes A_l folded in) as seven RGBA textures.
   previewTexValid_ = false;
-  if (previewLighting_ && previewGrid_.size() > 0) {
-    const size_t n = previewGrid_.size();
+  uploadedShading_ = shading();
+  ++lightingVersion_;  // the exposure is metered again
+  if (const ShGrid* grid = shadingGrid(); grid && grid->size() > 0) {
+    const size_t n = grid->size();
     std::vector<float> tex[7];
     for (auto& t : tex) t.resize(n * 4, 0.0f);
     for (size_t i = 0; i < n; ++i)
       for (int k = 0; k < 27; ++k) {
-        const Rgb c = previewGrid_.sh[i].c[size_t(k / 3)] * shCosineLobe(k / 3);
+        const Rgb c = grid->sh[i].c[size_t(k / 3)] * shCosineLobe(k / 3);
         tex[k / 4][i * 4 + size_t(k % 4)] = float(k % 3 == 0 ? c.r : (k % 3 == 1 ? c.g : c.b));
       }
     for (int t = 0; t < 7; ++t) {
       glBindTexture(GL_TEXTURE_3D, previewTex_[t]);
-      glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA32F, previewGrid_.dims[0], previewGrid_.dims[1],
-                   previewGrid_.dims[2], 0, GL_RGBA, GL_FLOAT, tex[t].data());
+      glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA32F, grid->dims[0], grid->dims[1], grid->dims[2], 0,
+                   GL_RGBA, GL_FLOAT, tex[t].data());
     }
     glBindTexture(GL_TEXTURE_3D, 0);
     previewTexValid_ = true;
@@ -578,15 +681,6 @@ void Viewport::uploadOverlays() {
     glBindBuffer(GL_ARRAY_BUFFER, 0);
   }
 
-  // Slice texture.
-  if (overlay(Overlay::Slice)) {
-    const QImage img = renderSliceImage(160).convertToFormat(QImage::Format_RGBA8888);
-    glBindTexture(GL_TEXTURE_2D, sliceTex_);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, img.width(), img.height(), 0, GL_RGBA,
-                 GL_UNSIGNED_BYTE, img.constBits());
-    glBindTexture(GL_TEXTURE_2D, 0);
-  }
-
   // Tetrahedral mesh: grey edges; red where they cross geometry (leaks); orange where their
   // probes differ by more than kEdgeStopsTooFar stops (Chajdas sec. 4).
   meshVertexCount_ = 0;
@@ -610,6 +704,15 @@ void Viewport::uploadOverlays() {
     glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(v.size() * sizeof(float)), v.data(), GL_STATIC_DRAW);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
   }
+}
+
+void Viewport::uploadSliceTexture() {
+  sliceTexDirty_ = false;
+  const QImage img = renderSliceImage(160).convertToFormat(QImage::Format_RGBA8888);
+  glBindTexture(GL_TEXTURE_2D, sliceTex_);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, img.width(), img.height(), 0, GL_RGBA, GL_UNSIGNED_BYTE,
+               img.constBits());
+  glBindTexture(GL_TEXTURE_2D, 0);
 }
 
 void Viewport::drawLines(const std::vector<float>& v, GLenum mode, const QMatrix4x4& vp) {
@@ -807,9 +910,9 @@ void Viewport::setLegendsVisible(bool on) {
 std::vector<Viewport::Legend> Viewport::legends() {
   std::vector<Legend> out;
   if (!doc_->hasScene()) return out;
-  if (previewLighting_ && previewVolume_ && previewGrid_.size() > 0) {
+  if (const ShGrid* grid = shadingGrid()) {
     double lo = 1e300, hi = 0;
-    for (const ShRgb& sh : previewGrid_.sh) {
+    for (const ShRgb& sh : grid->sh) {
       const double e = meanIrradiance(sh);
       if (e <= 0) continue;
       lo = std::min(lo, e);
@@ -817,8 +920,12 @@ std::vector<Viewport::Legend> Viewport::legends() {
     }
     if (hi > 0) {
       Legend l;
-      l.title = tr("Probe lighting: mean irradiance (exposure %1 stops)")
-                    .arg(QString::number(double(exposureStops_), 'f', 1));
+      const QString stops = QString::number(double(exposureStops_), 'f', 1);
+      l.title = shading() == Shading::Probes
+                    ? tr("Probe lighting: mean irradiance (exposure %1 stops)").arg(stops)
+                    : tr("Scene's lights (direct and one bounce): mean irradiance (exposure %1 "
+                         "stops)")
+                          .arg(stops);
       l.unit = QStringLiteral("W/m²");
       l.lo = lo;
       l.hi = hi;
@@ -916,8 +1023,10 @@ QString Viewport::emptyOverlayReason() const {
   if (overlays_ == (1u << int(Overlay::ErrorPoints)) && !previewLighting_) return {};
   if (overlays_ == (1u << int(Overlay::TestObject)) && !previewLighting_ && previewVolume_)
     return {};
-  const QString what = previewLighting_ && overlays_ == 0 ? tr("The probe lighting preview")
-                                                          : tr("The preview and overlays");
+  if (overlays_ == 0 && flatShading_) return {};
+  const QString what = previewLighting_ && overlays_ == 0
+                           ? tr("The probe lighting (the scene's own light is shown meanwhile)")
+                           : tr("The preview and overlays");
   if (previewSource_ == PreviewSource::Baked) {
     if (!doc_->volume())
       return tr("%1 show the baked volume, and there is none: bake (Ctrl+B), open one "

@@ -1,5 +1,5 @@
 // probestudio-editor [SCENE | SET.json] [--probes SET.json] [--screenshot OUT.png] [--size WxH]
-//                    [--overlays glyphs,slice,tets,test-object,preview] [--select ID]
+//                    [--overlays glyphs,slice,tets,test-object,preview,flat] [--select ID]
 // The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
 // probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
 // projected pixel position of every probe) and exits: 0 on success, 1 with a one-line error.
@@ -39,8 +39,10 @@ QJsonArray rgb(const QColor& c) {
 bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) {
   ps::ui::Viewport* vp = w.viewport();
   vp->frameAll();
-  (void)
-      vp->previewVolume();  // the overlays' data, now (the window would build it in the background)
+  // The overlays' data and the scene's own light, now (the window computes them in the
+  // background).
+  (void)vp->previewVolume();
+  (void)vp->sceneLightGrid();
   const QImage image = vp->grabFramebuffer();
   if (image.isNull() || !image.save(out)) {
     fail(QStringLiteral("%1: cannot render or write the screenshot").arg(out));
@@ -152,7 +154,10 @@ int main(int argc, char** argv) {
   const QCommandLineOption noProbesOpt("no-probes", "Hide the probes (screenshot tests).");
   const QCommandLineOption timeOpt("time-frames", "After the screenshot, time N frames.", "N", "0");
   const QCommandLineOption overlaysOpt(
-      "overlays", "Overlays to show: any of glyphs, slice, tets, test-object, preview.", "LIST");
+      "overlays",
+      "Overlays to show: any of glyphs, slice, tets, test-object, preview (probe lighting, on by "
+      "default), flat (flat colours instead of light).",
+      "LIST");
   const QCommandLineOption selectOpt("select", "Select the probe with this id.", "ID");
   const QCommandLineOption saveOpt(
       "save-probes", "With --screenshot: also write the probe set (with its SH) here.", "SET.json");
@@ -216,9 +221,11 @@ int main(int argc, char** argv) {
         w.viewport()->setOverlay(O::TestObject, true);
       else if (o == "preview")
         w.viewport()->setPreviewLighting(true);
+      else if (o == "flat")
+        w.viewport()->setFlatShading(true);
       else {
         fail(QStringLiteral("--overlays: unknown overlay '%1' (expected glyphs, slice, tets, "
-                            "test-object, preview)")
+                            "test-object, preview, flat)")
                  .arg(o));
         return 1;
       }

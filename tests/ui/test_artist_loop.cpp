@@ -318,12 +318,15 @@ class TestArtistLoop : public QObject {
     QVERIFY(reason);
     // A set as `place` writes it: probes without captures. The preview has nothing to show and
     // the status bar says why and what to do.
+    // Probe lighting is on by default; with it off and no overlay, nothing needs explaining.
+    QVERIFY(vp->previewLighting());
+    vp->setPreviewLighting(false);
     doc->addProbes(acceptedProbes(), "Add");
     QVERIFY(reason->text().isEmpty());  // nothing shown, nothing to explain
     vp->setPreviewLighting(true);
     QVERIFY2(reason->text().contains("no captures") && reason->text().contains("Recapture"),
              qPrintable(reason->text()));
-    QVERIFY(vp->legends().empty());
+    for (const auto& l : vp->legends()) QVERIFY(!l.title.startsWith("Probe lighting"));
     // The action it names fixes it.
     w.lightingPanel()->recaptureButton()->click();
     QCOMPARE(waitForJob(doc), QString());

@@ -50,9 +50,11 @@ done
 "$checker" --cuts "$tmp/cuts.png" "$tmp/nocuts.png"
 
 # Probes stay visible however far the view: in a small viewport the same set's probes are drawn
-# at least 9 px in radius (accepted; candidates 0.7 of that), Viewport::kMinProbeRadiusPx.
-run "$scene" --probes "$tmp/set.json" --size 320x240 --screenshot "$tmp/small.png"
-run "$scene" --probes "$tmp/set.json" --size 320x240 --no-probes --screenshot "$tmp/smallbare.png"
+# at least 9 px in radius (accepted; candidates 0.7 of that), Viewport::kMinProbeRadiusPx. In flat
+# colours, so that a sphere lit as brightly as the floor behind it still shows its width.
+run "$scene" --probes "$tmp/set.json" --size 320x240 --overlays flat --screenshot "$tmp/small.png"
+run "$scene" --probes "$tmp/set.json" --size 320x240 --overlays flat --no-probes \
+  --screenshot "$tmp/smallbare.png"
 cp "$tmp/small.png" "$artifacts/editor-two-rooms-small.png"
 cp "$tmp/small.png.json" "$artifacts/editor-two-rooms-small.png.json"
 "$checker" --min-radius 9 "$tmp/small.png" "$tmp/smallbare.png"
