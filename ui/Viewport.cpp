@@ -1020,6 +1020,7 @@ void Viewport::paintGL() {
     glDisable(GL_BLEND);
   }
   drawOverlays(vp);
+  drawSunGizmos(vp);
   drawHandle(vp);
   glBindVertexArray(0);
   glUseProgram(0);
@@ -1079,6 +1080,114 @@ void Viewport::drawHandle(const QMatrix4x4& vp) {
   glEnable(GL_DEPTH_TEST);
 }
 
+// ---------------------------------------------------------------- the sun gizmo
+
+std::vector<Viewport::SunGizmo> Viewport::sunGizmos() const {
+  std::vector<SunGizmo> out;
+  bool rigSun = false;
+  for (const Light& l : doc_->probeSet().rig.lights)
+    if (l.type == LightType::Directional && !rigSun && length(l.direction) > 0) {
+      rigSun = true;
+      out.push_back({sunDragTowards_ ? *sunDragTowards_ : -normalize(l.direction), true});
+    }
+  if (const Scene* scene = doc_->scene())
+    for (const Light& l : scene->lights)
+      if (l.type == LightType::Directional && length(l.direction) > 0)
+        out.push_back({-normalize(l.direction), false});
+  return out;
+}
+
+Vec3 Viewport::sunGizmoCentre() const {
+  const Scene* scene = doc_->scene();
+  return scene && !scene->bounds.empty() ? scene->bounds.center() : Vec3();
+}
+
+double Viewport::sunGizmoDistance() const {
+  const Scene* scene = doc_->scene();
+  return scene && !scene->bounds.empty() ? 0.5 * scene->bounds.diagonal() : 1.0;
+}
+
+std::optional<Vec3> Viewport::sunGizmoPosition() const {
+  for (const SunGizmo& s : sunGizmos())
+    if (s.editable) return sunGizmoCentre() + s.towardsSun * sunGizmoDistance();
+  return std::nullopt;
+}
+
+Vec3 Viewport::sunSpherePoint(const PickRay& ray, Vec3 near) const {
+  const Vec3 c = sunGizmoCentre();
+  const double r = sunGizmoDistance();
+  const Vec3 o(ray.origin.x(), ray.origin.y(), ray.origin.z());
+  const Vec3 d = normalize(Vec3(ray.direction.x(), ray.direction.y(), ray.direction.z()));
+  const Vec3 oc = o - c;
+  const double b = dot(oc, d), disc = b * b - (dot(oc, oc) - r * r);
+  if (disc < 0) {
+    // The ray passes outside the sphere: its point nearest the centre, pushed out to the sphere
+    // (the silhouette the cursor is beyond).
+    const Vec3 q = o + d * std::max(-b, 0.0);
+    return c + normalize(q - c) * r;
+  }
+  const double s = std::sqrt(disc);
+  const Vec3 p0 = o + d * (-b - s), p1 = o + d * (-b + s);
+  return length(p0 - near) <= length(p1 - near) ? p0 : p1;
+}
+
+void Viewport::drawSunGizmos(const QMatrix4x4& vp) {
+  const std::vector<SunGizmo> suns = sunGizmos();
+  if (suns.empty() || !doc_->hasScene()) return;
+  std::vector<float> tris, lines;
+  auto put = [](std::vector<float>& v, Vec3 p, QVector4D c) {
+    v.insert(v.end(), {float(p.x), float(p.y), float(p.z), c.x(), c.y(), c.z(), c.w()});
+  };
+  const QVector3D right = camera_.right(), up = camera_.up();
+  const Vec3 r(right.x(), right.y(), right.z()), u(up.x(), up.y(), up.z());
+  const Vec3 centre = sunGizmoCentre();
+  for (const SunGizmo& sun : suns) {
+    const Vec3 at = centre + sun.towardsSun * sunGizmoDistance();
+    const float depth =
+        std::max(QVector3D::dotProduct(toQ(at) - camera_.eye(), -camera_.backward()), 1e-3f);
+    const double px = double(depth * metresPerPixelPerMetre());  // metres per pixel there
+    const bool active = sun.editable && drag_ == Drag::Sun;
+    const QVector4D fill = !sun.editable ? QVector4D(0.85f, 0.65f, 0.3f, 0.55f)
+                                         : (active ? QVector4D(1.0f, 0.97f, 0.6f, 1.0f)
+                                                   : QVector4D(1.0f, 0.82f, 0.2f, 1.0f));
+    const QVector4D stroke(fill.x() * 0.6f, fill.y() * 0.5f, fill.z() * 0.2f, fill.w());
+    // The disc, facing the camera, kSunDiscPx in radius (editable) or 0.7 of it, with 8 rays.
+    const double radius = px * kSunDiscPx * (sun.editable ? 1.0 : 0.7);
+    constexpr int kSegments = 24;
+    for (int i = 0; i < kSegments; ++i) {
+      const double a0 = 2 * kPi * i / kSegments, a1 = 2 * kPi * (i + 1) / kSegments;
+      put(tris, at, fill);
+      put(tris, at + (r * std::cos(a0) + u * std::sin(a0)) * radius, fill);
+      put(tris, at + (r * std::cos(a1) + u * std::sin(a1)) * radius, fill);
+      put(lines, at + (r * std::cos(a0) + u * std::sin(a0)) * radius, stroke);
+      put(lines, at + (r * std::cos(a1) + u * std::sin(a1)) * radius, stroke);
+    }
+    for (int i = 0; i < 8; ++i) {
+      const double a = 2 * kPi * (i + 0.5) / 8;
+      const Vec3 dir = r * std::cos(a) + u * std::sin(a);
+      put(lines, at + dir * (radius * 1.3), fill);
+      put(lines, at + dir * (radius * 1.75), fill);
+    }
+    // The light's path: from the disc towards the scene's centre, with an arrow head.
+    const Vec3 tip = at - sun.towardsSun * (sunGizmoDistance() * 0.45);
+    put(lines, at - sun.towardsSun * (radius * 1.3), fill);
+    put(lines, tip, fill);
+    Vec3 side = Vec3(0, 1, 0) - sun.towardsSun * sun.towardsSun.y;
+    if (length(side) < 1e-6) side = r;
+    side = normalize(side) * (px * 7);
+    const Vec3 back = tip + sun.towardsSun * (px * 14);
+    for (const Vec3& p : {back + side, tip, tip, back - side}) put(lines, p, fill);
+  }
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glEnable(GL_BLEND);
+  glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  drawLines(tris, GL_TRIANGLES, vp);
+  drawLines(lines, GL_LINES, vp);
+  glDisable(GL_BLEND);
+  glEnable(GL_DEPTH_TEST);
+}
+
 // ---------------------------------------------------------------- mouse
 
 void Viewport::mousePressEvent(QMouseEvent* e) {
@@ -1107,6 +1216,18 @@ void Viewport::mousePressEvent(QMouseEvent* e) {
       dragKey_ = doc_->newMergeKey();
       update();
       return;
+    }
+  }
+  if (tool_ == Tool::Select) {
+    // The rig's sun: drag it over its sphere around the scene.
+    if (const auto sun = sunGizmoPosition()) {
+      const auto px = project(*sun);
+      if (px && QLineF(*px, e->position()).length() <= kSunDiscPx + 4) {
+        drag_ = Drag::Sun;
+        sunDragTowards_ = normalize(*sun - sunGizmoCentre());
+        update();
+        return;
+      }
     }
   }
   if (tool_ == Tool::Select && overlay(Overlay::TestObject) && drawnPreviewVolume()) {
@@ -1163,6 +1284,13 @@ void Viewport::mouseMoveEvent(QMouseEvent* e) {
         syncMirror();
         mirrorAhead_ = true;
       }
+      return;
+    }
+    case Drag::Sun: {
+      const Vec3 c = sunGizmoCentre();
+      const Vec3 near = c + *sunDragTowards_ * sunGizmoDistance();
+      sunDragTowards_ = normalize(sunSpherePoint(pickRay(e->position()), near) - c);
+      update();
       return;
     }
     case Drag::Box: {
@@ -1245,6 +1373,22 @@ void Viewport::mouseReleaseEvent(QMouseEvent* e) {
   if (drag == Drag::Handle) {
     dragKey_ = -1;
     update();
+  }
+  if (drag == Drag::Sun) {
+    const std::optional<Vec3> towards = sunDragTowards_;
+    sunDragTowards_.reset();
+    pressButton_ = Qt::NoButton;
+    update();
+    if (!dragged_ || !towards) return;
+    // One undo step, as the Lighting tab's sun edit: the rig's first directional light turns.
+    LightingRig rig = doc_->probeSet().rig;
+    for (Light& l : rig.lights)
+      if (l.type == LightType::Directional && length(l.direction) > 0) {
+        l.direction = -*towards;
+        break;
+      }
+    doc_->setRig(rig, tr("Move sun"));
+    return;
   }
   if (e->button() == Qt::LeftButton && pressButton_ == Qt::LeftButton && !dragged_ &&
       drag != Drag::Handle) {

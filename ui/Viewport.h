@@ -2,9 +2,9 @@
 // The 3D viewport: the scene lit by the probes' interpolated light, or before any capture by the
 // scene's own lights (SceneLighting.h), or in flat colours (albedo x headlight + key light), and
 // the probes as instanced spheres shaded by their own SH irradiance, tone mapped (exposure
-// metered from the lit surfaces in view, ACES, sRGB). Turns document data into GL buffers and
-// nothing more (STYLE.md rule 10). OpenGL 3.3 core; GL resources are made in initializeGL and freed
-// on aboutToBeDestroyed.
+// metered from the lit surfaces in view, ACES, sRGB); the sun's direction gizmo. Turns document
+// data into GL buffers and nothing more (STYLE.md rule 10). OpenGL 3.3 core; GL resources are made
+// in initializeGL and freed on aboutToBeDestroyed.
 #include <QFutureWatcher>
 #include <QOpenGLFunctions_3_3_Core>
 #include <QOpenGLWidget>
@@ -258,6 +258,25 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void meterExposureNow();
   static constexpr int kMeterColumns = 48, kMeterRows = 36;
 
+  // ---- the sun gizmo ----
+  /// A sun drawn in the view: a disc where the sun is seen from the scene's centre (at
+  /// sunGizmoDistance() from it) with an arrow along the light's path. The rig's sun (the first
+  /// directional light of the rig, which the Lighting tab edits) can be dragged: the disc
+  /// follows the cursor over the sphere of that radius, and the release sets the rig's sun
+  /// direction as one undo step ("Move sun"). The scene's own suns are drawn dimmer and do not
+  /// move (a glTF's lights are read-only).
+  struct SunGizmo {
+    Vec3 towardsSun;  ///< unit, from the scene towards the sun
+    bool editable = false;
+  };
+  std::vector<SunGizmo> sunGizmos() const;
+  /// Where the rig's sun's disc is drawn (world), or nothing when the rig has no sun.
+  std::optional<Vec3> sunGizmoPosition() const;
+  Vec3 sunGizmoCentre() const;
+  double sunGizmoDistance() const;
+  /// The disc's radius on screen (logical pixels); a press within it plus 4 px grabs it.
+  static constexpr float kSunDiscPx = 13.0f;
+
   /// Background gradient (top and bottom of the viewport, sRGB).
   static QColor backgroundTop();
   static QColor backgroundBottom();
@@ -314,7 +333,11 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The grid the exposure is metered with: shadingGrid(), or in flat colours the probes' or the
   /// scene lights' grid, whichever exists.
   const ShGrid* meteringGrid() const;
+  void drawSunGizmos(const QMatrix4x4& vp);
   void uploadSliceTexture();
+  /// The point on the sun sphere under the cursor nearest to `near` (the silhouette when the ray
+  /// misses the sphere).
+  Vec3 sunSpherePoint(const PickRay& ray, Vec3 near) const;
   void onProbesChanged();
   void drawHandle(const QMatrix4x4& vp);
   /// Brings the lighting fields up to date now (waits for a background rebuild).
@@ -431,7 +454,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   QPointF pressPos_, lastPos_;
   Qt::MouseButton pressButton_ = Qt::NoButton;
   bool dragged_ = false;
-  enum class Drag { None, Camera, Handle, Box, Look, TestObject, Volume } drag_ = Drag::None;
+  enum class Drag { None, Camera, Handle, Box, Look, TestObject, Volume, Sun } drag_ = Drag::None;
+  // Sun drag: where the rig's sun is shown while dragged (towards the sun, unit).
+  std::optional<Vec3> sunDragTowards_;
   // Volume drag: the surface point pressed and the point under the cursor on its level.
   Vec3 volumeStart_, volumeEnd_;
   Bounds3 drawnVolume() const;

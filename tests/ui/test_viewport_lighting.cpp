@@ -4,6 +4,7 @@
 // and dream-apartment, the rig's sun as a gizmo dragged through the undo stack, the slice dragged
 // by its outline and the sky behind the scene. Screenshots go to $PS_ARTIFACTS when it is set.
 #include <QDir>
+#include <QMouseEvent>
 #include <QSignalSpy>
 #include <QtTest>
 #include <algorithm>
@@ -40,6 +41,19 @@ QString waitForJob(Document* doc, int timeoutMs = 300000) {
   QSignalSpy done(doc, &Document::jobFinished);
   if (!done.wait(timeoutMs)) return QStringLiteral("timeout");
   return done.first().first().toString();
+}
+
+void mouse(QWidget* w, QEvent::Type type, QPointF pos, Qt::MouseButtons buttons) {
+  QMouseEvent e(type, pos, w->mapToGlobal(pos), Qt::LeftButton, buttons, Qt::NoModifier);
+  QCoreApplication::sendEvent(w, &e);
+}
+
+/// A left drag from `from` to `to` in `steps` moves.
+void drag(QWidget* w, QPointF from, QPointF to, int steps = 8) {
+  mouse(w, QEvent::MouseButtonPress, from, Qt::LeftButton);
+  for (int i = 1; i <= steps; ++i)
+    mouse(w, QEvent::MouseMove, from + (to - from) * (double(i) / steps), Qt::LeftButton);
+  mouse(w, QEvent::MouseButtonRelease, to, Qt::NoButton);
 }
 
 int luma(QRgb c) {
@@ -261,6 +275,36 @@ class TestViewportLighting : public QObject {
     // The artist's offset still works on top: two stops up clips more.
     vp->setExposureStops(2);
     QVERIFY(measure(frame(vp), rig).clipped > e.clipped);
+  }
+
+  void draggingTheSunTurnsTheRigsSunAndUndoRestoresIt() {
+    Window win;
+    QVERIFY(win.w.openPath(kTwoRooms));
+    QVERIFY(QTest::qWaitForWindowExposed(&win.w));
+    Document* doc = win.doc();
+    Viewport* vp = win.vp();
+    QVERIFY(!vp->sunGizmoPosition());  // the scene's sun is drawn, not edited
+    doc->setRig(sunAndSky(), "Sun and sky");
+    vp->frameAll();
+    const Vec3 before = doc->probeSet().rig.lights.at(0).direction;
+    const auto at = vp->sunGizmoPosition();
+    QVERIFY(at);
+    const auto px = vp->project(*at);
+    QVERIFY(px && vp->onScreen(*px));
+    const int steps = doc->undoStack()->count();
+    drag(vp, *px, *px + QPointF(-120, 60));
+    QCOMPARE(doc->undoStack()->count(), steps + 1);
+    const Vec3 after = doc->probeSet().rig.lights.at(0).direction;
+    const double turnedDeg = std::acos(std::clamp(dot(before, after), -1.0, 1.0)) * 180 / kPi;
+    QVERIFY2(turnedDeg > 5, qPrintable(QString::number(turnedDeg)));
+    QCOMPARE(length(after), 1.0);
+    // The disc follows: it is drawn where the cursor left it.
+    const auto moved = vp->project(*vp->sunGizmoPosition());
+    QVERIFY(moved && QLineF(*moved, *px + QPointF(-120, 60)).length() < 3);
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probeSet().rig.lights.at(0).direction, before);
+    doc->undoStack()->redo();
+    QCOMPARE(doc->probeSet().rig.lights.at(0).direction, after);
   }
 };
 
