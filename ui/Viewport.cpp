@@ -1229,6 +1229,19 @@ void Viewport::mousePressEvent(QMouseEvent* e) {
         return;
       }
     }
+    // The slice's outline: drag the plane along its axis.
+    if (onSliceOutline(e->position())) {
+      drag_ = Drag::Slice;
+      sliceDragStart_ = sliceFraction_;
+      dragStartRay_ = pickRay(e->position());
+      const auto c = sliceCorners();
+      // The axis line through the plane's centre: the drag follows the point of it nearest
+      // the cursor's ray.
+      const Vec3 mid = (c[0] + c[2]) * 0.5;
+      dragOrigin_ = toQ(mid);
+      update();
+      return;
+    }
   }
   if (tool_ == Tool::Select && overlay(Overlay::TestObject) && drawnPreviewVolume()) {
     // Press on the test object: drag it in the plane facing the camera.
@@ -1291,6 +1304,17 @@ void Viewport::mouseMoveEvent(QMouseEvent* e) {
       const Vec3 near = c + *sunDragTowards_ * sunGizmoDistance();
       sunDragTowards_ = normalize(sunSpherePoint(pickRay(e->position()), near) - c);
       update();
+      return;
+    }
+    case Drag::Slice: {
+      const HandlePart axis = sliceAxis_ == 0   ? HandlePart::AxisX
+                              : sliceAxis_ == 1 ? HandlePart::AxisY
+                                                : HandlePart::AxisZ;
+      const auto delta = dragDelta(axis, dragOrigin_, dragStartRay_, pickRay(e->position()));
+      const Scene* scene = doc_->scene();
+      if (!delta || !scene || scene->bounds.empty()) return;
+      const double extent = std::max(scene->bounds.extent()[sliceAxis_], 1e-9);
+      setSliceFraction(sliceDragStart_ + float((*delta)[sliceAxis_] / extent));
       return;
     }
     case Drag::Box: {
@@ -1388,6 +1412,11 @@ void Viewport::mouseReleaseEvent(QMouseEvent* e) {
         break;
       }
     doc_->setRig(rig, tr("Move sun"));
+    return;
+  }
+  if (drag == Drag::Slice) {
+    pressButton_ = Qt::NoButton;
+    update();
     return;
   }
   if (e->button() == Qt::LeftButton && pressButton_ == Qt::LeftButton && !dragged_ &&

@@ -277,6 +277,11 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The disc's radius on screen (logical pixels); a press within it plus 4 px grabs it.
   static constexpr float kSunDiscPx = 13.0f;
 
+  // ---- the slice plane ----
+  /// True when the widget pixel lies within kSliceGrabPx of the slice's outline (drawn while
+  /// the Slice overlay is on); a drag from there moves the slice along its axis.
+  bool onSliceOutline(QPointF widgetPos) const;
+  static constexpr float kSliceGrabPx = 6.0f;
   /// Background gradient (top and bottom of the viewport, sRGB).
   static QColor backgroundTop();
   static QColor backgroundBottom();
@@ -296,6 +301,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void fieldsUpdated();
   /// The preview, an overlay, the slice's mode or the preview's source was switched.
   void overlaysToggled();
+  /// The slice moved (a drag of its outline, setSliceFraction or setSliceAxis): its axis and its
+  /// position as a fraction of the scene's extent on that axis.
+  void sliceChanged(int axis, float fraction);
   /// The scene's direct light grid was recomputed (sceneLightGrid()).
   void sceneLightingUpdated();
   /// The preview volume was brought up to date with the document by local edits
@@ -334,6 +342,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// scene lights' grid, whichever exists.
   const ShGrid* meteringGrid() const;
   void drawSunGizmos(const QMatrix4x4& vp);
+  void drawSliceOutline(const QMatrix4x4& vp);
   void uploadSliceTexture();
   /// The point on the sun sphere under the cursor nearest to `near` (the silhouette when the ray
   /// misses the sphere).
@@ -454,9 +463,21 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   QPointF pressPos_, lastPos_;
   Qt::MouseButton pressButton_ = Qt::NoButton;
   bool dragged_ = false;
-  enum class Drag { None, Camera, Handle, Box, Look, TestObject, Volume, Sun } drag_ = Drag::None;
+  enum class Drag {
+    None,
+    Camera,
+    Handle,
+    Box,
+    Look,
+    TestObject,
+    Volume,
+    Sun,
+    Slice
+  } drag_ = Drag::None;
   // Sun drag: where the rig's sun is shown while dragged (towards the sun, unit).
   std::optional<Vec3> sunDragTowards_;
+  // Slice drag: the fraction and the point of the outline where it started.
+  float sliceDragStart_ = 0;
   // Volume drag: the surface point pressed and the point under the cursor on its level.
   Vec3 volumeStart_, volumeEnd_;
   Bounds3 drawnVolume() const;

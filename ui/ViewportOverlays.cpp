@@ -258,6 +258,7 @@ void Viewport::setSliceAxis(int axis) {
   sliceAxis_ = std::clamp(axis, 0, 2);
   sliceTexDirty_ = true;
   update();
+  emit sliceChanged(sliceAxis_, sliceFraction_);
 }
 
 void Viewport::setSliceFraction(float f) {
@@ -266,6 +267,23 @@ void Viewport::setSliceFraction(float f) {
   sliceFraction_ = clamped;
   sliceTexDirty_ = true;
   update();
+  emit sliceChanged(sliceAxis_, sliceFraction_);
+}
+
+bool Viewport::onSliceOutline(QPointF pos) const {
+  if (!overlay(Overlay::Slice) || !doc_->hasScene()) return false;
+  const auto c = sliceCorners();
+  for (int i = 0; i < 4; ++i) {
+    const auto a = project(c[size_t(i)]), b = project(c[size_t((i + 1) % 4)]);
+    if (!a || !b) continue;
+    const QPointF ab = *b - *a;
+    const double len2 = QPointF::dotProduct(ab, ab);
+    const double t =
+        len2 > 0 ? std::clamp(QPointF::dotProduct(pos - *a, ab) / len2, 0.0, 1.0) : 0.0;
+    const QPointF q = *a + ab * t;
+    if (QLineF(q, pos).length() <= kSliceGrabPx) return true;
+  }
+  return false;
 }
 
 std::array<Vec3, 4> Viewport::sliceCorners() const {
@@ -715,6 +733,26 @@ void Viewport::uploadSliceTexture() {
   glBindTexture(GL_TEXTURE_2D, 0);
 }
 
+void Viewport::drawSliceOutline(const QMatrix4x4& vp) {
+  // The plane's outline, where the scene's bounds cut it: solid where visible, faint through
+  // geometry, bright while dragged. Drawn with the Slice overlay, with or without a volume.
+  const auto c = sliceCorners();
+  const bool active = drag_ == Drag::Slice;
+  const float r = active ? 1.0f : 0.95f, g = active ? 0.95f : 0.95f, b = active ? 0.3f : 1.0f;
+  std::vector<float> v;
+  for (int i = 0; i < 4; ++i)
+    for (const Vec3& p : {c[size_t(i)], c[size_t((i + 1) % 4)]})
+      v.insert(v.end(), {float(p.x), float(p.y), float(p.z), r, g, b, 1.0f});
+  drawLines(v, GL_LINES, vp);
+  for (size_t i = 6; i < v.size(); i += 7) v[i] = 0.35f;
+  glEnable(GL_BLEND);
+  glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  glDisable(GL_DEPTH_TEST);
+  drawLines(v, GL_LINES, vp);
+  glEnable(GL_DEPTH_TEST);
+  glDisable(GL_BLEND);
+}
+
 void Viewport::drawLines(const std::vector<float>& v, GLenum mode, const QMatrix4x4& vp) {
   if (v.empty()) return;
   glUseProgram(lineProgram_);
@@ -751,6 +789,8 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
     glDrawArrays(GL_TRIANGLES, 0, 6);
     glDisable(GL_BLEND);
   }
+
+  if (overlay(Overlay::Slice)) drawSliceOutline(vp);
 
   if (overlay(Overlay::Glyphs) && glyphCount_ > 0) {
     glUseProgram(glyphProgram_);

@@ -306,6 +306,38 @@ class TestViewportLighting : public QObject {
     doc->undoStack()->redo();
     QCOMPARE(doc->probeSet().rig.lights.at(0).direction, after);
   }
+
+  void draggingTheSliceOutlineMovesTheSlice() {
+    Window win;
+    QVERIFY(win.w.openPath(kTwoRooms));
+    QVERIFY(QTest::qWaitForWindowExposed(&win.w));
+    Viewport* vp = win.vp();
+    vp->setOverlay(Viewport::Overlay::Slice, true);
+    vp->setSliceAxis(1);
+    vp->setSliceFraction(0.3f);
+    vp->frameAll();
+    QSignalSpy moved(vp, &Viewport::sliceChanged);
+    // Grab the outline at the middle of its edge nearest the camera's side of the frame.
+    const auto c = vp->sliceCorners();
+    std::optional<QPointF> grip;
+    for (int i = 0; i < 4 && !grip; ++i) {
+      const auto p = vp->project((c[size_t(i)] + c[size_t((i + 1) % 4)]) * 0.5);
+      if (p && vp->onScreen(*p) && vp->onSliceOutline(*p)) grip = *p;
+    }
+    QVERIFY(grip);
+    QVERIFY(!vp->onSliceOutline(*grip + QPointF(0, 40)) ||
+            !vp->onSliceOutline(*grip + QPointF(40, 0)));
+    // Up on screen raises a horizontal slice.
+    drag(vp, *grip, *grip + QPointF(0, -60));
+    QVERIFY2(vp->sliceFraction() > 0.35f, qPrintable(QString::number(vp->sliceFraction())));
+    QVERIFY(!moved.isEmpty());
+    QCOMPARE(moved.last().at(1).toFloat(), vp->sliceFraction());
+    // The menu's control moves the same slice the drag moved.
+    const float dragged = vp->sliceFraction();
+    vp->setSliceFraction(vp->sliceFraction() - 0.05f);
+    QCOMPARE(vp->sliceFraction(), std::max(dragged - 0.05f, 0.0f));
+    saveArtifact(frame(vp), "viewport-two-rooms-slice.png");
+  }
 };
 
 QTEST_MAIN(TestViewportLighting)
