@@ -14,6 +14,7 @@
 #include <map>
 
 #include "core/capture/Capture.h"
+#include "core/common/Error.h"
 #include "core/common/Tolerances.h"
 #include "core/scene/Scene.h"
 #include "core/trace/Tracer.h"
@@ -28,18 +29,42 @@ namespace {
 
 const char* kBackgroundVs = R"(#version 330 core
 out float vT;
+out vec2 vNdc;
 void main() {
   vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2) * 2.0 - 1.0;  // full-screen triangle
   vT = p.y * 0.5 + 0.5;
+  vNdc = p;
   gl_Position = vec4(p, 0.0, 1.0);
 })";
 
-const char* kBackgroundFs = R"(#version 330 core
+// The gradient, or the rig's sky (constant radiance plus its equirectangular map, the
+// convention of core/scene/EnvironmentMap.h) seen along each pixel's view ray, tone mapped.
+const char* kBackgroundFs = R"(
 in float vT;
+in vec2 vNdc;
 uniform vec3 uTop;
 uniform vec3 uBottom;
+uniform int uSky;
+uniform vec3 uSkyRadiance;
+uniform int uEnvOn;
+uniform sampler2D uEnv;
+uniform mat4 uInvViewProj;
+uniform float uExposure;
 out vec4 fragColor;
-void main() { fragColor = vec4(mix(uBottom, uTop, clamp(vT, 0.0, 1.0)), 1.0); })";
+void main() {
+  if (uSky == 0) {
+    fragColor = vec4(mix(uBottom, uTop, clamp(vT, 0.0, 1.0)), 1.0);
+    return;
+  }
+  vec4 a = uInvViewProj * vec4(vNdc, -1.0, 1.0), b = uInvViewProj * vec4(vNdc, 1.0, 1.0);
+  vec3 d = normalize(b.xyz / b.w - a.xyz / a.w);
+  vec3 radiance = uSkyRadiance;
+  if (uEnvOn == 1) {
+    vec2 uv = vec2(0.5 + atan(d.x, -d.z) / 6.28318531, acos(clamp(d.y, -1.0, 1.0)) / 3.14159265);
+    radiance += texture(uEnv, uv).rgb;
+  }
+  fragColor = vec4(linearToSrgb(aces(radiance * uExposure)), 1.0);
+})";
 
 const char* kCommonGlsl = R"(
 vec3 linearToSrgb(vec3 c) {
@@ -670,7 +695,7 @@ void Viewport::initializeGL() {
   connect(context(), &QOpenGLContext::aboutToBeDestroyed, this, &Viewport::cleanup);
   initializeOpenGLFunctions();
 
-  backgroundProgram_ = buildProgram(kBackgroundVs, kBackgroundFs, false);
+  backgroundProgram_ = buildProgram(kBackgroundVs, kBackgroundFs, true);
   sceneProgram_ = buildProgram(kSceneVs, kSceneFs, true);
   probeProgram_ = buildProgram(kProbeVs, kProbeFs, true);
   lineProgram_ = buildProgram(kLineVs, kLineFs, false);
@@ -686,6 +711,14 @@ void Viewport::initializeGL() {
   glBindVertexArray(0);
 
   glGenVertexArrays(1, &emptyVao_);
+  glGenTextures(1, &envTex_);
+  glBindTexture(GL_TEXTURE_2D, envTex_);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  envKey_.clear();
 
   // Scene buffers (filled in uploadScene).
   glGenVertexArrays(1, &sceneVao_);
@@ -770,6 +803,7 @@ void Viewport::cleanup() {
   glDeleteVertexArrays(1, &lineVao_);
   glDeleteBuffers(1, &lineVbo_);
   glDeleteVertexArrays(1, &emptyVao_);
+  glDeleteTextures(1, &envTex_);
   glDeleteVertexArrays(1, &sceneVao_);
   glDeleteBuffers(3, sceneVbo_);
   glDeleteBuffers(1, &materialTbo_);
@@ -785,6 +819,36 @@ void Viewport::cleanup() {
   glDeleteBuffers(1, &quadVbo_);
   glReady_ = false;
   doneCurrent();
+}
+
+void Viewport::uploadEnvironment() {
+  const LightingRig& rig = doc_->probeSet().rig;
+  const std::string key =
+      rig.envMapPath + '|' + std::to_string(reinterpret_cast<uintptr_t>(rig.envMap.get()));
+  if (key == envKey_) return;
+  envKey_ = key;
+  env_.reset();
+  envMeanLuminance_ = 0;
+  try {
+    env_ = environmentOf(rig);
+  } catch (const Error&) {
+    env_.reset();  // the Lighting tab and the capture report an unreadable map
+  }
+  if (!env_ || env_->width < 1 || env_->height < 1) return;
+  double sum = 0, solidAngle = 0;
+  for (int row = 0; row < env_->height; ++row) {
+    const double w = env_->texelSolidAngle(row);
+    for (int col = 0; col < env_->width; ++col) {
+      const float* t = &env_->rgb[3 * (size_t(row) * size_t(env_->width) + size_t(col))];
+      sum += w * luminance(Rgb(t[0], t[1], t[2]));
+      solidAngle += w;
+    }
+  }
+  envMeanLuminance_ = solidAngle > 0 ? sum / solidAngle : 0;
+  glBindTexture(GL_TEXTURE_2D, envTex_);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, env_->width, env_->height, 0, GL_RGB, GL_FLOAT,
+               env_->rgb.data());
+  glBindTexture(GL_TEXTURE_2D, 0);
 }
 
 void Viewport::uploadScene() {
@@ -916,10 +980,33 @@ void Viewport::paintGL() {
               float(top.greenF()), float(top.blueF()));
   glUniform3f(glGetUniformLocation(backgroundProgram_, "uBottom"), float(bottom.redF()),
               float(bottom.greenF()), float(bottom.blueF()));
+  const QMatrix4x4 vp = viewProjection();
+  {
+    // The rig's sky behind the scene, at the view's exposure but dimmed so that its mean stays
+    // below white (kSkyDisplayMax): the rooms set the exposure, and a sky many times brighter
+    // than they are would otherwise fill the frame with white.
+    uploadEnvironment();
+    const Rgb sky = doc_->probeSet().rig.skyRadiance;
+    const double skyLuminance = luminance(sky) + (env_ ? envMeanLuminance_ : 0.0);
+    const bool showSky = skyLuminance > 0;
+    constexpr double kSkyDisplayMax = 0.35;  // ACES gives 0.49 linear, 186 in 8-bit sRGB
+    const double skyExposure =
+        showSky ? std::min(double(exposure()), kSkyDisplayMax / skyLuminance) : 1.0;
+    glUniform1i(glGetUniformLocation(backgroundProgram_, "uSky"), showSky ? 1 : 0);
+    glUniform3f(glGetUniformLocation(backgroundProgram_, "uSkyRadiance"), float(sky.r),
+                float(sky.g), float(sky.b));
+    glUniform1i(glGetUniformLocation(backgroundProgram_, "uEnvOn"), env_ ? 1 : 0);
+    glUniform1f(glGetUniformLocation(backgroundProgram_, "uExposure"), float(skyExposure));
+    glUniformMatrix4fv(glGetUniformLocation(backgroundProgram_, "uInvViewProj"), 1, GL_FALSE,
+                       vp.inverted().constData());
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, envTex_);
+    glUniform1i(glGetUniformLocation(backgroundProgram_, "uEnv"), 0);
+  }
   glBindVertexArray(emptyVao_);
   glDrawArrays(GL_TRIANGLES, 0, 3);
+  glBindTexture(GL_TEXTURE_2D, 0);
 
-  const QMatrix4x4 vp = viewProjection();
   const QVector3D eye = camera_.eye();
   glEnable(GL_DEPTH_TEST);
   glDepthMask(GL_TRUE);

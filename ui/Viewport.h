@@ -2,9 +2,9 @@
 // The 3D viewport: the scene lit by the probes' interpolated light, or before any capture by the
 // scene's own lights (SceneLighting.h), or in flat colours (albedo x headlight + key light), and
 // the probes as instanced spheres shaded by their own SH irradiance, tone mapped (exposure
-// metered from the lit surfaces in view, ACES, sRGB); the sun's direction gizmo. Turns document
-// data into GL buffers and nothing more (STYLE.md rule 10). OpenGL 3.3 core; GL resources are made
-// in initializeGL and freed on aboutToBeDestroyed.
+// metered from the lit surfaces in view, ACES, sRGB); the sun's direction gizmo; the sky as the
+// background. Turns document data into GL buffers and nothing more (STYLE.md rule 10).
+// OpenGL 3.3 core; GL resources are made in initializeGL and freed on aboutToBeDestroyed.
 #include <QFutureWatcher>
 #include <QOpenGLFunctions_3_3_Core>
 #include <QOpenGLWidget>
@@ -347,6 +347,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The point on the sun sphere under the cursor nearest to `near` (the silhouette when the ray
   /// misses the sphere).
   Vec3 sunSpherePoint(const PickRay& ray, Vec3 near) const;
+  void uploadEnvironment();
   void onProbesChanged();
   void drawHandle(const QMatrix4x4& vp);
   /// Brings the lighting fields up to date now (waits for a background rebuild).
@@ -453,6 +454,10 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   GLsizei glyphCount_ = 0, glyphMeshCount_ = 0;
   GLuint previewTex_[7] = {0, 0, 0, 0, 0, 0, 0};  // 3D RGBA32F: 27 SH floats + 1 per cell
   bool previewTexValid_ = false;
+  GLuint envTex_ = 0;  // the rig's environment map, RGB32F equirectangular
+  std::shared_ptr<const EnvironmentMap> env_;
+  std::string envKey_;  ///< the rig's map path and pointer env_ was taken for
+  double envMeanLuminance_ = 0;
   GLuint sliceProgram_ = 0, sliceTex_ = 0;
   bool sliceTexDirty_ = true;
   GLuint meshVbo_ = 0;  // tet mesh lines

@@ -12,6 +12,7 @@
 #include <cstdio>
 
 #include "core/capture/DirectLight.h"
+#include "core/scene/EnvironmentMap.h"
 #include "core/trace/Tracer.h"
 #include "ui/Document.h"
 #include "ui/MainWindow.h"
@@ -337,6 +338,49 @@ class TestViewportLighting : public QObject {
     vp->setSliceFraction(vp->sliceFraction() - 0.05f);
     QCOMPARE(vp->sliceFraction(), std::max(dragged - 0.05f, 0.0f));
     saveArtifact(frame(vp), "viewport-two-rooms-slice.png");
+  }
+
+  void theSkyIsTheBackground() {
+    Window win;
+    QVERIFY(win.w.openPath(kTwoRooms));
+    QVERIFY(QTest::qWaitForWindowExposed(&win.w));
+    Viewport* vp = win.vp();
+    const QImage without = frame(vp);
+    QVERIFY(isBackground(without, 2, 2));
+    win.doc()->setRig(sunAndSky(), "Sun and sky");
+    const QImage with = frame(vp);
+    saveArtifact(with, "viewport-two-rooms-sky.png");
+    const QRgb corner = with.pixel(2, 2);
+    QVERIFY(!isBackground(with, 2, 2));
+    // The sky (0.3, 0.4, 0.6) is blue, and lit, not white.
+    QVERIFY2(
+        qBlue(corner) > qRed(corner) + 20 && qBlue(corner) < 250,
+        qPrintable(
+            QStringLiteral("%1 %2 %3").arg(qRed(corner)).arg(qGreen(corner)).arg(qBlue(corner))));
+    // An environment map instead: red above the horizon, green below; the corner shows the
+    // half its view ray points into.
+    auto env = std::make_shared<EnvironmentMap>();
+    env->width = 8;
+    env->height = 4;
+    for (int row = 0; row < env->height; ++row)
+      for (int col = 0; col < env->width; ++col) {
+        const bool up = row < env->height / 2;
+        env->rgb.insert(env->rgb.end(), {up ? 0.6f : 0.05f, up ? 0.05f : 0.6f, 0.05f});
+      }
+    LightingRig rig;
+    rig.lights = sunAndSky().lights;
+    rig.envMap = env;
+    win.doc()->setRig(rig, "Environment map");
+    const QImage mapped = frame(vp);
+    saveArtifact(mapped, "viewport-two-rooms-env-map.png");
+    const bool upward = vp->pickRay(QPointF(2, 2)).direction.y() > 0;
+    const QRgb c = mapped.pixel(2, 2);
+    QVERIFY2(upward ? qRed(c) > qGreen(c) + 40 : qGreen(c) > qRed(c) + 40,
+             qPrintable(QStringLiteral("%1 %2 %3, up %4")
+                            .arg(qRed(c))
+                            .arg(qGreen(c))
+                            .arg(qBlue(c))
+                            .arg(upward)));
   }
 };
 
