@@ -53,6 +53,10 @@ struct Fixture {
     }
     doc.addProbes(std::move(probes), "Add");
     vp = std::make_unique<Viewport>(&doc);
+    // Flat colours, without the lit view's background rebuilds: the cost of the probes and the
+    // overlays themselves (the lit view's frame: BENCHMARKS.md, "Lit view").
+    vp->setFlatShading(true);
+    vp->setPreviewLighting(false);
     vp->resize(1024, 768);
     vp->show();
     QApplication::processEvents();

@@ -4,6 +4,7 @@
 // and dream-apartment, the rig's sun as a gizmo dragged through the undo stack, the slice dragged
 // by its outline and the sky behind the scene. Screenshots go to $PS_ARTIFACTS when it is set.
 #include <QDir>
+#include <QElapsedTimer>
 #include <QMouseEvent>
 #include <QSignalSpy>
 #include <QtTest>
@@ -261,6 +262,16 @@ class TestViewportLighting : public QObject {
       QCOMPARE(waitForJob(win.doc()), QString());
     }
     Viewport* vp = win.vp();
+    if (!probes) {
+      // What the view computes on its worker thread after an open or a rig edit, timed here.
+      QElapsedTimer clock;
+      clock.start();
+      const ShGrid g = directLightGrid(*win.doc()->tracer(), win.doc()->probeSet().rig,
+                                       win.doc()->scene()->bounds, Viewport::kSceneLightCells);
+      std::printf("%s: scene light grid %d x %d x %d in %.2f s\n",
+                  qPrintable(QFileInfo(scene).fileName()), g.dims[0], g.dims[1], g.dims[2],
+                  double(clock.nsecsElapsed()) * 1e-9);
+    }
     const QImage img = frame(vp);
     QCOMPARE(vp->shading(), probes ? Viewport::Shading::Probes : Viewport::Shading::SceneLights);
     const Exposure e = measure(img, rig);
