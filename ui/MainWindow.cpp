@@ -153,7 +153,8 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   // Why a shown overlay is empty, and what fixes it.
   connect(viewport_, &Viewport::fieldsUpdated, this, &MainWindow::updateOverlayReason);
   connect(viewport_, &Viewport::overlaysToggled, this, &MainWindow::updateOverlayReason);
-  for (auto signal : {&Document::probesReset, &Document::volumeChanged})
+  connect(viewport_, &Viewport::sceneLightingUpdated, this, &MainWindow::updateOverlayReason);
+  for (auto signal : {&Document::probesReset, &Document::volumeChanged, &Document::rigChanged})
     connect(doc_, signal, this, &MainWindow::updateOverlayReason);
   for (auto signal : {&Document::probeInserted, &Document::probeRemoved, &Document::probeChanged})
     connect(doc_, signal, this, &MainWindow::updateOverlayReason);

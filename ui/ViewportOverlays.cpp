@@ -1064,6 +1064,11 @@ QString Viewport::emptyOverlayReason() const {
   if (overlays_ == (1u << int(Overlay::TestObject)) && !previewLighting_ && previewVolume_)
     return {};
   if (overlays_ == 0 && flatShading_) return {};
+  if (overlays_ == 0 && !previewVolume_ && doc_->scene() &&
+      !hasAnyLight(*doc_->scene(), doc_->probeSet().rig))
+    return tr(
+        "The view shows flat colours: the scene has no light of its own. Add a sun, a sky "
+        "or a point light in the Lighting tab.");
   const QString what = previewLighting_ && overlays_ == 0
                            ? tr("The probe lighting (the scene's own light is shown meanwhile)")
                            : tr("The preview and overlays");

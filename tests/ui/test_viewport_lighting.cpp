@@ -5,6 +5,7 @@
 // by its outline and the sky behind the scene. Screenshots go to $PS_ARTIFACTS when it is set.
 #include <QDir>
 #include <QElapsedTimer>
+#include <QLabel>
 #include <QMouseEvent>
 #include <QSignalSpy>
 #include <QtTest>
@@ -287,6 +288,25 @@ class TestViewportLighting : public QObject {
     // The artist's offset still works on top: two stops up clips more.
     vp->setExposureStops(2);
     QVERIFY(measure(frame(vp), rig).clipped > e.clipped);
+  }
+
+  void aSceneWithoutLightIsFlatAndSaysWhy() {
+    if (!QFile::exists(kApartment)) QSKIP(qPrintable(kApartment + " is absent: skipped"));
+    Window win;
+    QVERIFY(win.w.openPath(kApartment));  // no light of its own, no rig
+    Viewport* vp = win.vp();
+    (void)frame(vp);
+    QCOMPARE(vp->shading(), Viewport::Shading::Flat);
+    QVERIFY2(vp->emptyOverlayReason().contains("Lighting tab"),
+             qPrintable(vp->emptyOverlayReason()));
+    auto* reason = win.w.findChild<QLabel*>("overlayReason");
+    QVERIFY(reason);
+    QCOMPARE(reason->text(), vp->emptyOverlayReason());
+    win.doc()->setRig(sunAndSky(), "Sun and sky");
+    (void)frame(vp);
+    QCOMPARE(vp->shading(), Viewport::Shading::SceneLights);
+    QVERIFY(!vp->emptyOverlayReason().contains("Lighting tab"));
+    QCOMPARE(reason->text(), vp->emptyOverlayReason());
   }
 
   void draggingTheSunTurnsTheRigsSunAndUndoRestoresIt() {
