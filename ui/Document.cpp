@@ -753,6 +753,7 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   r.keepAccepted = true;
   r.keepCandidates = !replaceCandidates;
   r.refineLeaks = refineLeaks;
+  r.newState = acceptNew ? ProbeState::Accepted : ProbeState::Candidate;
   return r;
 }
 
@@ -806,6 +807,21 @@ bool Document::runPlacement(const PlacementRequest& request) {
                    result.error, sceneHash);
   });
   return true;
+}
+
+bool Document::addProbesWhereErrorIsWorst(int count, PlacementRequest settings) {
+  if (!tracer_ || busy_) return false;
+  if (count < 1)
+    throw ParameterError("probes to add: expected 1 or more, got " + std::to_string(count));
+  settings.method = "greedy";
+  settings.replaceCandidates = false;
+  settings.refineLeaks = false;
+  settings.acceptNew = true;
+  const size_t kept = keptProbes(set_, settings.toPlaceRequest()).size();
+  settings.budget = int(kept) + count;
+  settings.undoText = count == 1 ? tr("Add 1 probe where the error is worst (greedy)")
+                                 : tr("Add %1 probes where the error is worst (greedy)").arg(count);
+  return runPlacement(settings);
 }
 
 QString Document::volumePathFor(const QString& probeSetPath) {
@@ -1000,9 +1016,11 @@ void Document::onJobDone() {
       p.id = allocateId();
       added.push_back(std::move(p));
     }
-    auto* macro = new QUndoCommand(tr("Place %1 candidates (%2)")
-                                       .arg(added.size())
-                                       .arg(QString::fromStdString(r->placement.method)));
+    auto* macro = new QUndoCommand(!r->placement.undoText.isEmpty()
+                                       ? r->placement.undoText
+                                       : tr("Place %1 candidates (%2)")
+                                             .arg(added.size())
+                                             .arg(QString::fromStdString(r->placement.method)));
     if (!replaced.empty()) new DeleteProbesCommand(this, replaced, macro);
     if (!added.empty()) new AddProbesCommand(this, std::move(added), QString(), macro);
     undo_.push(macro);

@@ -59,6 +59,10 @@ struct PlacementRequest {
   double aggressiveness = 1.0;    ///< chajdas: merging strength (without a budget)
   int swapPasses = kGreedySwapPasses;  ///< greedy: swap passes after the additions (0: none)
   bool refineLeaks = true;             ///< PlaceRequest::refineLeaks
+  /// The new probes are accepted (PlaceRequest::newState) instead of candidates.
+  bool acceptNew = false;
+  /// The undo step's name; empty: "Place N candidates (method)".
+  QString undoText;
   /// The core's request: the method's parameters among the fields above, the accepted probes
   /// kept (and the candidates unless replaceCandidates). Throws ps::ParameterError("method")
   /// for an unknown method.
@@ -224,6 +228,14 @@ class Document : public QObject {
   /// (and does nothing) when busy, without a tracer, or for an unknown method (ParameterError
   /// thrown for bad numbers).
   bool runPlacement(const PlacementRequest& request);
+  /// Greedy adds `count` probes where its error is worst: a placement (runPlacement) with
+  /// `settings`' greedy options (objective, swap passes, preview samples), every non-rejected
+  /// probe kept where it is and counted (PlaceRequest::keepAccepted, keepCandidates), a budget of
+  /// their count plus `count`, no leak refinement, and the new probes accepted (the evaluation
+  /// measures the accepted probes); one undo step adds them. Greedy adds fewer when it reaches
+  /// its noise floor first or a new probe falls beside a rejected one. Returns false when busy
+  /// or without a tracer; throws ParameterError for count < 1 or bad settings.
+  bool addProbesWhereErrorIsWorst(int count, PlacementRequest settings);
   /// Bakes the accepted probes in the background (capture, tetrahedralization) and saves the
   /// volume to volumePathFor(probeSetPath()). Needs a saved probe set; throws ParameterError when
   /// there is none or fewer than 4 probes are accepted. On success volume() holds the result.

@@ -3,6 +3,7 @@
 #include <QChart>
 #include <QChartView>
 #include <QFormLayout>
+#include <QHBoxLayout>
 #include <QHeaderView>
 #include <QLegendMarker>
 #include <QLineSeries>
@@ -115,12 +116,52 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
     if (row >= 0) emit queryPicked(worst_->item(row, 0)->data(Qt::UserRole).toInt());
   });
   connect(addProbe_, &QPushButton::clicked, this, [this] { addProbeAtCurrentQuery(); });
+  // Greedy, where the list says the error is: K more probes around the ones there are.
+  auto* greedyRow = new QHBoxLayout;
+  greedyAdd_ = new QPushButton(tr("Let greedy add"));
+  greedyAdd_->setObjectName("greedyAddProbes");
+  greedyAddCount_ = new QSpinBox;
+  greedyAddCount_->setRange(1, 10000);
+  greedyAddCount_->setValue(8);
+  greedyAddCount_->setSuffix(tr(" probes where the error is worst"));
+  const QString greedyTip =
+      tr("Greedy, with the Placement tab's objective and swap passes, adds this many accepted "
+         "probes where its measured error is worst, keeping every probe where it is (one undo "
+         "step; fewer when it reaches its noise floor first). Evaluate again to see the gain");
+  greedyAdd_->setToolTip(greedyTip);
+  greedyAddCount_->setToolTip(greedyTip);
+  greedyRow->addWidget(greedyAdd_);
+  greedyRow->addWidget(greedyAddCount_, 1);
+  layout->addLayout(greedyRow);
+  connect(greedyAdd_, &QPushButton::clicked, this, [this] { addProbesWhereErrorIsWorst(); });
 
   connect(run_, &QPushButton::clicked, this, [this] { evaluate(); });
   connect(doc_, &Document::evaluationsChanged, this, &EvaluationPanel::refresh);
-  connect(doc_, &Document::jobFinished, this, [this] { run_->setEnabled(!doc_->isBusy()); });
-  connect(doc_, &Document::jobProgress, this, [this] { run_->setEnabled(!doc_->isBusy()); });
+  auto updateState = [this] {
+    run_->setEnabled(!doc_->isBusy());
+    greedyAdd_->setEnabled(!doc_->isBusy() && doc_->hasScene());
+  };
+  connect(doc_, &Document::jobFinished, this, updateState);
+  connect(doc_, &Document::jobProgress, this, updateState);
+  connect(doc_, &Document::sceneChanged, this, updateState);
+  updateState();
   refresh();
+}
+
+bool EvaluationPanel::addProbesWhereErrorIsWorst() {
+  const PlacementRequest settings = placementSettings_ ? placementSettings_() : PlacementRequest{};
+  try {
+    if (doc_->addProbesWhereErrorIsWorst(greedyAddCount_->value(), settings)) {
+      greedyAdd_->setEnabled(false);
+      return true;
+    }
+  } catch (const Error& e) {
+    emit failed(tr("Let greedy add probes"), QString::fromStdString(e.what()));
+    return false;
+  }
+  emit failed(tr("Let greedy add probes"),
+              doc_->isBusy() ? tr("Another job is running.") : tr("Open a scene first."));
+  return false;
 }
 
 bool EvaluationPanel::evaluate() {

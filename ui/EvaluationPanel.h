@@ -5,8 +5,11 @@
 // error in stops (right-hand axis), against the
 // volume's probe count, and a row to the table below it. Below that, the last evaluation's
 // queries worst first: picking one frames it in the view, and "Add a probe here" puts an accepted
-// probe at it.
+// probe at it; "Let greedy add K probes" runs greedy around the probes there are
+// (Document::addProbesWhereErrorIsWorst).
 #include <QWidget>
+
+#include <functional>
 
 class QChart;
 class QChartView;
@@ -21,6 +24,7 @@ class QTableWidget;
 namespace ps::ui {
 
 class Document;
+struct PlacementRequest;
 
 class EvaluationPanel : public QWidget {
   Q_OBJECT
@@ -49,6 +53,18 @@ class EvaluationPanel : public QWidget {
   /// false when no row is current.
   bool addProbeAtCurrentQuery();
 
+  /// "Let greedy add K probes where the error is worst" and its K.
+  QPushButton* greedyAddButton() const { return greedyAdd_; }
+  QSpinBox* greedyAddCountBox() const { return greedyAddCount_; }
+  /// Where greedy's options (objective, swap passes, preview samples) come from: the placement
+  /// panel's request. Without one, PlacementRequest's defaults.
+  void setPlacementSettings(std::function<PlacementRequest()> settings) {
+    placementSettings_ = std::move(settings);
+  }
+  /// Starts greedy adding greedyAddCountBox() probes (Document::addProbesWhereErrorIsWorst);
+  /// false (after emitting failed) when it could not start.
+  bool addProbesWhereErrorIsWorst();
+
  signals:
   void failed(const QString& title, const QString& message);
   /// The artist picked a query in the worst-first list (its index in eval's order).
@@ -71,6 +87,9 @@ class EvaluationPanel : public QWidget {
   QTableWidget* table_;
   QTableWidget* worst_;
   QPushButton* addProbe_;
+  QPushButton* greedyAdd_;
+  QSpinBox* greedyAddCount_;
+  std::function<PlacementRequest()> placementSettings_;
   bool leakCuts_ = true;
 };
 

@@ -93,6 +93,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   addDockWidget(Qt::LeftDockWidgetArea, evaluationDock);
   tabifyDockWidget(lightingDock, evaluationDock);
   connect(evaluation_, &EvaluationPanel::failed, this, &MainWindow::showError);
+  evaluation_->setPlacementSettings([this] { return placement_->placementRequest(); });
   // The error where it is: a picked query is framed and ringed; a probe added there is selected.
   connect(evaluation_, &EvaluationPanel::queryPicked, this, [this](int index) {
     if (doc_->evaluations().empty()) return;

@@ -1,7 +1,8 @@
 // The placement / bake and lighting panels, headless (QT_QPA_PLATFORM=offscreen): placement in
 // the background keeps accepted, rejected and locked probes and is one undo step; cancel; bake
 // writes the volume beside the probe set; importance volumes are added, edited, refused, undone,
-// saved and restrict greedy; the lighting panel edits the rig (undoable).
+// saved and restrict greedy; greedy adds K probes around the set's in one undo step; the
+// lighting panel edits the rig (undoable).
 #include <QAction>
 #include <QCheckBox>
 #include <QComboBox>
@@ -639,6 +640,62 @@ class TestPanels : public QObject {
     // A new scene starts a new plot.
     QVERIFY(win.w.openScene(QStringLiteral(PS_SOURCE_DIR "/resources/scenes/cornell.gltf")));
     QCOMPARE(panel->rmseSeries()->count(), 0);
+  }
+
+  void greedyAddsKProbesWhereTheErrorIsWorstInOneUndoStep() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    PlacementPanel* placement = win.w.placementPanel();
+    placement->budgetBox()->setValue(16);
+    placement->captureSamplesBox()->setValue(4);
+    QVERIFY(placement->run());
+    QCOMPARE(waitForJob(doc), QString());
+    // The artist's set: a few accepted, one rejected, the rest candidates.
+    std::vector<uint64_t> ids;
+    for (const Probe& p : doc->probes()) ids.push_back(p.id);
+    QVERIFY(ids.size() >= 8);
+    doc->setStates({ids[0], ids[1], ids[2], ids[3]}, ProbeState::Accepted);
+    doc->setStates({ids[4]}, ProbeState::Rejected);
+    const std::vector<Probe> before = doc->probes();
+    const int undoBefore = doc->undoStack()->index();
+
+    // Greedy takes the Placement tab's options: no swap passes here, for a quick test.
+    placement->methodBox()->setCurrentText(QStringLiteral("uniform"));
+    placement->swapPassesBox()->setValue(0);
+    EvaluationPanel* eval = win.w.evaluationPanel();
+    eval->greedyAddCountBox()->setValue(5);
+    QVERIFY(eval->greedyAddButton()->isEnabled());
+    eval->greedyAddButton()->click();
+    QVERIFY(doc->isBusy());
+    QVERIFY(!eval->greedyAddButton()->isEnabled());
+    QCOMPARE(waitForJob(doc), QString());
+    QVERIFY(eval->greedyAddButton()->isEnabled());
+
+    // Exactly five more, the others untouched: greedy, accepted, captured; one undo step.
+    QCOMPARE(doc->probes().size(), before.size() + 5);
+    for (size_t i = 0; i < before.size(); ++i) {
+      QCOMPARE(doc->probes()[i].id, before[i].id);
+      QCOMPARE(doc->probes()[i].position, before[i].position);
+      QCOMPARE(doc->probes()[i].state, before[i].state);
+    }
+    for (size_t i = before.size(); i < doc->probes().size(); ++i) {
+      const Probe& p = doc->probes()[i];
+      QCOMPARE(p.method, std::string("greedy"));
+      QCOMPARE(p.state, ProbeState::Accepted);
+      QVERIFY(p.sh.has_value());
+    }
+    QCOMPARE(doc->undoStack()->index(), undoBefore + 1);
+    QCOMPARE(doc->undoStack()->undoText(),
+             QStringLiteral("Add 5 probes where the error is worst (greedy)"));
+    // The panel's method stays the artist's choice.
+    QCOMPARE(placement->methodBox()->currentText(), QStringLiteral("uniform"));
+
+    doc->undoStack()->undo();
+    QCOMPARE(doc->probes().size(), before.size());
+    for (size_t i = 0; i < before.size(); ++i) QCOMPARE(doc->probes()[i].id, before[i].id);
+    doc->undoStack()->redo();
+    QCOMPARE(doc->probes().size(), before.size() + 5);
   }
 
   void lightingPanelListsTheScenesLightsAndSaysWhichLightTheCapturesUse() {
