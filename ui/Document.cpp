@@ -749,6 +749,7 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   if (budget <= 0 && takes("spacingMeters")) r.parameters.set("spacingMeters", spacingMeters);
   if (takes("aggressiveness")) r.parameters.set("aggressiveness", aggressiveness);
   if (takes("swapPasses")) r.parameters.set("swapPasses", swapPasses);
+  if (takes("objective")) r.parameters.setText("objective", objective);
   // The artist's accepted probes stay; the candidates unless they are replaced.
   r.keepAccepted = true;
   r.keepCandidates = !replaceCandidates;
@@ -763,6 +764,7 @@ QString PlacementRequest::fieldLabel(const std::string& parameter) {
   if (parameter == "spacingMeters") return QObject::tr("Spacing");
   if (parameter == "aggressiveness") return QObject::tr("Aggressiveness");
   if (parameter == "swapPasses") return QObject::tr("Swap passes");
+  if (parameter == "objective") return QObject::tr("Objective");
   return QString::fromStdString(parameter);
 }
 

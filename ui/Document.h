@@ -58,7 +58,10 @@ struct PlacementRequest {
   bool replaceCandidates = true;  ///< false: keep the unlocked candidates too, only add
   double aggressiveness = 1.0;    ///< chajdas: merging strength (without a budget)
   int swapPasses = kGreedySwapPasses;  ///< greedy: swap passes after the additions (0: none)
-  bool refineLeaks = true;             ///< PlaceRequest::refineLeaks
+  /// greedy: the error it lowers, "perceptual" (stops) or "energy" (rel_rmse)
+  /// (GreedyMethodSettings::objective).
+  std::string objective = greedyObjectiveName(GreedyMethodSettings{}.objective);
+  bool refineLeaks = true;  ///< PlaceRequest::refineLeaks
   /// The new probes are accepted (PlaceRequest::newState) instead of candidates.
   bool acceptNew = false;
   /// The undo step's name; empty: "Place N candidates (method)".

@@ -79,6 +79,23 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
          "Each pass can take several times as long as the additions (none: the additions "
          "alone)"));
   form->addRow(tr("Swap passes"), swapPasses_);
+  // greedy's objective (core/placement/GreedyMethod.h), `place --objective`.
+  objective_ = new QComboBox;
+  const QString perceptualTip =
+      tr("Lowers the error in stops (|log2| of the interpolated over the true irradiance): a dim "
+         "room counts as much as a bright one");
+  const QString energyTip =
+      tr("Lowers rel_rmse (the irradiance error relative to its mean): the bright places "
+         "dominate, dim rooms get few probes");
+  objective_->addItem(QStringLiteral("perceptual"));
+  objective_->setItemData(0, perceptualTip, Qt::ToolTipRole);
+  objective_->addItem(QStringLiteral("energy"));
+  objective_->setItemData(1, energyTip, Qt::ToolTipRole);
+  objective_->setCurrentText(
+      QString::fromLatin1(greedyObjectiveName(GreedyMethodSettings{}.objective)));
+  objective_->setToolTip(tr("greedy: the error it lowers.\nperceptual: %1.\nenergy: %2.")
+                             .arg(perceptualTip, energyTip));
+  form->addRow(tr("Objective"), objective_);
   form->addRow(tr("Preview samples"), captureSpp_);
   replace_ = new QCheckBox(tr("Replace unlocked candidates"));
   replace_->setChecked(true);
@@ -209,6 +226,7 @@ PlacementRequest PlacementPanel::placementRequest() const {
   r.replaceCandidates = replace_->isChecked();
   r.aggressiveness = aggressiveness_->value();
   r.swapPasses = swapPasses_->value();
+  r.objective = objective_->currentText().toStdString();
   r.refineLeaks = placeLeakRefine_->isChecked();
   return r;
 }

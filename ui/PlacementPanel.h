@@ -62,6 +62,8 @@ class PlacementPanel : public QWidget {
   QSpinBox* budgetBox() const { return budget_; }
   QDoubleSpinBox* aggressivenessBox() const { return aggressiveness_; }
   QSpinBox* swapPassesBox() const { return swapPasses_; }
+  /// greedy's objective: "perceptual" (the default) or "energy".
+  QComboBox* objectiveBox() const { return objective_; }
   QSpinBox* captureSamplesBox() const { return captureSpp_; }
   QCheckBox* replaceBox() const { return replace_; }
   QCheckBox* placeLeakRefineBox() const { return placeLeakRefine_; }
@@ -88,6 +90,7 @@ class PlacementPanel : public QWidget {
   QSpinBox* budget_;
   QDoubleSpinBox* aggressiveness_ = nullptr;
   QSpinBox* swapPasses_ = nullptr;
+  QComboBox* objective_ = nullptr;
   QSpinBox* captureSpp_;
   QCheckBox* replace_;
   QCheckBox* placeLeakRefine_ = nullptr;

@@ -23,6 +23,7 @@
 #include <QTimer>
 #include <QtTest>
 #include <cstring>
+#include <map>
 
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
@@ -82,14 +83,25 @@ class TestPanels : public QObject {
     QTemporaryDir dir;
     QVERIFY(dir.isValid());
     struct Case {
-      QString method;
+      QString method, objective;
       int budget, swapPasses;
       QStringList flags;
     };
     const Case cases[] = {
-        {QStringLiteral("uniform"), 32, 0, {}},
-        {QStringLiteral("greedy"), 16, 1, {QStringLiteral("--swap-passes"), QStringLiteral("1")}},
+        {QStringLiteral("uniform"), QString(), 32, 0, {}},
+        {QStringLiteral("greedy"),
+         QStringLiteral("perceptual"),
+         16,
+         1,
+         {QStringLiteral("--swap-passes"), QStringLiteral("1")}},
+        {QStringLiteral("greedy"),
+         QStringLiteral("energy"),
+         16,
+         1,
+         {QStringLiteral("--swap-passes"), QStringLiteral("1"), QStringLiteral("--objective"),
+          QStringLiteral("energy")}},
     };
+    std::map<QString, std::vector<Vec3>> greedyPositions;  // by objective
     for (const Case& c : cases) {
       Window win;
       QVERIFY(win.w.openScene(kScene));
@@ -99,10 +111,21 @@ class TestPanels : public QObject {
       panel->budgetBox()->setValue(c.budget);
       panel->swapPassesBox()->setValue(c.swapPasses);
       panel->captureSamplesBox()->setValue(4);
+      // greedy's objective: perceptual unless the artist picks energy.
+      QCOMPARE(panel->objectiveBox()->currentText(), QStringLiteral("perceptual"));
+      if (!c.objective.isEmpty()) {
+        panel->objectiveBox()->setCurrentText(c.objective);
+        QCOMPARE(panel->objectiveBox()->currentText(), c.objective);
+        QCOMPARE(panel->placementRequest().toPlaceRequest().parameters.texts().at("objective"),
+                 c.objective.toStdString());
+      }
       QVERIFY(panel->run());
       QCOMPARE(waitForJob(doc), QString());
+      if (!c.objective.isEmpty())
+        for (const Probe& p : doc->probes())
+          if (p.method == "greedy") greedyPositions[c.objective].push_back(p.position);
 
-      const QString out = dir.filePath(c.method + QStringLiteral(".json"));
+      const QString out = dir.filePath(c.method + c.objective + QStringLiteral(".json"));
       QProcess cli;
       cli.start(QStringLiteral(PS_CLI_PATH),
                 QStringList{QStringLiteral("place"), kScene, QStringLiteral("--method"), c.method,
@@ -130,6 +153,24 @@ class TestPanels : public QObject {
       QCOMPARE(doc->probeSet().placement.method, fromCli.placement.method);
       QCOMPARE(doc->probeSet().placement.spacingMeters, fromCli.placement.spacingMeters);
     }
+    // The two objectives put the probes in different places (the same as the command line's,
+    // above): the choice reached greedy.
+    QVERIFY(!greedyPositions["energy"].empty());
+    QVERIFY(greedyPositions["energy"] != greedyPositions["perceptual"]);
+  }
+
+  void objectiveTooltipSaysWhatEachLowers() {
+    Window win;
+    QComboBox* box = win.w.placementPanel()->objectiveBox();
+    QStringList items;
+    for (int i = 0; i < box->count(); ++i) items << box->itemText(i);
+    QCOMPARE(items, QStringList({QStringLiteral("perceptual"), QStringLiteral("energy")}));
+    QVERIFY(box->itemData(0, Qt::ToolTipRole).toString().contains(QStringLiteral("stops")));
+    QVERIFY(box->itemData(0, Qt::ToolTipRole).toString().contains(QStringLiteral("dim room")));
+    QVERIFY(box->itemData(1, Qt::ToolTipRole).toString().contains(QStringLiteral("rel_rmse")));
+    QVERIFY(box->itemData(1, Qt::ToolTipRole).toString().contains(QStringLiteral("bright")));
+    QVERIFY(box->toolTip().contains(QStringLiteral("perceptual")) &&
+            box->toolTip().contains(QStringLiteral("energy")));
   }
 
   void placementReplacesOnlyUnlockedCandidates() {
