@@ -46,6 +46,30 @@ LoadedScene load(const QString& path) {
       std::shared_ptr<const Tracer>(new Tracer(*scene), [scene](const Tracer* t) { delete t; });
   return {scene, tracer, sceneContentHash(toPath(path))};
 }
+
+/// The same lights where they shine: type, position, direction and intensity.
+bool sameLights(const std::vector<Light>& a, const std::vector<Light>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (a[i].type != b[i].type || a[i].position != b[i].position ||
+        a[i].direction != b[i].direction || a[i].intensity != b[i].intensity)
+      return false;
+  return true;
+}
+
+/// Replaces the scene's own lights (Document::setSceneLights).
+class SetSceneLightsCommand : public QUndoCommand {
+ public:
+  SetSceneLightsCommand(Document* doc, std::vector<Light> old, std::vector<Light> lights,
+                        const QString& text)
+      : QUndoCommand(text), doc_(doc), old_(std::move(old)), new_(std::move(lights)) {}
+  void undo() override { doc_->setSceneLightsRaw(old_); }
+  void redo() override { doc_->setSceneLightsRaw(new_); }
+
+ private:
+  Document* doc_;
+  std::vector<Light> old_, new_;
+};
 }  // namespace
 
 struct Document::JobResult {
@@ -92,6 +116,7 @@ void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const
   emit probesAboutToBeReset();
   scene_ = std::move(scene);
   tracer_ = std::move(tracer);
+  if (sceneChanges) fileLights_ = scene_ ? scene_->lights : std::vector<Light>();
   set_ = std::move(set);
   scenePath_ = scenePath;
   setPath_ = setPath;
@@ -547,15 +572,38 @@ void Document::setProbeLockedRaw(uint64_t id, bool locked) {
   emit probeChanged(row);
 }
 
-void Document::setRigRaw(const LightingRig& rig) {
-  // Live captures of the old light are dropped; the moved probes still waiting are captured
-  // with the new one.
+void Document::lightingChanged() {
   ++rigGeneration_;
   liveFinal_.clear();
   if (liveCancel_) liveCancel_->store(true);
-  set_.rig = rig;
   ++changeCount_;
+}
+
+void Document::setRigRaw(const LightingRig& rig) {
+  set_.rig = rig;
+  lightingChanged();
   emit rigChanged();
+}
+
+void Document::setSceneLights(const std::vector<Light>& lights, const QString& text) {
+  if (!scene_) return;
+  undo_.push(new SetSceneLightsCommand(this, scene_->lights, lights, text));
+}
+
+void Document::setSceneLightsRaw(const std::vector<Light>& lights) {
+  if (!scene_) return;
+  // A copy of the scene with the new lights, and its own tracer (it references the scene);
+  // jobs still running keep the old pair alive until they end.
+  auto scene = std::make_shared<Scene>(*scene_);
+  scene->lights = lights;
+  if (tracer_) {
+    std::shared_ptr<const Scene> keep = scene;
+    tracer_ =
+        std::shared_ptr<const Tracer>(new Tracer(*keep), [keep](const Tracer* t) { delete t; });
+  }
+  scene_ = std::move(scene);
+  lightingChanged();
+  emit sceneLightsChanged();
 }
 
 void Document::setImportanceVolumesRaw(const std::vector<ImportanceVolume>& volumes) {
@@ -938,7 +986,16 @@ bool Document::evaluate(const EvalRequest& request) {
                              : QStandardPaths::writableLocation(QStandardPaths::CacheLocation);
     if (!base.isEmpty()) cacheDir = defaultReferenceCacheDir(toPath(base));
   }
-  const uint64_t sceneHash = sceneHash_;
+  // The scene's lights edited in this session (setSceneLights) are not in the file's hash:
+  // folded in, a reference traced with other lights is never read back.
+  uint64_t sceneHash = sceneHash_;
+  if (sceneHash != 0 && !sameLights(scene_->lights, fileLights_))
+    for (const Light& l : scene_->lights) {
+      const double values[] = {double(l.type), l.position.x,  l.position.y,  l.position.z,
+                               l.direction.x,  l.direction.y, l.direction.z, l.intensity.r,
+                               l.intensity.g,  l.intensity.b};
+      sceneHash = fnv1a64(values, sizeof values, sceneHash);
+    }
   startJob("eval", tr("Evaluating…"), [=](JobResult& result, const auto& report) {
     EvalSettings es;
     es.queries = request.queries;

@@ -185,6 +185,15 @@ class Document : public QObject {
   void setLocked(const std::vector<uint64_t>& ids, bool locked);
   /// Replaces the lighting rig (undoable). The probes' captured SH stays as it was.
   void setRig(const LightingRig& rig, const QString& text);
+  /// Replaces the scene's own lights (undoable) for this session: the scene is copied with
+  /// `lights` and traced anew (an Embree build), so that every later capture, placement, bake
+  /// and evaluation uses them. The scene file keeps its lights (the probe set stores the rig
+  /// only). Like a rig change, it drops the live captures of the old light and leaves the baked
+  /// volume no longer current; the probes' SH stays as it was (Recapture applies the new
+  /// light). Nothing happens without a scene.
+  void setSceneLights(const std::vector<Light>& lights, const QString& text);
+  /// The lights of the scene file as loaded (scene()->lights differs once edited).
+  const std::vector<Light>& sceneFileLights() const { return fileLights_; }
   /// Replaces the importance volumes (undoable). Each is checked first: a non-empty name is not
   /// required, but lo <= hi on every axis, finite corners and a positive weight are; a bad one
   /// throws ParameterError naming it ("importance volume 2: ...") and changes nothing.
@@ -283,6 +292,7 @@ class Document : public QObject {
   void setProbePositionRaw(uint64_t id, Vec3 p, const std::optional<ShRgb>& sh);
   void setProbeLockedRaw(uint64_t id, bool locked);
   void setRigRaw(const LightingRig& rig);
+  void setSceneLightsRaw(const std::vector<Light>& lights);
   void setImportanceVolumesRaw(const std::vector<ImportanceVolume>& volumes);
   uint64_t allocateId() { return set_.nextId++; }
 
@@ -298,6 +308,8 @@ class Document : public QObject {
   void modifiedChanged(bool modified);
   void pathsChanged();
   void rigChanged();
+  /// The scene's own lights were edited (setSceneLights) or undone.
+  void sceneLightsChanged();
   void importanceVolumesChanged();
   /// volume() changed (baked, loaded, or dropped with the scene).
   void volumeChanged();
@@ -329,12 +341,16 @@ class Document : public QObject {
   void stopLive();
   /// Sets a probe's SH from a live capture: no undo step (the edit that asked for it is one).
   void setProbeShLive(uint64_t id, const ShRgb& sh);
+  /// What every lighting change does to the captures: live captures of the old light dropped
+  /// (the moved probes still waiting are captured with the new one), the volume not current.
+  void lightingChanged();
   /// Stops the background job (if any) and waits for it.
   void cancelJob();
 
   std::shared_ptr<const Scene> scene_;
   std::shared_ptr<const Tracer> tracer_;
   ProbeSet set_;
+  std::vector<Light> fileLights_;  ///< the scene file's lights as loaded
   QString scenePath_, setPath_;
   uint64_t sceneHash_ = 0;
   QUndoStack undo_;

@@ -8,6 +8,7 @@
 #include <QLabel>
 #include <QListWidget>
 #include <QPushButton>
+#include <QSignalBlocker>
 #include <QTableWidget>
 #include <QVBoxLayout>
 #include <QtMath>
@@ -54,13 +55,27 @@ QString typeName(LightType t) {
   }
   return {};
 }
-/// A directional light's source as the sun group gives it: azimuth (0 = +Z, 90 = +X) and
-/// elevation of the direction towards the light, in degrees.
-QString sourceAngles(Vec3 travels) {
+/// Azimuth (0 = +Z, 90 = +X) and elevation, in degrees, of the direction towards a directional
+/// light that travels along `travels` (LightingPanel::towardsSun inverted).
+std::pair<double, double> sourceAzimuthElevation(Vec3 travels) {
   const Vec3 t = -travels / std::max(length(travels), 1e-12);
-  return QObject::tr("from azimuth %1°, elevation %2°")
-      .arg(qRadiansToDegrees(std::atan2(t.x, t.z)), 0, 'f', 1)
-      .arg(qRadiansToDegrees(std::asin(std::clamp(t.y, -1.0, 1.0))), 0, 'f', 1);
+  return {qRadiansToDegrees(std::atan2(t.x, t.z)),
+          qRadiansToDegrees(std::asin(std::clamp(t.y, -1.0, 1.0)))};
+}
+/// A directional light's source as the sun group gives it.
+QString sourceAngles(Vec3 travels) {
+  const auto [az, el] = sourceAzimuthElevation(travels);
+  return QObject::tr("from azimuth %1°, elevation %2°").arg(az, 0, 'f', 1).arg(el, 0, 'f', 1);
+}
+/// The strongest channel (the intensity the panel shows) and the colour it scales (white for
+/// black).
+std::pair<double, Rgb> intensityAndColour(Rgb intensity) {
+  const double e = std::max({intensity.r, intensity.g, intensity.b});
+  return {e, e > 0 ? intensity / e : Rgb(1, 1, 1)};
+}
+bool sameLight(const Light& a, const Light& b) {
+  return a.type == b.type && a.position == b.position && a.direction == b.direction &&
+         a.intensity == b.intensity;
 }
 }  // namespace
 
@@ -72,18 +87,38 @@ Vec3 LightingPanel::towardsSun(double azimuthDeg, double elevationDeg) {
 LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), doc_(doc) {
   auto* layout = new QVBoxLayout(this);
 
-  auto* sceneBox = new QGroupBox(tr("Scene lights (from the scene file, not editable here)"));
+  auto* sceneBox = new QGroupBox(tr("Scene lights (the scene file's; pick one to edit it)"));
   auto* sceneLayout = new QVBoxLayout(sceneBox);
   sceneLights_ = new QTableWidget(0, 4);
   sceneLights_->setHorizontalHeaderLabels(
       {tr("Type"), tr("Name"), tr("Direction / position (m)"), tr("Intensity")});
   sceneLights_->setEditTriggers(QAbstractItemView::NoEditTriggers);
-  sceneLights_->setSelectionMode(QAbstractItemView::NoSelection);
+  sceneLights_->setSelectionMode(QAbstractItemView::SingleSelection);
+  sceneLights_->setSelectionBehavior(QAbstractItemView::SelectRows);
   sceneLights_->verticalHeader()->hide();
   sceneLights_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
   sceneLights_->horizontalHeader()->setStretchLastSection(true);
   sceneLights_->setMaximumHeight(110);
   sceneLayout->addWidget(sceneLights_);
+  // The picked scene light's editor: the rows its type has.
+  sceneLightBox_ = new QGroupBox;
+  sceneLightBox_->setToolTip(
+      tr("Edits last for this session: captures, placement, bake and evaluation here use them; "
+         "the scene file keeps its own lights. Each change is one undo step"));
+  sceneLightForm_ = new QFormLayout(sceneLightBox_);
+  for (int i = 0; i < 3; ++i) sceneLightPos_[i] = spin(-1e6, 1e6, 0, 3);
+  sceneLightAz_ = spin(-360, 360, 0, 1, QStringLiteral("°"));
+  sceneLightEl_ = spin(-90, 90, 45, 1, QStringLiteral("°"));
+  sceneLightI_ = spin(0, 1e9, 1, 3);
+  for (int i = 0; i < 3; ++i) sceneLightColor_[i] = spin(0, 100, 1, 3);
+  sceneLightPosRow_ = row(sceneLightPos_);
+  sceneLightForm_->addRow(tr("Position"), sceneLightPosRow_);
+  sceneLightForm_->addRow(tr("Azimuth"), sceneLightAz_);
+  sceneLightForm_->addRow(tr("Elevation"), sceneLightEl_);
+  sceneLightForm_->addRow(tr("Intensity"), sceneLightI_);
+  sceneLightForm_->addRow(tr("Colour (RGB)"), row(sceneLightColor_));
+  sceneLightBox_->setVisible(false);
+  sceneLayout->addWidget(sceneLightBox_);
   capturesUse_ = new QLabel;
   capturesUse_->setWordWrap(true);
   sceneLayout->addWidget(capturesUse_);
@@ -155,6 +190,24 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
       apply(tr("Edit point light"));
     });
   connect(points_, &QListWidget::currentRowChanged, this, &LightingPanel::showPoint);
+  connect(sceneLights_, &QTableWidget::currentCellChanged, this,
+          [this](int r) { showSceneLight(r); });
+  const std::pair<QDoubleSpinBox*, SceneLightPart> sceneLightParts[] = {
+      {sceneLightPos_[0], SceneLightPart::Position},
+      {sceneLightPos_[1], SceneLightPart::Position},
+      {sceneLightPos_[2], SceneLightPart::Position},
+      {sceneLightAz_, SceneLightPart::Direction},
+      {sceneLightEl_, SceneLightPart::Direction},
+      {sceneLightI_, SceneLightPart::Intensity},
+      {sceneLightColor_[0], SceneLightPart::Intensity},
+      {sceneLightColor_[1], SceneLightPart::Intensity},
+      {sceneLightColor_[2], SceneLightPart::Intensity}};
+  for (const auto& [box, part] : sceneLightParts)
+    connect(box, &QDoubleSpinBox::valueChanged, this, [this, p = part] { applySceneLight(p); });
+  connect(doc_, &Document::sceneLightsChanged, this, [this] {
+    refreshSceneLights();
+    refreshCapturesUse();
+  });
   connect(addPoint_, &QPushButton::clicked, this, [this] {
     Light l;
     l.type = LightType::Point;
@@ -174,6 +227,7 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
   });
   connect(doc_, &Document::rigChanged, this, &LightingPanel::refresh);
   connect(doc_, &Document::sceneChanged, this, [this] {
+    sceneLights_->setRowCount(0);  // a new scene: nothing picked
     refreshSceneLights();
     refreshCapturesUse();
   });
@@ -185,6 +239,9 @@ void LightingPanel::refreshSceneLights() {
   const Scene* scene = doc_->scene();
   const std::vector<Light> none;
   const std::vector<Light>& lights = scene ? scene->lights : none;
+  const std::vector<Light>& fromFile = doc_->sceneFileLights();
+  const int current = sceneLights_->currentRow();
+  const QSignalBlocker block(sceneLights_);
   sceneLights_->setRowCount(int(lights.size()));
   for (size_t i = 0; i < lights.size(); ++i) {
     const Light& l = lights[i];
@@ -206,7 +263,10 @@ void LightingPanel::refreshSceneLights() {
             : tr("Radiant intensity, inverse-square falloff");
     tip += tr("; colour (RGB) %1").arg(vec(Vec3(c.r, c.g, c.b), 3));
     if (l.rangeMeters > 0) tip += tr("; range %1 m").arg(l.rangeMeters, 0, 'g', 4);
-    const QString cells[] = {typeName(l.type), lightName(l), where, intensity};
+    const bool edited = i >= fromFile.size() || !sameLight(l, fromFile[i]);
+    if (edited) tip += tr("; edited in this session (the scene file keeps its own)");
+    const QString cells[] = {
+        typeName(l.type), lightName(l) + (edited ? tr(" (edited)") : QString()), where, intensity};
     for (int col = 0; col < 4; ++col) {
       auto* item = new QTableWidgetItem(cells[col]);
       item->setToolTip(tip);
@@ -214,6 +274,56 @@ void LightingPanel::refreshSceneLights() {
     }
   }
   sceneLights_->setVisible(!lights.empty());
+  const int keep = current < int(lights.size()) ? current : -1;
+  sceneLights_->setCurrentCell(keep, keep < 0 ? -1 : 0);
+  showSceneLight(keep);
+}
+
+void LightingPanel::showSceneLight(int r) {
+  const Scene* scene = doc_->scene();
+  const bool valid = scene && r >= 0 && r < int(scene->lights.size());
+  sceneLightBox_->setVisible(valid);
+  if (!valid) return;
+  const Light& l = scene->lights[size_t(r)];
+  const bool sun = l.type == LightType::Directional;
+  sceneLightBox_->setTitle(tr("%1 \"%2\"").arg(typeName(l.type), lightName(l)));
+  sceneLightForm_->setRowVisible(sceneLightPosRow_, !sun);
+  sceneLightForm_->setRowVisible(sceneLightAz_, sun);
+  sceneLightForm_->setRowVisible(sceneLightEl_, sun);
+  const bool was = refreshing_;
+  refreshing_ = true;
+  for (int i = 0; i < 3; ++i) sceneLightPos_[i]->setValue(l.position[i]);
+  if (sun) {
+    const auto [az, el] = sourceAzimuthElevation(l.direction);
+    sceneLightAz_->setValue(az);
+    sceneLightEl_->setValue(el);
+  }
+  const auto [e, c] = intensityAndColour(l.intensity);
+  sceneLightI_->setSuffix(sun ? QStringLiteral(" W/m²") : QStringLiteral(" W/sr"));
+  sceneLightI_->setToolTip(sun ? tr("Irradiance on a surface facing the sun")
+                               : tr("Radiant intensity, inverse-square falloff"));
+  sceneLightI_->setValue(e);
+  sceneLightColor_[0]->setValue(c.r), sceneLightColor_[1]->setValue(c.g),
+      sceneLightColor_[2]->setValue(c.b);
+  refreshing_ = was;
+}
+
+void LightingPanel::applySceneLight(SceneLightPart part) {
+  const Scene* scene = doc_->scene();
+  const int r = sceneLights_->currentRow();
+  if (refreshing_ || !scene || r < 0 || r >= int(scene->lights.size())) return;
+  std::vector<Light> lights = scene->lights;
+  Light& l = lights[size_t(r)];
+  if (part == SceneLightPart::Direction)
+    l.direction = -towardsSun(sceneLightAz_->value(), sceneLightEl_->value());
+  else if (part == SceneLightPart::Position)
+    l.position =
+        Vec3(sceneLightPos_[0]->value(), sceneLightPos_[1]->value(), sceneLightPos_[2]->value());
+  else
+    l.intensity = Rgb(sceneLightColor_[0]->value(), sceneLightColor_[1]->value(),
+                      sceneLightColor_[2]->value()) *
+                  sceneLightI_->value();
+  doc_->setSceneLights(lights, tr("Edit scene light \"%1\"").arg(lightName(l)));
 }
 
 void LightingPanel::refreshCapturesUse() {

@@ -1,7 +1,10 @@
 #pragma once
-// The lighting dock. It lists the scene's own lights (glTF KHR_lights_punctual, read-only: they
-// are the scene file's) and edits the rig's sun, sky and point lights: the probe set's
-// LightingRig, one undoable step per change (Document::setRig). Every capture, bake and
+// The lighting dock. It lists the scene's own lights (glTF KHR_lights_punctual) and edits the
+// one picked in the list: a point or spot light's position, colour and intensity, a sun's
+// direction, colour and irradiance, one undoable step per change (Document::setSceneLights; the
+// edit lasts for the session, the scene file keeps its own). Below, it edits the rig's sun, sky
+// and point lights: the probe set's LightingRig, one undoable step per change
+// (Document::setRig). Every capture, bake and
 // evaluation lights the scene with both, the scene's lights and the rig's (allLights), and a
 // line under the list says which those are. Conventions as the command line's --sun / --env /
 // --point (README):
@@ -15,6 +18,7 @@
 #include "core/scene/LightingRig.h"
 
 class QDoubleSpinBox;
+class QFormLayout;
 class QGroupBox;
 class QListWidget;
 class QLabel;
@@ -42,6 +46,15 @@ class LightingPanel : public QWidget {
   QTableWidget* sceneLightsTable() const { return sceneLights_; }
   /// Which lights the captures use: the scene's and the rig's, in one or two lines.
   QLabel* capturesUseLabel() const { return capturesUse_; }
+  /// The editor of the scene light picked in the list (hidden while none is): position (point,
+  /// spot), azimuth and elevation of the direction towards it (sun), intensity (W/sr, or W/m²
+  /// for a sun) and colour.
+  QGroupBox* sceneLightGroup() const { return sceneLightBox_; }
+  QDoubleSpinBox* sceneLightPosition(int axis) const { return sceneLightPos_[axis]; }
+  QDoubleSpinBox* sceneLightAzimuth() const { return sceneLightAz_; }
+  QDoubleSpinBox* sceneLightElevation() const { return sceneLightEl_; }
+  QDoubleSpinBox* sceneLightIntensity() const { return sceneLightI_; }
+  QDoubleSpinBox* sceneLightColour(int channel) const { return sceneLightColor_[channel]; }
   QGroupBox* sunGroup() const { return sunBox_; }
   QDoubleSpinBox* sunAzimuth() const { return sunAz_; }
   QDoubleSpinBox* sunElevation() const { return sunEl_; }
@@ -61,10 +74,22 @@ class LightingPanel : public QWidget {
   void refreshCapturesUse();
   void apply(const QString& text);
   void showPoint(int row);
+  /// Shows the scene light of this row of the list in its editor (hides it for -1).
+  void showSceneLight(int row);
+  /// Which of a scene light's values an editor row sets.
+  enum class SceneLightPart { Position, Direction, Intensity };
+  /// Applies the editor's `part` (only it: the others keep the file's precision) to the list's
+  /// current light; one undo step.
+  void applySceneLight(SceneLightPart part);
 
   Document* doc_;
   QTableWidget* sceneLights_;
   QLabel* capturesUse_;
+  QGroupBox* sceneLightBox_;
+  QFormLayout* sceneLightForm_;
+  QDoubleSpinBox *sceneLightPos_[3], *sceneLightAz_, *sceneLightEl_, *sceneLightI_,
+      *sceneLightColor_[3];
+  QWidget* sceneLightPosRow_;
   QGroupBox* sunBox_;
   QDoubleSpinBox *sunAz_, *sunEl_, *sunE_, *sunColor_[3];
   QGroupBox* skyBox_;

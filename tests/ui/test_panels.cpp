@@ -2,7 +2,7 @@
 // the background keeps accepted, rejected and locked probes and is one undo step; cancel; bake
 // writes the volume beside the probe set; importance volumes are added, edited, refused, undone,
 // saved and restrict greedy; greedy adds K probes around the set's in one undo step; the
-// lighting panel edits the rig (undoable).
+// lighting panel edits the scene's lights and the rig (undoable).
 #include <QAction>
 #include <QCheckBox>
 #include <QComboBox>
@@ -807,6 +807,96 @@ class TestPanels : public QObject {
     panel->skyGroup()->setChecked(true);
     QCOMPARE(uses->text(),
              QStringLiteral("The scene brings no light. Captures use the rig's: sky."));
+  }
+
+  void lightingPanelEditsTheScenesLights() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    LightingPanel* panel = win.w.lightingPanel();
+    QTableWidget* table = panel->sceneLightsTable();
+    const Light point = doc->scene()->lights[0], sun = doc->scene()->lights[1];
+    QVERIFY(!panel->sceneLightGroup()->isVisibleTo(panel));
+    // The artist picks the point light: its position and intensity, no sun angles.
+    table->setCurrentCell(0, 0);
+    QVERIFY(panel->sceneLightGroup()->isVisibleTo(panel));
+    QCOMPARE(panel->sceneLightIntensity()->value(), 15.0);
+    QCOMPARE(panel->sceneLightPosition(0)->value(), -3.2);
+    QVERIFY(panel->sceneLightPosition(0)->isVisibleTo(panel));
+    QVERIFY(!panel->sceneLightAzimuth()->isVisibleTo(panel));
+
+    const quint64 changes = doc->changeCount();
+    const int undoIndex = doc->undoStack()->index();
+    panel->sceneLightIntensity()->setValue(30);
+    QCOMPARE(doc->undoStack()->index(), undoIndex + 1);
+    const Light edited = doc->scene()->lights[0];
+    for (int c = 0; c < 3; ++c)
+      QVERIFY2(std::abs(edited.intensity[c] - 2 * point.intensity[c]) <= 1e-3 * point.intensity[c],
+               qPrintable(QString::number(edited.intensity[c])));
+    QCOMPARE(edited.position, point.position);
+    QCOMPARE(doc->scene()->lights[1].direction, sun.direction);
+    // Captures trace the edited light, and a lighting change leaves the bake behind.
+    QCOMPARE(doc->tracer()->scene().lights[0].intensity, edited.intensity);
+    QVERIFY(doc->changeCount() > changes);
+    QCOMPARE(table->item(0, 3)->text(), QStringLiteral("30 W/sr"));
+    QCOMPARE(table->item(0, 1)->text(), QStringLiteral("room-a-light (edited)"));
+    QVERIFY(panel->capturesUseLabel()->text().contains(QStringLiteral("room-a-light")));
+
+    // Undo restores the file's light exactly, in the scene, the tracer and the panel.
+    doc->undoStack()->undo();
+    QCOMPARE(doc->scene()->lights[0].intensity, point.intensity);
+    QCOMPARE(doc->tracer()->scene().lights[0].intensity, point.intensity);
+    QCOMPARE(panel->sceneLightIntensity()->value(), 15.0);
+    QCOMPARE(table->item(0, 3)->text(), QStringLiteral("15 W/sr"));
+    QCOMPARE(table->item(0, 1)->text(), QStringLiteral("room-a-light"));
+
+    // The sun: its direction as azimuth and elevation; a move of the point light.
+    panel->sceneLightPosition(1)->setValue(2.0);
+    QCOMPARE(doc->scene()->lights[0].position, Vec3(point.position.x, 2.0, point.position.z));
+    table->setCurrentCell(1, 0);
+    QVERIFY(panel->sceneLightAzimuth()->isVisibleTo(panel));
+    QVERIFY(!panel->sceneLightPosition(0)->isVisibleTo(panel));
+    QCOMPARE(panel->sceneLightIntensity()->value(), 4.0);
+    panel->sceneLightElevation()->setValue(80);
+    const Vec3 towards = -doc->scene()->lights[1].direction;
+    QVERIFY(std::abs(qRadiansToDegrees(std::asin(towards.y)) - 80) < 1e-9);
+    QCOMPARE(doc->scene()->lights[1].intensity, sun.intensity);
+    panel->sceneLightIntensity()->setValue(8);
+    QCOMPARE(doc->scene()->lights[1].intensity, sun.intensity * 2.0);
+    doc->undoStack()->undo();
+    doc->undoStack()->undo();
+    doc->undoStack()->undo();
+    QCOMPARE(doc->scene()->lights[0].position, point.position);
+    QCOMPARE(doc->scene()->lights[1].direction, sun.direction);
+    QCOMPARE(doc->scene()->lights[1].intensity, sun.intensity);
+    QCOMPARE(doc->undoStack()->index(), undoIndex);
+
+    // The evaluation's reference follows the edited light: a reference cached with the file's
+    // lights is not read back, one traced with the edit is.
+    win.w.placementPanel()->budgetBox()->setValue(16);
+    win.w.placementPanel()->captureSamplesBox()->setValue(4);
+    QVERIFY(win.w.placementPanel()->run());
+    QCOMPARE(waitForJob(doc), QString());
+    std::vector<uint64_t> ids;
+    for (const Probe& p : doc->probes()) ids.push_back(p.id);
+    doc->setStates(ids, ProbeState::Accepted);
+    QTemporaryDir dir;
+    QVERIFY(win.w.saveAs(dir.filePath("set.json")));
+    EvaluationPanel* eval = win.w.evaluationPanel();
+    eval->queriesBox()->setValue(16);
+    eval->referenceSamplesBox()->setValue(16);
+    auto evaluateCached = [&] {
+      if (!eval->evaluate() || !waitForJob(doc).isEmpty()) return -1;
+      return doc->evaluations().back().referenceCached ? 1 : 0;
+    };
+    QCOMPARE(evaluateCached(), 0);
+    QCOMPARE(evaluateCached(), 1);
+    table->setCurrentCell(0, 0);
+    panel->sceneLightIntensity()->setValue(60);
+    QCOMPARE(evaluateCached(), 0);
+    QCOMPARE(evaluateCached(), 1);
+    doc->undoStack()->undo();
+    QCOMPARE(evaluateCached(), 1);  // the file's lights again: the first reference
   }
 
   void lightingPanelEditsTheRig() {
