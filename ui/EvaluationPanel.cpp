@@ -5,6 +5,7 @@
 #include <QFormLayout>
 #include <QHBoxLayout>
 #include <QHeaderView>
+#include <QLabel>
 #include <QLegendMarker>
 #include <QLineSeries>
 #include <QPushButton>
@@ -121,9 +122,9 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   greedyAdd_ = new QPushButton(tr("Let greedy add"));
   greedyAdd_->setObjectName("greedyAddProbes");
   greedyAddCount_ = new QSpinBox;
-  greedyAddCount_->setRange(1, 10000);
+  greedyAddCount_->setRange(1, 999);
   greedyAddCount_->setValue(8);
-  greedyAddCount_->setSuffix(tr(" probes where the error is worst"));
+  greedyAddCount_->setSuffix(tr(" probes"));
   const QString greedyTip =
       tr("Greedy, with the Placement tab's objective and swap passes, adds this many accepted "
          "probes where its measured error is worst, keeping every probe where it is (one undo "
@@ -131,7 +132,11 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   greedyAdd_->setToolTip(greedyTip);
   greedyAddCount_->setToolTip(greedyTip);
   greedyRow->addWidget(greedyAdd_);
-  greedyRow->addWidget(greedyAddCount_, 1);
+  greedyRow->addWidget(greedyAddCount_);
+  auto* where = new QLabel(tr("where the error is worst"));
+  where->setToolTip(greedyTip);
+  where->setWordWrap(true);
+  greedyRow->addWidget(where, 1);
   layout->addLayout(greedyRow);
   connect(greedyAdd_, &QPushButton::clicked, this, [this] { addProbesWhereErrorIsWorst(); });
 

@@ -25,7 +25,9 @@ InspectorPanel::InspectorPanel(Document* doc, QWidget* parent) : QWidget(parent)
   method_ = new QLabel;
   score_ = new QLabel;
   shInfo_ = new QLabel;
-  locked_ = new QCheckBox(tr("Locked (placement keeps it, no dragging)"));
+  locked_ = new QCheckBox(tr("Locked"));
+  locked_->setToolTip(tr("Placement keeps it where it is; it does not drag"));
+  shInfo_->setWordWrap(true);
   locked_->setTristate(false);
   form->addRow(tr("State"), state_);
   form->addRow(tr("Provenance"), method_);

@@ -26,6 +26,8 @@ QDoubleSpinBox* spin(double lo, double hi, double value, int decimals, const QSt
   s->setValue(value);
   s->setSuffix(suffix);
   s->setKeyboardTracking(false);  // one change per Enter / focus change / arrow step
+  // Three to a row in a dock a quarter of the window wide: narrower than their range's text.
+  s->setMinimumWidth(56);
   return s;
 }
 QWidget* row(QDoubleSpinBox* const (&boxes)[3]) {
@@ -87,7 +89,8 @@ Vec3 LightingPanel::towardsSun(double azimuthDeg, double elevationDeg) {
 LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), doc_(doc) {
   auto* layout = new QVBoxLayout(this);
 
-  auto* sceneBox = new QGroupBox(tr("Scene lights (the scene file's; pick one to edit it)"));
+  auto* sceneBox = new QGroupBox(tr("Scene lights"));
+  sceneBox->setToolTip(tr("The scene file's lights; pick one to edit it"));
   auto* sceneLayout = new QVBoxLayout(sceneBox);
   sceneLights_ = new QTableWidget(0, 4);
   sceneLights_->setHorizontalHeaderLabels(
@@ -106,6 +109,8 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
       tr("Edits last for this session: captures, placement, bake and evaluation here use them; "
          "the scene file keeps its own lights. Each change is one undo step"));
   sceneLightForm_ = new QFormLayout(sceneLightBox_);
+  sceneLightForm_->setRowWrapPolicy(
+      QFormLayout::WrapLongRows);  // narrow docks: fields under labels
   for (int i = 0; i < 3; ++i) sceneLightPos_[i] = spin(-1e6, 1e6, 0, 3);
   sceneLightAz_ = spin(-360, 360, 0, 1, QStringLiteral("°"));
   sceneLightEl_ = spin(-90, 90, 45, 1, QStringLiteral("°"));
@@ -127,6 +132,7 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
   sunBox_ = new QGroupBox(tr("Sun (rig)"));
   sunBox_->setCheckable(true);
   auto* sunForm = new QFormLayout(sunBox_);
+  sunForm->setRowWrapPolicy(QFormLayout::WrapLongRows);  // narrow docks: fields under labels
   sunAz_ = spin(-360, 360, 30, 1, QStringLiteral("°"));
   sunEl_ = spin(-90, 90, 45, 1, QStringLiteral("°"));
   sunE_ = spin(0, 1e6, 5, 3, QStringLiteral(" W/m²"));
@@ -137,9 +143,11 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
   sunForm->addRow(tr("Colour (RGB)"), row(sunColor_));
   layout->addWidget(sunBox_);
 
-  skyBox_ = new QGroupBox(tr("Sky (rig; constant radiance, W/m²/sr)"));
+  skyBox_ = new QGroupBox(tr("Sky (rig)"));
+  skyBox_->setToolTip(tr("A constant radiance, W/m²/sr per channel"));
   skyBox_->setCheckable(true);
   auto* skyForm = new QFormLayout(skyBox_);
+  skyForm->setRowWrapPolicy(QFormLayout::WrapLongRows);  // narrow docks: fields under labels
   for (int i = 0; i < 3; ++i) sky_[i] = spin(0, 1e6, 0.5, 3);
   skyForm->addRow(tr("RGB"), row(sky_));
   layout->addWidget(skyBox_);
@@ -156,6 +164,7 @@ LightingPanel::LightingPanel(Document* doc, QWidget* parent) : QWidget(parent), 
   buttons->addWidget(removePoint_);
   pointLayout->addLayout(buttons);
   auto* pointForm = new QFormLayout;
+  pointForm->setRowWrapPolicy(QFormLayout::WrapLongRows);  // narrow docks: fields under labels
   for (int i = 0; i < 3; ++i) pointPos_[i] = spin(-1e6, 1e6, 0, 3);
   pointI_ = spin(0, 1e9, 10, 3, QStringLiteral(" W/sr"));
   for (int i = 0; i < 3; ++i) pointColor_[i] = spin(0, 100, 1, 3);

@@ -15,6 +15,7 @@
 #include <QProgressBar>
 #include <QPushButton>
 #include <QRegularExpression>
+#include <QScreen>
 #include <QSettings>
 #include <QSortFilterProxyModel>
 #include <QStatusBar>
@@ -75,6 +76,8 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   placementDock->setObjectName("placementDock");
   placementDock->setWidget(placement_);
   addDockWidget(Qt::LeftDockWidgetArea, placementDock);
+  leftDock_ = placementDock;
+  rightDock_ = dock;
   connect(placement_, &PlacementPanel::failed, this, &MainWindow::showError);
   placement_->setSelectionProvider([this] { return selectedIds(); });
   placement_->setSaveBeforeBake([this] { return offerSaveBeforeBake(); });
@@ -178,6 +181,9 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   });
   updateTitle();
   updateStatus();
+  // The first window: 1600 x 1000, or 90 % of a smaller screen.
+  if (const QScreen* screen = QGuiApplication::primaryScreen())
+    resize(QSize(1600, 1000).boundedTo(screen->availableSize() * 0.9));
 }
 
 void MainWindow::createActions() {
@@ -698,6 +704,20 @@ bool MainWindow::maybeSave() {
       QMessageBox::Save | QMessageBox::Discard | QMessageBox::Cancel);
   if (answer == QMessageBox::Save) return save();
   return answer == QMessageBox::Discard;
+}
+
+void MainWindow::resizeEvent(QResizeEvent* e) {
+  if (!dockSizesSet_ && e->size().width() > 0) {
+    const int w = e->size().width();
+    resizeDocks({leftDock_, rightDock_}, {int(kLeftDockShare * w), int(kRightDockShare * w)},
+                Qt::Horizontal);  // the layout keeps each dock at least at its minimum
+  }
+  QMainWindow::resizeEvent(e);
+}
+
+void MainWindow::showEvent(QShowEvent* e) {
+  dockSizesSet_ = true;  // the size it is shown at came in a resize event before this
+  QMainWindow::showEvent(e);
 }
 
 void MainWindow::closeEvent(QCloseEvent* e) {

@@ -8,6 +8,7 @@
 #include <optional>
 
 class QActionGroup;
+class QDockWidget;
 class QLabel;
 class QMenu;
 class QPushButton;
@@ -97,9 +98,16 @@ class MainWindow : public QMainWindow {
 
  protected:
   void closeEvent(QCloseEvent* e) override;
+  /// Until the window has been shown at a size, gives the docks their default share of the
+  /// width (kLeftDockShare, kRightDockShare; at least their minimum), the viewport the rest.
+  void resizeEvent(QResizeEvent* e) override;
+  void showEvent(QShowEvent* e) override;
 
  private:
   void createActions();
+  /// The left docks' and the right docks' default share of the window's width: the viewport
+  /// keeps about 60 % of it.
+  static constexpr double kLeftDockShare = 0.2, kRightDockShare = 0.16;
   void showError(const QString& title, const QString& message);
   bool maybeSave();
   void updateTitle();
@@ -134,6 +142,8 @@ class MainWindow : public QMainWindow {
   LightingPanel* lighting_;
   EvaluationPanel* evaluation_;
   QPushButton* cancelJob_;
+  QDockWidget *leftDock_ = nullptr, *rightDock_ = nullptr;  ///< placement; probes
+  bool dockSizesSet_ = false;  ///< shown once: the docks keep the widths the artist gives them
   Autosave* autosave_ = nullptr;
   QString autosaveFolder_;
   QMenu* recentMenu_ = nullptr;

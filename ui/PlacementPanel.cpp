@@ -28,6 +28,7 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   auto* layout = new QVBoxLayout(this);
   auto* placeBox = new QGroupBox(tr("Placement"));
   auto* form = new QFormLayout(placeBox);
+  form->setRowWrapPolicy(QFormLayout::WrapLongRows);  // narrow docks: fields under labels
   method_ = new QComboBox;
   // The core's placement methods (core/placement/Place.h), the same as `probestudio place`.
   const std::map<std::string, QString> help = {
@@ -141,6 +142,7 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
 
   auto* bakeBox = new QGroupBox(tr("Bake"));
   auto* bakeForm = new QFormLayout(bakeBox);
+  bakeForm->setRowWrapPolicy(QFormLayout::WrapLongRows);  // narrow docks: fields under labels
   bakeSpp_ = new QSpinBox;
   bakeSpp_->setRange(1, 1 << 20);
   bakeSpp_->setValue(1024);

@@ -10,6 +10,7 @@
 #include <QFileInfo>
 #include <QGroupBox>
 #include <QLabel>
+#include <QLayout>
 #include <QListWidget>
 #include <QMessageBox>
 #include <QProcess>
@@ -737,6 +738,27 @@ class TestPanels : public QObject {
     for (size_t i = 0; i < before.size(); ++i) QCOMPARE(doc->probes()[i].id, before[i].id);
     doc->undoStack()->redo();
     QCOMPARE(doc->probes().size(), before.size() + 5);
+  }
+
+  void defaultLayoutGivesTheViewportMostOfTheWindow() {
+    // The window at 1600 x 1000, and at the screenshot test's screen (1280 x 1024), with a
+    // scene open: the viewport spans at least 60 % of the window's width.
+    for (const QSize size : {QSize(1600, 1000), QSize(1280, 1024)}) {
+      Window win;
+      QVERIFY(win.w.openScene(kScene));
+      // The offscreen platform has no GL to show the viewport with: the window's layout is run
+      // and the window told its size as showing it does.
+      win.w.resize(size);
+      win.w.layout()->activate();
+      QResizeEvent resized(size, QSize());
+      QApplication::sendEvent(&win.w, &resized);
+      win.w.layout()->activate();
+      const int viewport = win.w.viewport()->width(), window = win.w.width();
+      qInfo("window %d x %d: viewport %d x %d px (%.0f %%)", window, win.w.height(), viewport,
+            win.w.viewport()->height(), 100.0 * viewport / window);
+      QVERIFY2(viewport >= 0.6 * window,
+               qPrintable(QStringLiteral("%1 of %2 px").arg(viewport).arg(window)));
+    }
   }
 
   void lightingPanelListsTheScenesLightsAndSaysWhichLightTheCapturesUse() {
