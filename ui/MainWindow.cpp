@@ -657,7 +657,11 @@ bool MainWindow::openProbeSet(const QString& path) {
   }
   addRecentFile(path);
   const std::string stale = doc_->staleCapturesText();
-  if (!stale.empty()) statusBar()->showMessage(QString::fromStdString(stale), 15000);
+  if (!stale.empty())
+    statusBar()->showMessage(
+        QString::fromStdString(stale) +
+            tr(". Lighting › Recapture probes with this lighting captures them again."),
+        15000);
   viewport_->frameAll();
   return true;
 }
@@ -759,12 +763,14 @@ void MainWindow::updateCutsLabel() {
   const std::optional<PreviewCuts>& c = viewport_->previewCuts();
   cutsLabel_->setToolTip(QString());
   if (!c) {
-    cutsLabel_->setText(viewport_->leakCuts() || !doc_->hasScene() ? QString()
-                                                                   : tr("Leak cuts off"));
+    cutsLabel_->setText(viewport_->leakCuts() || !doc_->hasScene()
+                            ? QString()
+                            : tr("Leak cuts off (View › Leak cuts in the preview)"));
     return;
   }
   if (c->skipped) {
-    cutsLabel_->setText(tr("Leak cuts: none (%L1 tetrahedra, above %L2)")
+    cutsLabel_->setText(tr("Leak cuts: none (%L1 tetrahedra, above %L2; fewer with View › "
+                           "Preview and overlays use › Accepted probes)")
                             .arg(c->tets)
                             .arg(qulonglong(kMaxPreviewCutTets)));
     return;

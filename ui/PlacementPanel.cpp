@@ -21,6 +21,7 @@
 #include "core/placement/Place.h"
 #include "core/scene/Scene.h"
 #include "ui/Document.h"
+#include "ui/MainWindow.h"
 
 namespace ps::ui {
 
@@ -201,9 +202,10 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
     updateState();
   });
   connect(doc_, &Document::jobFinished, this, [this](const QString& error) {
+    // A core error names the command line's flags; here, the editor's controls.
     status_->setText(error == QLatin1String("cancelled") ? tr("Cancelled")
                      : error.isEmpty()                   ? doc_->lastJobNotes().join('\n')
-                                                         : error);
+                                                         : MainWindow::editorMessage(error));
     progress_->setValue(0);
     updateState();
   });

@@ -761,6 +761,30 @@ class TestPanels : public QObject {
     }
   }
 
+  void statusBarNamesTheControlThatTurnsTheLeakCutsBackOn() {
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    Document* doc = win.doc;
+    win.w.placementPanel()->budgetBox()->setValue(16);
+    win.w.placementPanel()->captureSamplesBox()->setValue(4);
+    QVERIFY(win.w.placementPanel()->run());
+    QCOMPARE(waitForJob(doc), QString());
+    Viewport* vp = win.w.viewport();
+    vp->setPreviewLighting(true);
+    QAction* cuts = win.w.findChild<QAction*>("leakCutsAction");
+    QVERIFY(cuts && cuts->isChecked());
+    cuts->trigger();
+    QSignalSpy updated(vp, &Viewport::fieldsUpdated);
+    vp->startFieldsRebuild();
+    QVERIFY(updated.wait(20000));
+    // The preview shows the leaks; the status bar says so and names the menu item, no flag.
+    const QLabel* label = win.w.findChild<QLabel*>("leakCutsLabel");
+    QVERIFY(label);
+    const QString item = cuts->text().remove(QLatin1Char('&'));
+    QVERIFY2(label->text().contains(QStringLiteral("View › ") + item), qPrintable(label->text()));
+    QVERIFY(!label->text().contains(QStringLiteral("--")));
+  }
+
   void lightingPanelListsTheScenesLightsAndSaysWhichLightTheCapturesUse() {
     Window win;
     QVERIFY(win.w.openScene(kScene));
