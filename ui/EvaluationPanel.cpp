@@ -156,8 +156,19 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
 bool EvaluationPanel::addProbesWhereErrorIsWorst() {
   const PlacementRequest settings = placementSettings_ ? placementSettings_() : PlacementRequest{};
   try {
+    const uint64_t firstNewId = doc_->probeSet().nextId;
     if (doc_->addProbesWhereErrorIsWorst(greedyAddCount_->value(), settings)) {
       greedyAdd_->setEnabled(false);
+      // The job's undo step is pushed before jobFinished: its probes are there.
+      connect(
+          doc_, &Document::jobFinished, this,
+          [this, firstNewId](const QString& error) {
+            QSet<quint64> ids;
+            for (const Probe& p : doc_->probes())
+              if (p.id >= firstNewId && p.method == "greedy") ids.insert(quint64(p.id));
+            if (error.isEmpty() && !ids.isEmpty()) emit probesAdded(ids);
+          },
+          Qt::SingleShotConnection);
       return true;
     }
   } catch (const Error& e) {

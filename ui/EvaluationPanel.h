@@ -7,6 +7,7 @@
 // queries worst first: picking one frames it in the view, and "Add a probe here" puts an accepted
 // probe at it; "Let greedy add K probes" runs greedy around the probes there are
 // (Document::addProbesWhereErrorIsWorst).
+#include <QSet>
 #include <QWidget>
 
 #include <functional>
@@ -71,6 +72,8 @@ class EvaluationPanel : public QWidget {
   void queryPicked(int index);
   /// A probe was added at a query.
   void probeAdded(quint64 id);
+  /// Greedy's probes landed (addProbesWhereErrorIsWorst), in one undo step.
+  void probesAdded(const QSet<quint64>& ids);
 
  private:
   void refresh();

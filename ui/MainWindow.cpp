@@ -108,6 +108,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
                           std::clamp(scene ? scene->bounds.diagonal() * 0.08 : 1.0, 0.5, 3.0));
   });
   connect(evaluation_, &EvaluationPanel::probeAdded, this, [this](quint64 id) { selectIds({id}); });
+  connect(evaluation_, &EvaluationPanel::probesAdded, this, &MainWindow::selectIds);
   placementDock->raise();
 
   sceneLabel_ = new QLabel(tr("No scene"));

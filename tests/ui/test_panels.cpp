@@ -9,6 +9,7 @@
 #include <QDoubleSpinBox>
 #include <QFileInfo>
 #include <QGroupBox>
+#include <QItemSelectionModel>
 #include <QLabel>
 #include <QLayout>
 #include <QListWidget>
@@ -19,6 +20,7 @@
 #include <QSignalSpy>
 #include <QSpinBox>
 #include <QStandardPaths>
+#include <QTableView>
 #include <QTableWidget>
 #include <QTemporaryDir>
 #include <QTimer>
@@ -713,6 +715,8 @@ class TestPanels : public QObject {
     QVERIFY(!eval->greedyAddButton()->isEnabled());
     QCOMPARE(waitForJob(doc), QString());
     QVERIFY(eval->greedyAddButton()->isEnabled());
+    // The new probes are selected, so the view shows where they went.
+    QCOMPARE(win.w.probeTable()->selectionModel()->selectedRows().size(), 5);
 
     // Exactly five more, the others untouched: greedy, accepted, captured; one undo step.
     QCOMPARE(doc->probes().size(), before.size() + 5);
