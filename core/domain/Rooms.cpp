@@ -9,13 +9,14 @@
 
 #include "core/common/Error.h"
 #include "core/domain/DomainPoints.h"
+#include "core/domain/FreeSpaceGrid.h"
 #include "core/math/Random.h"
 
 namespace ps {
 
 namespace {
 
-constexpr int kAxes = 3;
+constexpr int kAxes = FreeSpaceGrid::kAxes;
 
 }  // namespace
 
@@ -32,84 +33,22 @@ RoomMap::RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const Ro
   if (s.maxCells < 1000)
     throw ParameterError("maxCells",
                          "expected at least 1000 cells, got " + std::to_string(s.maxCells));
-  box_ = domainBounds(tracer, domain);
-  const Vec3 e = box_.extent();
-  const double volume = e.x * e.y * e.z;
-  if (!(volume > 0)) throw ParameterError("domain: the domain has no volume");
-  cell_ = s.cellMeters > 0 ? s.cellMeters
-                           : std::max(s.doorwayMeters / 4, std::cbrt(volume / double(s.maxCells)));
-  const double ext[kAxes] = {e.x, e.y, e.z};
-  size_t cells = 1;
-  for (int a = 0; a < kAxes; ++a) {
-    n_[a] = std::max(1, int(std::ceil(ext[a] / cell_)));
-    cells *= size_t(n_[a]);
-  }
-  if (cells > 4 * s.maxCells)
-    throw ParameterError("cellMeters", "a " + std::to_string(cell_) + " m cell makes " +
-                                           std::to_string(cells) + " cells, above 4 x maxCells");
-  const int nx = n_[0], ny = n_[1];
-  auto index = [&](int x, int y, int z) { return (size_t(z) * size_t(ny) + size_t(y)) * nx + x; };
-  auto centre = [&](size_t c) {
-    const int x = int(c % size_t(nx)), y = int((c / size_t(nx)) % size_t(ny)),
-              z = int(c / (size_t(nx) * size_t(ny)));
-    return box_.lo + Vec3((x + 0.5) * cell_, (y + 0.5) * cell_, (z + 0.5) * cell_);
-  };
-  auto coords = [&](size_t c, int out[kAxes]) {
-    out[0] = int(c % size_t(nx));
-    out[1] = int((c / size_t(nx)) % size_t(ny));
-    out[2] = int(c / (size_t(nx) * size_t(ny)));
-  };
-
-  // Free cells: the centre inside the domain's boxes and outside geometry.
-  const LightingRig noLights;
-  const DomainPoints points(tracer, noLights, domain, 0);
-  std::vector<char> freeCell(cells, 0);
-  tbb::parallel_for(size_t(0), cells, [&](size_t c) {
-    freeCell[c] = points.valid(centre(c), streamSeed(s.seed, c)) ? 1 : 0;
-  });
-  // Joins: bit a when the cell and its +a neighbour are free and the segment between their
-  // centres crosses no surface.
-  std::vector<uint8_t> join(cells, 0);
-  tbb::parallel_for(size_t(0), cells, [&](size_t c) {
-    if (!freeCell[c]) return;
-    int xyz[kAxes];
-    coords(c, xyz);
-    for (int a = 0; a < kAxes; ++a) {
-      if (xyz[a] + 1 >= n_[a]) continue;
-      int nb[kAxes] = {xyz[0], xyz[1], xyz[2]};
-      ++nb[a];
-      const size_t d = index(nb[0], nb[1], nb[2]);
-      if (!freeCell[d]) continue;
-      Ray ray;
-      ray.origin = centre(c);
-      ray.direction = centre(d) - ray.origin;
-      ray.tMin = 0;
-      ray.tMax = 1;
-      if (!tracer.occluded(ray)) join[c] |= uint8_t(1u << a);
-    }
-  });
-  // The neighbours of a free cell it is joined to, and whether it lies against a wall (a side
-  // not joined: a surface, geometry or the domain's edge).
-  auto forJoined = [&](size_t c, auto&& visit) {
-    int xyz[kAxes];
-    coords(c, xyz);
-    for (int a = 0; a < kAxes; ++a) {
-      if (join[c] & (1u << a)) {
-        int nb[kAxes] = {xyz[0], xyz[1], xyz[2]};
-        ++nb[a];
-        visit(index(nb[0], nb[1], nb[2]));
-      }
-      if (xyz[a] > 0) {
-        int nb[kAxes] = {xyz[0], xyz[1], xyz[2]};
-        --nb[a];
-        const size_t d = index(nb[0], nb[1], nb[2]);
-        if (join[d] & (1u << a)) visit(d);
-      }
-    }
-  };
+  const FreeSpaceGrid grid(
+      tracer, domain,
+      FreeSpaceGrid::autoCellMeters(tracer, domain, s.cellMeters, s.doorwayMeters / 4, s.maxCells),
+      4 * s.maxCells, s.seed);
+  box_ = grid.box();
+  cell_ = grid.cellMeters();
+  for (int a = 0; a < kAxes; ++a) n_[a] = grid.size(a);
+  const size_t cells = grid.cellCount();
+  auto index = [&](int x, int y, int z) { return grid.index(x, y, z); };
+  auto coords = [&](size_t c, int out[kAxes]) { grid.coords(c, out); };
+  auto freeCell = [&](size_t c) { return grid.isFree(c); };
+  auto forJoined = [&](size_t c, auto&& visit) { grid.forJoined(c, visit); };
+  // Free cells against a wall: a side not joined (a surface, geometry or the domain's edge).
   std::vector<char> wall(cells, 0);
   tbb::parallel_for(size_t(0), cells, [&](size_t c) {
-    if (!freeCell[c]) return;
+    if (!freeCell(c)) return;
     int joined = 0;
     forJoined(c, [&](size_t) { ++joined; });
     wall[c] = joined < 2 * kAxes ? 1 : 0;
@@ -129,14 +68,14 @@ RoomMap::RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const Ro
                    [](const auto& a, const auto& b) { return a[3] < b[3]; });
   std::vector<float> clearance(cells, 0.0f);
   tbb::parallel_for(size_t(0), cells, [&](size_t c) {
-    if (!freeCell[c]) return;
+    if (!freeCell(c)) return;
     int xyz[kAxes];
     coords(c, xyz);
     clearance[c] = float(reach);
     for (const auto& o : ball) {
       const int x = xyz[0] + o[0], y = xyz[1] + o[1], z = xyz[2] + o[2];
       const bool outside = x < 0 || y < 0 || z < 0 || x >= n_[0] || y >= n_[1] || z >= n_[2];
-      if (outside || !freeCell[index(x, y, z)] || wall[index(x, y, z)]) {
+      if (outside || !freeCell(index(x, y, z)) || wall[index(x, y, z)]) {
         clearance[c] = float(std::sqrt(double(o[3])));
         return;
       }
@@ -155,7 +94,7 @@ RoomMap::RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const Ro
   for (int k = 0; k <= levels; ++k) {
     std::vector<int32_t>& label = coreOf[size_t(k)];
     label.assign(cells, -1);
-    auto inCore = [&](size_t c) { return freeCell[c] && (k == 0 || clearance[c] > float(k)); };
+    auto inCore = [&](size_t c) { return freeCell(c) && (k == 0 || clearance[c] > float(k)); };
     std::vector<char> seen(cells, 0);
     for (size_t c = 0; c < cells; ++c) {
       if (!inCore(c) || seen[c]) continue;
