@@ -33,6 +33,7 @@ void registerBake(CLI::App& app) {
   struct Opts {
     std::string set, out;
     SamplingOptions sampling{1024};
+    DomainOptions domain;
     uint64_t seed = 1;
     std::string cacheDir;
     bool noCache = false;
@@ -51,6 +52,7 @@ void registerBake(CLI::App& app) {
   cmd->add_option("probe_set", o->set, "Probe set (.json)")->required();
   cmd->add_option("-o,--output", o->out, "Volume to write (.psv)")->required();
   o->sampling.add(*cmd);
+  o->domain.add(*cmd);
   cmd->add_option("--seed", o->seed, "Random seed");
   cmd->add_option("--cache", o->cacheDir,
                   "Capture cache folder (default: SET.capture-cache beside the probe set)");
@@ -131,6 +133,7 @@ void registerBake(CLI::App& app) {
       throw ParameterError("--spp: " + std::to_string(o->sampling.spp) +
                            " samples per probe is above the " + "limit of " +
                            std::to_string(kMaxSamplesPerProbe));
+    const DomainSettings domainSettings = o->domain.build();
     const ProbeSet set = loadProbeSet(o->set);
     if (set.scenePath.empty()) throw FileError(o->set, "scene", "the probe set names no scene");
     const Scene scene = loadScene(set.scenePath);
@@ -149,6 +152,7 @@ void registerBake(CLI::App& app) {
     // (BENCHMARKS.md, "Leaks").
     bs.leakCutSettings.overCutWeight =
         o->leakCutProbes && !cmd->count("--over-cut-weight") ? 0.0 : o->overCutWeight;
+    bs.domain = domainSettings;
     if (o->fit) {
       bs.fit = o->fitSettings;
       bs.fit->seed = o->seed;

@@ -158,6 +158,7 @@ void printEval(const EvalResult& r, const EvalReport& report, int floorSpp) {
 
 void registerEval(CLI::App& app) {
   struct Opts {
+    DomainOptions domainOptions;
     std::string input;
     int queries = 256, referenceSpp = 1024, spp = 512;
     uint64_t seed = 7;
@@ -207,7 +208,9 @@ void registerEval(CLI::App& app) {
                   "interpolated,rel_error,leaking,outside,stops (luminance of the irradiance; "
                   "rel_error as for p95; outside: clamped to the probes' hull; stops: the "
                   "perceptual error, |log2| of interpolated over reference above the floor)");
+  o->domainOptions.add(*cmd);
   cmd->callback([o] {
+    const DomainSettings domainSettings = o->domainOptions.build();
     // Absurd requests get a message before anything is allocated or traced.
     if (o->queries > 10'000'000)
       throw ParameterError("--queries: " + std::to_string(o->queries) +
@@ -249,6 +252,8 @@ void registerEval(CLI::App& app) {
     es.referenceSpp = o->referenceSpp;
     es.seed = o->seed;
     es.domain = domain;
+    es.reachable = makeDomain(tracer, domain, domainSettings).reachable;
+    if (es.reachable && !o->json) std::printf("%s\n", es.reachable->summary().c_str());
     es.lightClearanceRelative = o->lightClearance;
     es.floorSpp = o->floorSpp;
     es.useVisibility = !o->noVisibility;

@@ -95,7 +95,8 @@ const ParameterFlag kParameterFlags[] = {
 
 /// The flag of a core parameter name ("budget", "method" and the method parameters).
 std::string flagOf(const std::string& parameter) {
-  if (parameter == "budget" || parameter == "method") return "--" + parameter;
+  if (parameter == "budget" || parameter == "method" || parameter == "domain")
+    return "--" + parameter;
   for (const ParameterFlag& f : kParameterFlags)
     if (parameter == f.parameter) return f.flag;
   return parameter;
@@ -121,6 +122,7 @@ struct PlaceOpts {
   bool noLeakRefine = false;
   bool leakRefine = false;
   RigOptions rig;
+  DomainOptions domain;
 };
 
 /// Draws of the valid-space check (each of up to 1000 points, DomainPoints::draw).
@@ -188,9 +190,11 @@ void registerPlace(CLI::App& app) {
   cmd->add_option("--seed", o->request.seed, "Random seed");
   cmd->add_option("-o,--output", o->out, "Probe set to write (.json)")->required();
   o->rig.add(*cmd);
+  o->domain.add(*cmd);
   cmd->callback([o] {
     const auto t0 = std::chrono::steady_clock::now();
     PlaceRequest& request = o->request;
+    request.domain = o->domain.build();
     if (o->leakRefine && o->noLeakRefine)
       throw ParameterError("--leak-refine: it cannot go with --no-leak-refine");
     request.refineLeaks = o->leakRefine;

@@ -79,6 +79,36 @@ Vec3 parseVec3(const std::string& text, const std::string& option) {
   return {v[0], v[1], v[2]};
 }
 
+void DomainOptions::add(CLI::App& cmd) {
+  cmd.add_option("--domain", rule,
+                 "Domain of interest without importance volumes: reachable (default: free space "
+                 "within --domain-band of walkable ground, only the enclosed part in an "
+                 "interior) or bounds (the scene's bounding box)");
+  cmd.add_option("--domain-band", reachable.bandMeters,
+                 "reachable: height above walkable surfaces, metres (default 3)");
+  cmd.add_option("--domain-slope", reachable.maxSlopeDeg,
+                 "reachable: steepest walkable surface, degrees from level (default 45)");
+  cmd.add_option("--domain-cell", reachable.cellMeters,
+                 "reachable: grid cell edge, metres (default 0: at least 0.25 m, about 400000 "
+                 "cells)");
+}
+
+DomainSettings DomainOptions::build() const {
+  DomainSettings d;
+  d.reachable = reachable;
+  try {
+    d.rule = parseDomainRule(rule);
+    checkReachableSettings(reachable);
+  } catch (const ParameterError& e) {
+    const std::string flag = e.parameter() == "bandMeters"    ? "--domain-band"
+                             : e.parameter() == "maxSlopeDeg" ? "--domain-slope"
+                             : e.parameter() == "cellMeters"  ? "--domain-cell"
+                                                              : "--domain";
+    throw ParameterError(flag, e.problem());
+  }
+  return d;
+}
+
 void RigOptions::add(CLI::App& cmd) {
   cmd.add_option("--sun", suns,
                  "Sun: DX,DY,DZ,E[,R,G,B] — direction from the scene towards the sun, irradiance "

@@ -9,6 +9,7 @@
 
 #include "core/capture/Capture.h"
 #include "core/common/Progress.h"
+#include "core/domain/DomainPoints.h"
 #include "core/io/ProbeSet.h"
 #include "core/io/VolumeFile.h"
 #include "core/scene/LightingRig.h"
@@ -23,6 +24,16 @@ struct RigOptions {
   void add(CLI::App& cmd);
   /// Throws ps::ParameterError naming the option and what was expected.
   LightingRig build() const;
+};
+
+/// The domain of interest where the set has no importance volume (DomainPoints.h), shared by
+/// place, bake and eval: --domain reachable|bounds and the reachable rule's parameters.
+struct DomainOptions {
+  std::string rule = "reachable";
+  ReachableSettings reachable;
+  void add(CLI::App& cmd);
+  /// Throws ps::ParameterError naming the flag and what was expected.
+  DomainSettings build() const;
 };
 
 /// Samples per probe, fixed (--spp N) or adaptive (--target-error E [--max-spp N]), shared by

@@ -139,11 +139,13 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   BakeProbes probes = gatherAcceptedProbes(set);
   // The fit's settings and domain before anything is traced.
   std::optional<FitSettings> fit = settings.fit;
+  Domain fitDomain;
   if (fit) {
     fit->mode = settings.capture.mode;
     fit->threads = settings.capture.threads;
     checkFitSettings(*fit, probes.positions.size());
-    checkFitDomain(tracer, set.rig, importanceBoxes(set.importanceVolumes), *fit);
+    fitDomain = makeDomain(tracer, importanceBoxes(set.importanceVolumes), settings.domain);
+    checkFitDomain(tracer, set.rig, fitDomain, *fit);
   }
   leakRefineStage(probes, tracer, settings, set.rig, importanceBoxes(set.importanceVolumes), r);
   if (fit) checkFitSettings(*fit, probes.positions.size());  // with the added probes
@@ -170,8 +172,8 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   r.captureSeconds = std::chrono::duration<double>(t1 - t0).count();
   r.tetraSeconds = std::chrono::duration<double>(t2 - t1).count();
   if (fit) {
-    r.fit = fitProbeValues(tracer, set.rig, r.file.volume, importanceBoxes(set.importanceVolumes),
-                           *fit, share(captureShare + cutsShare, fitShare));
+    r.fit = fitProbeValues(tracer, set.rig, r.file.volume, fitDomain, *fit,
+                           share(captureShare + cutsShare, fitShare));
   }
 
   nlohmann::ordered_json meta;

@@ -64,6 +64,8 @@ struct BakeSettings {
   /// default (`bake --fit`). The fit points are drawn in the set's importance volumes (the
   /// scene bounds when it has none) and are not cached.
   std::optional<FitSettings> fit;
+  /// The fit points' domain where the set has no importance volume (DomainPoints.h).
+  DomainSettings domain;
 };
 
 struct BakeResult {

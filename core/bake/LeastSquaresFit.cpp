@@ -190,8 +190,8 @@ void checkFitSettings(const FitSettings& s, size_t probes) {
 namespace {
 
 /// The fit points' domain; its errors (a flat importance box) say they come from the fit.
-DomainPoints fitDomain(const Tracer& tracer, const LightingRig& rig,
-                       std::span<const Bounds3> domain, const FitSettings& s) {
+DomainPoints fitDomain(const Tracer& tracer, const LightingRig& rig, const Domain& domain,
+                       const FitSettings& s) {
   try {
     return DomainPoints(tracer, rig, domain, s.lightClearanceRelative);
   } catch (const ParameterError& e) {
@@ -201,14 +201,13 @@ DomainPoints fitDomain(const Tracer& tracer, const LightingRig& rig,
 
 }  // namespace
 
-void checkFitDomain(const Tracer& tracer, const LightingRig& rig, std::span<const Bounds3> domain,
+void checkFitDomain(const Tracer& tracer, const LightingRig& rig, const Domain& domain,
                     const FitSettings& s) {
   fitDomain(tracer, rig, domain, s);
 }
 
 FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolume& volume,
-                         std::span<const Bounds3> domain, const FitSettings& s,
-                         const ProgressFn& progress) {
+                         const Domain& domain, const FitSettings& s, const ProgressFn& progress) {
   const size_t n = volume.probeCount();
   checkFitSettings(s, n);
   if (n == 0 || volume.tets.empty()) throw ParameterError("fit: the volume has no tetrahedra");

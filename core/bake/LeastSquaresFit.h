@@ -17,6 +17,7 @@
 
 #include "core/capture/Capture.h"
 #include "core/common/Progress.h"
+#include "core/domain/DomainPoints.h"
 #include "core/math/Sh.h"
 #include "core/scene/LightingRig.h"
 #include "core/trace/Tracer.h"
@@ -67,14 +68,14 @@ std::vector<float> leastSquaresValues(const ProbeVolume& volume, std::span<const
 
 /// The fit's domain points (DomainPoints) for `domain`; throws ps::ParameterError when the
 /// domain has no volume (a flat importance box), as the bake checks before its capture.
-void checkFitDomain(const Tracer& tracer, const LightingRig& rig, std::span<const Bounds3> domain,
+void checkFitDomain(const Tracer& tracer, const LightingRig& rig, const Domain& domain,
                     const FitSettings& settings);
 
 /// Replaces volume.sh by the least-squares values. `domain`: the importance volumes' boxes
 /// (empty: the scene bounds). Deterministic for the seed. Throws ps::ParameterError when a
 /// setting is out of range or no valid point is found, ps::Cancelled through `progress`.
 FitResult fitProbeValues(const Tracer& tracer, const LightingRig& rig, ProbeVolume& volume,
-                         std::span<const Bounds3> domain, const FitSettings& settings,
+                         const Domain& domain, const FitSettings& settings,
                          const ProgressFn& progress = {});
 
 }  // namespace ps

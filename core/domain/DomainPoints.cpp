@@ -34,6 +34,44 @@ double lightClearanceMeters(const Tracer& tracer, std::span<const Bounds3> domai
   return all.empty() ? 0.0 : relative * all.diagonal();
 }
 
+const char* domainRuleName(DomainRule rule) {
+  return rule == DomainRule::Reachable ? "reachable" : "bounds";
+}
+
+DomainRule parseDomainRule(const std::string& word) {
+  if (word == "reachable") return DomainRule::Reachable;
+  if (word == "bounds") return DomainRule::Bounds;
+  throw ParameterError("domain", "expected reachable or bounds, got '" + word + "'");
+}
+
+Domain makeDomain(const Tracer& tracer, std::span<const Bounds3> boxes,
+                  const DomainSettings& settings) {
+  checkReachableSettings(settings.reachable);
+  Domain d{std::vector<Bounds3>(boxes.begin(), boxes.end()), nullptr, settings.rule};
+  if (!boxes.empty() || settings.rule == DomainRule::Bounds) return d;
+  d.reachable = std::make_shared<const ReachableSpace>(tracer, boxes, settings.reachable);
+  if (d.reachable->cellCorners().empty())
+    throw ParameterError("domain",
+                         "the reachable space is empty (no free space within " +
+                             std::to_string(settings.reachable.bandMeters) +
+                             " m above a walkable surface); use the bounds rule or an importance "
+                             "volume");
+  return d;
+}
+
+bool Domain::contains(Vec3 p) const {
+  if (!boxes.empty() &&
+      !std::any_of(boxes.begin(), boxes.end(), [&](const Bounds3& b) { return b.contains(p); }))
+    return false;
+  return !reachable || reachable->contains(p);
+}
+
+DomainPoints::DomainPoints(const Tracer& tracer, const LightingRig& rig, const Domain& domain,
+                           double clearanceRelative)
+    : DomainPoints(tracer, rig, std::span<const Bounds3>(domain.boxes), clearanceRelative) {
+  reachable_ = domain.reachable;
+}
+
 DomainPoints::DomainPoints(const Tracer& tracer, const LightingRig& rig,
                            std::span<const Bounds3> domain, double clearanceRelative)
     : tracer_(tracer) {
@@ -54,6 +92,17 @@ DomainPoints::DomainPoints(const Tracer& tracer, const LightingRig& rig,
 }
 
 std::optional<Vec3> DomainPoints::drawInBoxes(uint64_t& rng) const {
+  if (reachable_) {
+    // Uniform over the reachable cells (all of one volume), kept inside the boxes' union.
+    const std::vector<Vec3>& corners = reachable_->cellCorners();
+    const size_t k = std::min(corners.size() - 1, size_t(uniform01(rng) * double(corners.size())));
+    const double h = reachable_->cellMeters();
+    const double ux = uniform01(rng), uy = uniform01(rng), uz = uniform01(rng);
+    const Vec3 p = corners[k] + Vec3(ux, uy, uz) * h;
+    if (!std::any_of(boxes_.begin(), boxes_.end(), [&](const Bounds3& b) { return b.contains(p); }))
+      return std::nullopt;
+    return p;
+  }
   // Uniform in the union of the boxes: a box by its volume, a point in it kept with probability
   // 1 / the number of boxes holding it. With one box this is the plain uniform draw.
   size_t k = 0;
@@ -105,6 +154,7 @@ bool DomainPoints::valid(Vec3 p, uint64_t seed, int validityRays,
                          double invalidBackfaceFraction) const {
   if (!std::any_of(boxes_.begin(), boxes_.end(), [&](const Bounds3& b) { return b.contains(p); }))
     return false;
+  if (reachable_ && !reachable_->contains(p)) return false;
   return clearOfLights(p) &&
          backfaceFraction(tracer_, p, validityRays, seed) <= invalidBackfaceFraction;
 }

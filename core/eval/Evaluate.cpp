@@ -67,7 +67,7 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   if (s.referenceSpp < 1) throw ParameterError("reference-spp: expected at least 1");
   std::optional<DomainPoints> domain;
   try {
-    domain.emplace(tracer, rig, s.domain, s.lightClearanceRelative);
+    domain.emplace(tracer, rig, Domain{s.domain, s.reachable}, s.lightClearanceRelative);
   } catch (const ParameterError& e) {
     throw ParameterError(std::string("eval: ") + e.what());
   }
@@ -92,7 +92,9 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   });
   for (size_t q = 0; q < M; ++q)
     if (!found[q])
-      throw ParameterError(s.domain.empty()
+      throw ParameterError(s.reachable ? "eval: could not find points outside geometry (and "
+                                         "outside the light clearance) in the reachable space"
+                           : s.domain.empty()
                                ? "eval: could not find points outside geometry (and outside "
                                  "the light clearance) in the scene bounds"
                                : "eval: could not find points outside geometry (and outside "

@@ -6,12 +6,14 @@
 // placed: a reference cache on disk keeps it, so comparing methods does not recompute it.
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "core/common/Progress.h"
+#include "core/domain/ReachableSpace.h"
 #include "core/scene/LightingRig.h"
 #include "core/trace/Tracer.h"
 #include "core/traversal/ProbeVolume.h"
@@ -31,6 +33,9 @@ struct EvalSettings {
   /// The domain of interest: the probe set's importance volumes (their boxes; queries are
   /// uniform over their union). Empty: the scene bounds. Part of the cache key.
   std::vector<Bounds3> domain;
+  /// When set (the `reachable` rule, DomainPoints.h), queries are uniform over its cells inside
+  /// `domain` instead. Part of the cache key when set (its cells, exactly).
+  std::shared_ptr<const ReachableSpace> reachable;
   /// Queries closer than this fraction of the domain's diagonal to a point or spot light are
   /// drawn again (0: none). Part of the cache key when the scene or rig has such a light.
   double lightClearanceRelative = kDefaultLightClearanceRelative;

@@ -44,6 +44,16 @@ uint64_t ReferenceCache::key(uint64_t sceneHash, const LightingRig& rig,
     const double box[6] = {b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z};
     h = fnv1a64(box, sizeof box, h);
   }
+  // The reachable space's cells (the `reachable` rule); absent under `bounds`, whose keys stay
+  // as they were.
+  if (s.reachable) {
+    const double cell = s.reachable->cellMeters();
+    h = fnv1a64(&cell, sizeof cell, h);
+    for (const Vec3& c : s.reachable->cellCorners()) {
+      const double xyz[3] = {c.x, c.y, c.z};
+      h = fnv1a64(xyz, sizeof xyz, h);
+    }
+  }
   const int32_t counts[2] = {s.queries, s.referenceSpp};
   h = fnv1a64(counts, sizeof counts, h);
   // The clearance from punctual lights moves the queries only where there are such lights, so

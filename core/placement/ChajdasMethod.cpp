@@ -32,6 +32,7 @@ class ChajdasPlacer : public Placer {
     fs.seed = c.seed;
     if (s_.field.depth != -1) fs.maxDepth = s_.field.depth;
     fs.importanceVolumes = cs.importanceVolumes;
+    fs.reachable = c.domainOf().reachable;
     const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
     cs.punctualLights = punctualLightPositions(c.tracer.scene(), c.rig);
     cs.lightClearanceMeters = kLightClearance * field.baseSpacingMeters;

@@ -143,6 +143,7 @@ class FieldGrid {
   /// would pass validity).
   bool inDomain(Vec3 p) const {
     if (!domain.contains(p)) return false;
+    if (s_.reachable && !s_.reachable->contains(p)) return false;
     if (s_.importanceVolumes.empty()) return true;
     for (const ImportanceVolume& v : s_.importanceVolumes)
       if (p.x >= v.lo.x && p.x <= v.hi.x && p.y >= v.lo.y && p.y <= v.hi.y && p.z >= v.lo.z &&

@@ -6,10 +6,12 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "core/capture/Capture.h"
 #include "core/common/Progress.h"
+#include "core/domain/ReachableSpace.h"
 #include "core/io/ProbeSet.h"
 #include "core/math/Sh.h"
 #include "core/math/Vec3.h"
@@ -51,6 +53,8 @@ struct DenseFieldSettings {
   size_t maxSamples = 200000;  ///< ParameterError above this, before any capture
   double invalidBackfaceFraction = 0.25;
   std::vector<ImportanceVolume> importanceVolumes;  ///< empty: the scene bounds
+  /// When set, cells whose centre is outside it are not made (the reachable space).
+  std::shared_ptr<const ReachableSpace> reachable;
   uint64_t seed = 1;
   /// A cell splits when a face neighbour differs: the L2 distance between the luminances of
   /// their 9 SH coefficients exceeds this fraction of the larger sample's norm...

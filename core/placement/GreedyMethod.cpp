@@ -73,16 +73,19 @@ size_t greedyHeldOutPoints(const GreedyMethodSettings& r, int budget) {
 
 std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const LightingRig& rig,
                                              const GreedyMethodSettings& r, int budget,
-                                             uint64_t seed,
-                                             std::span<const ImportanceVolume> importanceVolumes,
+                                             uint64_t seed, const Domain& domainOfInterest,
                                              const DenseField& field, const ProgressFn& progress) {
   checkGreedyMethodSettings(r, budget);
-  const std::vector<Bounds3> boxes = importanceBoxes(importanceVolumes);
-  const DomainPoints domain(tracer, rig, boxes, kDefaultLightClearanceRelative);
-  const Bounds3 box = domainBounds(tracer, boxes);
+  const DomainPoints domain(tracer, rig, domainOfInterest, kDefaultLightClearanceRelative);
+  const Bounds3 box = domainBounds(tracer, domainOfInterest.boxes);
   const Vec3 ext = box.extent();
-  const double wanted = double(greedyHeldOutPoints(r, budget));
   const double volume = ext.x * ext.y * ext.z;
+  // Drawn over the box and kept in the domain: as many more as the reachable space is smaller.
+  const double reachableShare =
+      domainOfInterest.reachable
+          ? std::min(1.0, domainOfInterest.reachable->reachableCubicMeters() / volume)
+          : 1.0;
+  const double wanted = double(greedyHeldOutPoints(r, budget)) / reachableShare;
   if (!(volume > 0) || !(wanted > 0)) return {};
   // Cells about cubic, about wanted / 8 of them: an axis shorter than the cell side gets one
   // cell, and the side is found again over the other axes (a thin domain).
@@ -197,6 +200,7 @@ class GreedyPlacer : public Placer {
     GreedySettings gs = greedySettings(r, c.budget);
     DenseFieldSettings fs = greedyFieldSettings(r, c.seed);
     fs.importanceVolumes.assign(c.importanceVolumes.begin(), c.importanceVolumes.end());
+    fs.reachable = c.domainOf().reachable;
     const DenseField field = buildDenseField(c.tracer, c.rig, fs, c.stage("field"));
     PlaceOutcome out;
     out.notes.push_back(
@@ -244,8 +248,8 @@ class GreedyPlacer : public Placer {
     gs.avoid = punctualLightPositions(c.tracer.scene(), c.rig);
     gs.avoidRadius = kDefaultLightClearanceRelative * field.domain.diagonal();
     if (r.heldOutPerProbe > 0)
-      gs.heldOut = drawGreedyHeldOut(c.tracer, c.rig, r, c.budget, c.seed, c.importanceVolumes,
-                                     field, c.stage("held-out"));
+      gs.heldOut = drawGreedyHeldOut(c.tracer, c.rig, r, c.budget, c.seed, c.domainOf(), field,
+                                     c.stage("held-out"));
     const GreedyResult g = placeGreedy(field, kept, gs, c.stage("greedy"));
     out.notes.push_back(
         gs.heldOut.empty()

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/common/Progress.h"
+#include "core/domain/DomainPoints.h"
 #include "core/io/ProbeSet.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
@@ -95,8 +96,7 @@ size_t greedyHeldOutPoints(const GreedyMethodSettings& settings, int budget);
 /// throws ps::ParameterError for bad settings or importance volumes without volume.
 std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const LightingRig& rig,
                                              const GreedyMethodSettings& settings, int budget,
-                                             uint64_t seed,
-                                             std::span<const ImportanceVolume> importanceVolumes,
+                                             uint64_t seed, const Domain& domain,
                                              const DenseField& field,
                                              const ProgressFn& progress = {});
 

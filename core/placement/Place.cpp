@@ -33,12 +33,20 @@ PlaceResult placeProbeSet(const Tracer& tracer, const ProbeSet& set, const Place
   const std::vector<Probe> kept = keptProbes(set, r);
   const std::unique_ptr<Placer> placer =
       createPlacer(findPlacementMethod(r.method), r.parameters, {r.budget, kept.size()});
-  const PlaceContext context{tracer,   set.rig, kept,    set.importanceVolumes,
-                             r.budget, r.seed,  progress};
+  const PlaceContext context{tracer,
+                             set.rig,
+                             kept,
+                             set.importanceVolumes,
+                             r.budget,
+                             r.seed,
+                             progress,
+                             std::make_shared<const Domain>(makeDomain(
+                                 tracer, importanceBoxes(set.importanceVolumes), r.domain))};
   const PlaceOutcome placed = placer->place(context);
 
   PlaceResult out;
-  out.notes = placed.notes;
+  if (context.domain->reachable) out.notes.push_back(context.domain->reachable->summary());
+  for (const std::string& note : placed.notes) out.notes.push_back(note);
   out.kept = kept.size();
   out.set = set;
   std::vector<Vec3> rejected;

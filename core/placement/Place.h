@@ -35,6 +35,8 @@ struct PlaceRequest {
   /// budget is then the volume's probe count.
   bool refineLeaks = false;
   ProbeState newState = ProbeState::Candidate;  ///< of the new probes
+  /// The domain of interest where the set has no importance volume (DomainPoints.h).
+  DomainSettings domain;
 };
 
 struct PlaceResult {

@@ -158,9 +158,14 @@ void checkUniformGridBudget(const PlaceBasics& b) {
                                        "beside the " + std::to_string(b.keptCount) + " kept ones");
 }
 
+Domain PlaceContext::domainOf() const {
+  return domain ? *domain : Domain{importanceBoxes(importanceVolumes), nullptr};
+}
+
 PlaceOutcome placeUniformGrid(const PlaceContext& c, double spacingMeters) {
   UniformSettings us;
   us.seed = c.seed;
+  if (c.domain && c.domain->rule == DomainRule::Reachable) us.domain = c.domain;
   std::vector<Vec3> points;
   PlaceOutcome out;
   if (c.budget != 0) {

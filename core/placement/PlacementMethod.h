@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "core/common/Progress.h"
+#include "core/domain/DomainPoints.h"
 #include "core/io/ProbeSet.h"
 #include "core/math/Vec3.h"
 #include "core/placement/DenseField.h"
@@ -75,7 +76,13 @@ struct PlaceContext {
   /// stage, or an empty one.
   std::function<ProgressFn(const std::string& stage)> progress;
 
+  /// The domain of interest (DomainPoints.h) the method's fields, grids and held-out points
+  /// keep to; null: the importance volumes' boxes under the `bounds` rule.
+  std::shared_ptr<const Domain> domain;
+
   ProgressFn stage(const std::string& name) const { return progress ? progress(name) : nullptr; }
+  /// *domain, or the importance volumes' boxes under the `bounds` rule when it is null.
+  Domain domainOf() const;
   /// The grid spacing when none is given: the scene's diagonal / 10, at least 0.25 m.
   double defaultSpacingMeters() const;
 };

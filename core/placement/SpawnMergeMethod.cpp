@@ -19,6 +19,7 @@ class SpawnMergePlacer : public Placer {
     const int keptCount = int(c.kept.size());
     UniformSettings us;
     us.seed = c.seed;
+    if (c.domain && c.domain->rule == DomainRule::Reachable) us.domain = c.domain;
     std::vector<Vec3> grid;
     if (c.budget != 0) {
       UniformBudgetResult b =

@@ -116,6 +116,7 @@ std::vector<Vec3> placeUniform(const Tracer& tracer, const UniformSettings& s,
   tbb::parallel_for(size_t(0), total, [&](size_t i) {
     if (cancelled.load(std::memory_order_relaxed)) return;
     valid[i] =
+        (!s.domain || s.domain->contains(grid[i])) &&
         backfaceFraction(tracer, grid[i], s.validityRays, s.seed + i) <= s.invalidBackfaceFraction;
     const size_t d = ++done;
     if (progress && (d % 256 == 0 || d == total)) {

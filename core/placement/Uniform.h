@@ -1,9 +1,11 @@
 #pragma once
 // The baseline placement: a regular grid at a given spacing inside the scene bounds, dropping
 // points inside geometry (Kontkanen & Laine sec. 5 validity).
+#include <memory>
 #include <vector>
 
 #include "core/common/Progress.h"
+#include "core/domain/DomainPoints.h"
 #include "core/trace/Tracer.h"
 
 namespace ps {
@@ -17,6 +19,8 @@ struct UniformSettings {
   double invalidBackfaceFraction = 0.25;  ///< tol::kDefaultInvalidBackfaceFraction
   int validityRays = 64;
   uint64_t seed = 1;
+  /// When set, only grid points inside it (Domain::contains) are kept; null: the scene bounds.
+  std::shared_ptr<const Domain> domain;
 };
 
 /// Grid points at cell centres of a grid with the given spacing covering the scene bounds,

@@ -74,6 +74,9 @@ expect_error "$tmp/nan.txt: line 2" "$cli" tetra "$tmp/nan.txt" -o "$tmp/t.json"
 expect_error "--method: unknown method \"magic\"" "$cli" place "$root/resources/scenes/cornell.gltf" --method magic -o "$tmp/s.json"
 expect_error "budget: expected at least 4" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2 -o "$tmp/s.json"
 expect_error "limit 50 million" "$cli" place "$root/resources/scenes/cornell.gltf" --spacing 0.0001 -o "$tmp/s.json"
+expect_error "--domain: expected reachable or bounds, got 'everywhere'" "$cli" place "$root/resources/scenes/cornell.gltf" --domain everywhere -o "$tmp/s.json"
+expect_error "--domain-band: expected a height in (0, 100] m" "$cli" eval "$tmp/trunc.psv" --domain-band -1
+expect_error "--domain-slope: expected an angle in [0, 90) degrees" "$cli" bake "$tmp/future.json" -o "$tmp/v.psv" --domain-slope 95
 expect_error "--sun: expected" "$cli" capture "$root/resources/scenes/cornell.gltf" --at 0,1,0 --sun 1,2 --json
 expect_error "$tmp/no-sky.hdr: environment map not found" "$cli" capture "$root/resources/scenes/cornell.gltf" --at 0,1,0 --env-map "$tmp/no-sky.hdr" --json
 echo "not an image" >"$tmp/sky.exr"

@@ -325,7 +325,7 @@ TEST(LeakCuts, PlanesLeaveAloneThePointsThatSeeEveryProbe) {
   computeLeakCuts(tracer, balanced, {});
   // Valid points of the scene that see every probe they interpolate without cuts: how many have
   // their weights moved by more than 0.05 (total variation), and how many leak with the cuts.
-  const DomainPoints domain(tracer, {}, {}, 0.0);
+  const DomainPoints domain(tracer, {}, std::span<const Bounds3>{}, 0.0);
   uint64_t rng = 99;
   int clean = 0, movedLeaksOnly = 0, movedBalanced = 0, leakLeaksOnly = 0, leakBalanced = 0;
   auto moved = [](const VolumeLocation& a, const VolumeLocation& b) {

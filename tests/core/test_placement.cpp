@@ -422,7 +422,7 @@ const TwoRoomsHeldOut& twoRoomsHeldOut() {
   static const TwoRoomsHeldOut h = [] {
     TwoRoomsHeldOut r;
     const Tracer& tracer = *loaded("two-rooms.gltf").tracer;
-    r.points = DomainPoints(tracer, {}, {}, 0).drawMany(1500, 5);
+    r.points = DomainPoints(tracer, {}, std::span<const Bounds3>{}, 0).drawMany(1500, 5);
     CaptureSettings cs;
     cs.samplesPerProbe = kFieldSpp;
     const std::vector<ProbeCapture> caps = captureProbes(tracer, {}, r.points, cs);
@@ -614,7 +614,8 @@ TEST(Greedy, HeldOutPointsGoWhereItIsBrightAndWeighTheirVolume) {
   r.heldOutUniformShare = 1;
   const std::vector<HeldOutSample> even = drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, {}, f);
   // The volume outside geometry, from a plain uniform draw.
-  const DomainPoints domain(*l.tracer, {}, {}, kDefaultLightClearanceRelative);
+  const DomainPoints domain(*l.tracer, {}, std::span<const Bounds3>{},
+                            kDefaultLightClearanceRelative);
   const Bounds3 box = domainBounds(*l.tracer, {});
   uint64_t rng = 99;
   int valid = 0;
@@ -662,8 +663,8 @@ TEST(Greedy, HeldOutPointsInAThinImportanceVolume) {
   const int budget = 64;  // 8192 points
   r.field.samplesPerProbe = kFieldSpp;
   const std::vector<ImportanceVolume> slab = {{"slab", Vec3(-5, 1, -2), Vec3(-1, 1.001, 2), 1}};
-  const std::vector<HeldOutSample> points =
-      drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, slab, twoRoomsField());
+  const std::vector<HeldOutSample> points = drawGreedyHeldOut(
+      *l.tracer, {}, r, budget, 1, Domain{importanceBoxes(slab), nullptr}, twoRoomsField());
   EXPECT_NEAR(double(points.size()), 8192, 0.05 * 8192);
   double weight = 0;
   for (const HeldOutSample& h : points) {
@@ -672,7 +673,8 @@ TEST(Greedy, HeldOutPointsInAThinImportanceVolume) {
   }
   EXPECT_NEAR(weight, 4 * 4 * 0.001, 1e-3 * 0.016);  // all of it is outside geometry
   r.heldOutUniformShare = 2;
-  EXPECT_THROW(drawGreedyHeldOut(*l.tracer, {}, r, budget, 1, slab, twoRoomsField()),
+  EXPECT_THROW(drawGreedyHeldOut(*l.tracer, {}, r, budget, 1,
+                                 Domain{importanceBoxes(slab), nullptr}, twoRoomsField()),
                ParameterError);
 }
 
