@@ -803,6 +803,7 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   r.keepCandidates = !replaceCandidates;
   r.refineLeaks = refineLeaks;
   r.newState = acceptNew ? ProbeState::Accepted : ProbeState::Candidate;
+  r.domain.rule = domain;
   return r;
 }
 
@@ -1001,6 +1002,8 @@ bool Document::evaluate(const EvalRequest& request) {
     es.queries = request.queries;
     es.referenceSpp = request.referenceSpp;
     es.domain = domain;
+    // The default domain of `probestudio eval` (PlaceRequest::domain's default rule).
+    es.reachable = makeDomain(*tracer, domain, DomainSettings{}).reachable;
     es.cacheDir = cacheDir;
     es.sceneHash = sceneHash;
     std::optional<ProbeVolume> cut;

@@ -61,7 +61,8 @@ struct PlacementRequest {
   /// greedy: the error it lowers, "perceptual" (stops) or "energy" (rel_rmse)
   /// (GreedyMethodSettings::objective).
   std::string objective = greedyObjectiveName(GreedyMethodSettings{}.objective);
-  bool refineLeaks = true;  ///< PlaceRequest::refineLeaks
+  bool refineLeaks = false;  ///< PlaceRequest::refineLeaks
+  DomainRule domain = DomainRule::Reachable;  ///< PlaceRequest::domain's rule
   /// The new probes are accepted (PlaceRequest::newState) instead of candidates.
   bool acceptNew = false;
   /// The undo step's name; empty: "Place N candidates (method)".

@@ -355,6 +355,7 @@ void MainWindow::createActions() {
       {Viewport::Overlay::TetMesh, "&Tetrahedral mesh", QKeySequence(Qt::Key_T)},
       {Viewport::Overlay::TestObject, "Test &object", QKeySequence(Qt::Key_O)},
       {Viewport::Overlay::ErrorPoints, "Evaluation &error points", QKeySequence(Qt::Key_U)},
+      {Viewport::Overlay::Domain, "&Domain of interest", QKeySequence(Qt::Key_M)},
   };
   for (const auto& o : overlays) {
     const Viewport::Overlay which = o.overlay;

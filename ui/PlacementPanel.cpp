@@ -110,6 +110,17 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
          "tetrahedron edges cross (Sukys 3.2.2), beyond the budget. Off by default: the baked "
          "volume's visibility maps keep light from crossing walls without them"));
   form->addRow(placeLeakRefine_);
+  domain_ = new QComboBox;
+  domain_->addItem(tr("reachable"));
+  domain_->setItemData(0,
+                       tr("Free space within 3 m above walkable ground; in an interior only the "
+                          "enclosed part (View > Domain of interest shows it)"),
+                       Qt::ToolTipRole);
+  domain_->addItem(tr("bounds"));
+  domain_->setItemData(1, tr("The scene's bounding box"), Qt::ToolTipRole);
+  domain_->setToolTip(
+      tr("Where probes go without importance volumes (probestudio place --domain)"));
+  form->addRow(tr("Domain"), domain_);
   run_ = new QPushButton(tr("Run placement"));
   run_->setToolTip(
       tr("Replaces the unlocked candidates; accepted, rejected and locked probes "
@@ -232,6 +243,7 @@ PlacementRequest PlacementPanel::placementRequest() const {
   r.swapPasses = swapPasses_->value();
   r.objective = objective_->currentText().toStdString();
   r.refineLeaks = placeLeakRefine_->isChecked();
+  r.domain = domain_->currentIndex() == 1 ? DomainRule::Bounds : DomainRule::Reachable;
   return r;
 }
 

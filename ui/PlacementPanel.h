@@ -94,6 +94,7 @@ class PlacementPanel : public QWidget {
   QSpinBox* captureSpp_;
   QCheckBox* replace_;
   QCheckBox* placeLeakRefine_ = nullptr;
+  QComboBox* domain_ = nullptr;
   QCheckBox* leakRefine_ = nullptr;
   QCheckBox* leakCuts_ = nullptr;
   QCheckBox* fit_ = nullptr;

@@ -129,7 +129,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   static constexpr int kSceneLightCells = 64;
   /// ErrorPoints: the last evaluation's queries (Document::evaluations()), a dot each, coloured
   /// by their error in stops (blue at 0, red from 1 stop).
-  enum class Overlay { Glyphs, Slice, TetMesh, TestObject, ErrorPoints };
+  enum class Overlay { Glyphs, Slice, TetMesh, TestObject, ErrorPoints, Domain };
   void setOverlay(Overlay o, bool on);
   bool overlay(Overlay o) const { return overlays_ & (1u << int(o)); }
   /// Which probes the preview volume uses (accepted only, or all captured).
@@ -369,6 +369,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void drawLegends();
   void drawErrorPoints(QPainter& p);
   void drawLines(const std::vector<float>& xyzrgba, GLenum mode, const QMatrix4x4& vp);
+  /// The domain of interest's shell (ui/DomainOverlay.cpp).
+  void drawDomain(const QMatrix4x4& vp);
   void initOverlayGL();
   /// Compiles and links a program; `common` prepends the version line and kCommonGlsl to the
   /// fragment shader. A shader that fails is a bug (qFatal with the log).
@@ -377,6 +379,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   bool isFlyKey(int key) const;
 
   Document* doc_;
+  const Tracer* domainTracer_ = nullptr;  ///< the scene domainLines_ were made for
+  size_t domainVolumes_ = 0;              ///< and its importance volumes' count
+  std::vector<float> domainLines_;        ///< drawLines vertices of the domain's shell
   OrbitCamera camera_;
   QSet<quint64> selection_;
   bool probesVisible_ = true;

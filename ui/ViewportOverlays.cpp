@@ -875,6 +875,8 @@ void Viewport::drawOverlays(const QMatrix4x4& vp) {
     }
   }
 
+  drawDomain(vp);
+
   // The importance volumes: box edges, orange where probes are wanted denser (weight >= 1),
   // blue where sparser; solid where visible, faint where behind geometry.
   // The box being drawn (DrawVolume tool) in white.

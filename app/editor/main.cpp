@@ -1,5 +1,5 @@
 // probestudio-editor [SCENE | SET.json] [--probes SET.json] [--screenshot OUT.png] [--size WxH]
-//                    [--overlays glyphs,slice,tets,test-object,preview,flat] [--select ID]
+//                    [--overlays glyphs,slice,tets,test-object,domain,preview,flat] [--select ID]
 // The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
 // probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
 // projected pixel position of every probe) and exits: 0 on success, 1 with a one-line error.
@@ -155,8 +155,8 @@ int main(int argc, char** argv) {
   const QCommandLineOption timeOpt("time-frames", "After the screenshot, time N frames.", "N", "0");
   const QCommandLineOption overlaysOpt(
       "overlays",
-      "Overlays to show: any of glyphs, slice, tets, test-object, preview (probe lighting, on by "
-      "default), flat (flat colours instead of light).",
+      "Overlays to show: any of glyphs, slice, tets, test-object, domain, preview (probe "
+      "lighting, on by default), flat (flat colours instead of light).",
       "LIST");
   const QCommandLineOption selectOpt("select", "Select the probe with this id.", "ID");
   const QCommandLineOption saveOpt(
@@ -219,13 +219,15 @@ int main(int argc, char** argv) {
         w.viewport()->setOverlay(O::TetMesh, true);
       else if (o == "test-object")
         w.viewport()->setOverlay(O::TestObject, true);
+      else if (o == "domain")
+        w.viewport()->setOverlay(O::Domain, true);
       else if (o == "preview")
         w.viewport()->setPreviewLighting(true);
       else if (o == "flat")
         w.viewport()->setFlatShading(true);
       else {
         fail(QStringLiteral("--overlays: unknown overlay '%1' (expected glyphs, slice, tets, "
-                            "test-object, preview, flat)")
+                            "test-object, domain, preview, flat)")
                  .arg(o));
         return 1;
       }

@@ -46,6 +46,9 @@ for f in overlays base preview volumes cuts nocuts; do
   cp "$tmp/$f.png.json" "$artifacts/editor-two-rooms-$f.png.json"
 done
 "$checker" --overlays "$tmp/overlays.png" "$tmp/base.png"
+# The domain of interest's shell (View > Domain of interest) against the same view.
+run "$scene" --probes "$tmp/set.json" --select 1 --overlays domain --screenshot "$tmp/domain.png"
+"$checker" --overlays "$tmp/domain.png" "$tmp/base.png"
 "$checker" --volumes "$tmp/volumes.png" "$tmp/novolumes.png"
 "$checker" --cuts "$tmp/cuts.png" "$tmp/nocuts.png"
 
