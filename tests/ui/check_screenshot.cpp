@@ -194,6 +194,25 @@ int checkVolumes(const char* shotPath, const char* basePath) {
   return 0;
 }
 
+/// --domain: SHOT shows the domain of interest's shell (faint green lines, ui/DomainOverlay.cpp)
+/// over BASE, the same view without it: at least 2000 pixels turned greener than BASE (green
+/// up by more than 12 and more than red and blue).
+int checkDomain(const char* shotPath, const char* basePath) {
+  Pair pair;
+  if (const char* why = loadPair(shotPath, basePath, pair); *why) return fail(why);
+  int greener = 0;
+  for (int y = 0; y < pair.shot.height(); ++y)
+    for (int x = 0; x < pair.shot.width(); ++x) {
+      const QRgb s = pair.shot.pixel(x, y), b = pair.base.pixel(x, y);
+      const int dg = qGreen(s) - qGreen(b), dr = qRed(s) - qRed(b), db = qBlue(s) - qBlue(b);
+      greener += dg > 12 && dg > dr && dg > db;
+    }
+  std::printf("pixels greener than the base: %d\n", greener);
+  if (greener < 2000) return fail("the domain's shell is not drawn");
+  std::printf("check_screenshot --domain: OK\n");
+  return 0;
+}
+
 int checkCuts(const char* cutPath, const char* noCutPath) {
   const QImage cut = QImage(cutPath).convertToFormat(QImage::Format_RGB32);
   const QImage noCut = QImage(noCutPath).convertToFormat(QImage::Format_RGB32);
@@ -262,10 +281,12 @@ int main(int argc, char** argv) {
     return checkVolumes(argv[2], argv[3]);
   if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--cuts"))
     return checkCuts(argv[2], argv[3]);
+  if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--domain"))
+    return checkDomain(argv[2], argv[3]);
   if (argc != 3)
     return fail(
         "usage: check_screenshot SHOT.png NOPROBES.png | --overlays SHOT.png BASE.png | "
-        "--volumes SHOT.png BASE.png | --cuts CUT.png NOCUT.png");
+        "--volumes SHOT.png BASE.png | --cuts CUT.png NOCUT.png | --domain SHOT.png BASE.png");
   const QImage shot = QImage(argv[1]).convertToFormat(QImage::Format_RGB32);
   const QImage bare = QImage(argv[2]).convertToFormat(QImage::Format_RGB32);
   if (shot.isNull() || bare.isNull()) return fail("cannot read the images");

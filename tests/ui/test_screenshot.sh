@@ -48,7 +48,7 @@ done
 "$checker" --overlays "$tmp/overlays.png" "$tmp/base.png"
 # The domain of interest's shell (View > Domain of interest) against the same view.
 run "$scene" --probes "$tmp/set.json" --select 1 --overlays domain --screenshot "$tmp/domain.png"
-"$checker" --overlays "$tmp/domain.png" "$tmp/base.png"
+"$checker" --domain "$tmp/domain.png" "$tmp/base.png"
 "$checker" --volumes "$tmp/volumes.png" "$tmp/novolumes.png"
 "$checker" --cuts "$tmp/cuts.png" "$tmp/nocuts.png"
 
