@@ -61,7 +61,7 @@ struct PlacementRequest {
   /// greedy: the error it lowers, "perceptual" (stops) or "energy" (rel_rmse)
   /// (GreedyMethodSettings::objective).
   std::string objective = greedyObjectiveName(GreedyMethodSettings{}.objective);
-  bool refineLeaks = false;  ///< PlaceRequest::refineLeaks
+  bool refineLeaks = false;                   ///< PlaceRequest::refineLeaks
   DomainRule domain = DomainRule::Reachable;  ///< PlaceRequest::domain's rule
   /// The new probes are accepted (PlaceRequest::newState) instead of candidates.
   bool acceptNew = false;
@@ -79,11 +79,12 @@ struct PlacementRequest {
 struct BakeRequest {
   int samplesPerProbe = 1024;
   /// Leak refinement (Sukys 3.2.2) before the capture: probes added on both sides of walls
-  /// that tetrahedron edges cross; they are in the volume, not in the probe set.
-  bool refineLeaks = true;
+  /// that tetrahedron edges cross; they are in the volume, not in the probe set. Off by default,
+  /// as `bake`'s (BakeSettings::leakRefine).
+  bool refineLeaks = false;
   /// The leak cuts (core/placement/LeakRefine.h computeLeakCuts), with refineLeaks or without
-  /// it (`bake --leak-cuts-only`: the volume holds exactly the accepted probes).
-  bool leakCuts = true;
+  /// it (`bake --leak-cuts-only`: the volume holds exactly the accepted probes). Off by default.
+  bool leakCuts = false;
   /// Least-squares probe values (core/bake/LeastSquaresFit.h, `bake --fit`) with its defaults.
   bool fit = false;
 };
