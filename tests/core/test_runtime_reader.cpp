@@ -52,6 +52,7 @@ const fs::path& bakedVolume() {
     }
     BakeSettings bs;
     bs.capture.samplesPerProbe = 16;
+    bs.leakRefine = true;  // the cuts, which the reader must apply as the core does
     const BakeResult r = bakeProbeSet(set, tracer, bs);
     saveVolume(r.file, dir / "v.psv");
     return dir / "v.psv";

@@ -3,6 +3,7 @@
 // naming the editor's controls, redo on Ctrl+Y, no stray windows after jobs, one progress bar,
 // the overlays' legends and the status bar's reason when an overlay is empty.
 #include <QAbstractButton>
+#include <QCheckBox>
 #include <QComboBox>
 #include <QDir>
 #include <QDoubleSpinBox>
@@ -286,6 +287,7 @@ class TestArtistLoop : public QObject {
     });
     w.placementPanel()->methodBox()->setCurrentText("uniform");
     w.placementPanel()->spacingBox()->setValue(1.0);
+    w.placementPanel()->placeLeakRefineBox()->setChecked(true);  // a third step
     QVERIFY(w.placementPanel()->run());
     QCOMPARE(waitForJob(doc), QString());
     QVERIFY(fractions.size() >= 3);

@@ -561,10 +561,16 @@ class TestPanels : public QObject {
                                .arg(doc->volume()->probeCount() - accepted.size())),
              qPrintable(note));
     QCOMPARE(vp->previewVolume()->tets.size(), doc->volume()->tets.size());
-    // With it, the leak cuts (the default): the notes give their planes, the volume has them.
-    QVERIFY(panel->leakCutsBox()->isChecked());
+    // With it and the leak cuts (off by default): the notes give their planes, the volume
+    // has them.
+    QVERIFY(!panel->leakCutsBox()->isChecked());
+    panel->leakCutsBox()->setChecked(true);
+    QVERIFY(panel->bake());
+    QCOMPARE(waitForJob(doc), QString());
     const size_t planes = doc->volume()->cutPlanes.size();
-    QVERIFY2(note.contains(QStringLiteral("Leak cuts: %1 planes").arg(planes)), qPrintable(note));
+    const QString cutNote = doc->lastJobNotes().join(' ');
+    QVERIFY2(cutNote.contains(QStringLiteral("Leak cuts: %1 planes").arg(planes)),
+             qPrintable(cutNote));
     // Without them: the same probes and tets, no planes, no word of them.
     panel->leakCutsBox()->setChecked(false);
     QVERIFY(panel->bake());
