@@ -84,6 +84,11 @@ const ParameterFlag kParameterFlags[] = {
     {"--swap-neighbours", "swapNeighbours",
      "greedy: field samples nearest to the probe taken out that each swap tries too (default 26; "
      "0: only the far candidates)"},
+    {"--regions", "regions",
+     "greedy: auto (default: one region up to 256 new probes, else one per 128), off (plain "
+     "greedy) or a count: greedy runs in the regions of a k-d split of the dense field, the "
+     "budget shared by the error each measured",
+     false, true},
     {"--ascent-iterations", "ascentIterations", "ascent: steps per probe at most (default 8)"},
     {"--ascent-step", "ascentStepMeters",
      "ascent: first step in metres (default: half the grid spacing)"},

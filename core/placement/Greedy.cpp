@@ -78,6 +78,7 @@ class GreedySearch {
   void weighPoints() {
     weighErrorPoints(points_, field_, s_);
     result_.unresolvedShare = points_.unresolvedShare;
+    result_.errorNorm = points_.errorNorm;
   }
   /// Interpolates every point from the initial probes and commits that mesh. Throws
   /// ps::ParameterError when they span less than 3D.

@@ -120,6 +120,9 @@ struct GreedyResult {
   /// fieldError after the initial set (index 0) and after each greedy addition (index i).
   std::vector<double> errorHistory;
   double fieldError = 0;  ///< at the end
+  /// The sum fieldError is normalised by (fieldError^2 * errorNorm is the weighted squared
+  /// error): the points' sum of weight |E|^2 for kEnergy, their sum of weights for kPerceptual.
+  double errorNorm = 0;
   /// True when, at some point, no candidate lowered the field error (the field's noise, or error
   /// its samples do not resolve; a field of more samples per probe moves that point but does
   /// not lower eval's error: BENCHMARKS.md, "Placement"):

@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
+#include <limits>
+#include <memory>
 
 #include "core/capture/Capture.h"
 #include "core/common/Check.h"
@@ -13,6 +16,7 @@
 #include "core/domain/DomainPoints.h"
 #include "core/math/Random.h"
 #include "core/placement/PlacementMethod.h"
+#include "core/placement/RegionalGreedy.h"
 
 namespace ps {
 
@@ -50,6 +54,23 @@ void checkGreedyMethodSettings(const GreedyMethodSettings& r, int budget, size_t
   if (r.probeSpp < 0)
     throw ParameterError("candidateSamplesPerProbe",
                          "expected 0 or more samples per probe, got " + std::to_string(r.probeSpp));
+  if (!(r.regions == -1 || (r.regions >= 1 && r.regions <= kMaxGreedyRegions)))
+    throw ParameterError("regions", "expected auto, off or a region count from 2 to " +
+                                        std::to_string(kMaxGreedyRegions) + ", got " +
+                                        std::to_string(r.regions));
+  if (r.regions >= 2 && budget == 0)
+    throw ParameterError("regions", "regions share a probe budget: give one");
+  if (r.regions >= 2 && size_t(budget) < keptCount + 8 * size_t(r.regions))
+    throw ParameterError("regions", std::to_string(r.regions) +
+                                        " regions need at least 8 new probes each; the budget "
+                                        "leaves " +
+                                        std::to_string(size_t(budget) - keptCount));
+}
+
+int greedyRegions(const GreedyMethodSettings& r, int budget, size_t keptCount) {
+  if (r.regions != -1) return r.regions;
+  if (budget == 0 || size_t(budget) <= keptCount) return 1;
+  return regionalGreedyRegions(size_t(budget) - keptCount);
 }
 
 DenseFieldSettings greedyFieldSettings(const GreedyMethodSettings& r, uint64_t seed) {
@@ -250,6 +271,11 @@ class GreedyPlacer : public Placer {
     if (r.heldOutPerProbe > 0)
       gs.heldOut = drawGreedyHeldOut(c.tracer, c.rig, r, c.budget, c.seed, c.domainOf(), field,
                                      c.stage("held-out"));
+    const int regions = greedyRegions(r, c.budget, kept.size());
+    if (regions >= 2) {
+      placeRegional(c, field, gs, kept, regions, probeSpp, fs, out);
+      return out;
+    }
     const GreedyResult g = placeGreedy(field, kept, gs, c.stage("greedy"));
     out.notes.push_back(
         gs.heldOut.empty()
@@ -295,6 +321,55 @@ class GreedyPlacer : public Placer {
   }
 
  private:
+  /// Regional greedy (placeRegionalGreedy) with `regions` regions; its probes and notes go to
+  /// `out`. Each region's candidates are captured at probeSpp (0: their field captures) from
+  /// streams of the run's seed, the region and the pass.
+  void placeRegional(const PlaceContext& c, const DenseField& field, const GreedySettings& gs,
+                     std::span<const KeptProbe> kept, int regions, int probeSpp,
+                     const DenseFieldSettings& fs, PlaceOutcome& out) const {
+    RegionCaptureFactory captureFor;
+    if (probeSpp > 0)
+      captureFor = [&c, &fs, probeSpp, visibility = gs.visibility](size_t region, int pass) {
+        const uint64_t base =
+            streamSeed(c.seed ^ 0x9B0BE5ull, 2 * uint64_t(region) + uint64_t(pass));
+        auto batch = std::make_shared<uint64_t>(0);
+        return [&c, &fs, probeSpp, base, batch, visibility](std::span<const Vec3> at) {
+          CaptureSettings cs;
+          cs.samplesPerProbe = probeSpp;
+          cs.seed = base + 0x100000000ull * (*batch)++;
+          cs.mode = fs.mode;
+          cs.visibilityMaps = visibility;
+          std::vector<GreedyProbeValue> values;
+          for (ProbeCapture& cap : captureProbes(c.tracer, c.rig, at, cs))
+            values.push_back({cap.sh, std::move(cap.distanceMoments),
+                              cap.backfaceFraction > tol::kDefaultInvalidBackfaceFraction});
+          return values;
+        };
+      };
+    GreedySettings settings = gs;
+    settings.captureProbeValues = nullptr;
+    const RegionalGreedyResult g =
+        placeRegionalGreedy(field, kept, settings, regions, captureFor, c.stage("greedy"));
+    size_t fewest = std::numeric_limits<size_t>::max(), most = 0;
+    for (const GreedyRegion& region : g.regions) {
+      fewest = std::min(fewest, region.probes);
+      most = std::max(most, region.probes);
+    }
+    out.notes.push_back(formatNote(
+        "greedy: %d regions of the dense field, %zu to %zu new probes each (shared by the "
+        "error they measured); error %.4f at %zu held-out points with %zu probes, each point "
+        "interpolated from its region's probes; %zu trials, %zu swap moves",
+        regions, fewest, most, g.fieldError, gs.heldOut.size(), g.positions.size() + kept.size(),
+        g.trials, g.swaps));
+    for (const GreedyRegion& region : g.regions)
+      if (!region.refused.empty())
+        out.notes.push_back(formatNote("greedy: a region of %zu samples got no new probes: %s",
+                                       region.samples, region.refused.c_str()));
+    out.spacingMeters = field.baseSpacingMeters;
+    for (size_t i = 0; i < g.positions.size(); ++i)
+      out.probes.push_back({g.positions[i], g.scores[i]});
+  }
+
   GreedyMethodSettings s_;
 };
 
@@ -311,7 +386,25 @@ constexpr std::string_view kParameters[] = {"objective",
                                             "heldOutUniformShare",
                                             "candidateSamplesPerProbe",
                                             "swapPasses",
-                                            "swapNeighbours"};
+                                            "swapNeighbours",
+                                            "regions"};
+
+/// The regions parameter: the word auto (-1) or off (1), or a count (as a word or a number).
+/// Throws ps::ParameterError for anything else.
+int readRegions(const PlaceParameters& p) {
+  const auto text = p.texts().find("regions");
+  if (text == p.texts().end()) return p.integer("regions", -1);
+  if (text->second == "auto") return -1;
+  if (text->second == "off") return 1;
+  int n = 0;
+  const auto [end, ec] =
+      std::from_chars(text->second.data(), text->second.data() + text->second.size(), n);
+  if (ec != std::errc() || end != text->second.data() + text->second.size() || n < 1)
+    throw ParameterError("regions", "expected auto, off or a region count from 2 to " +
+                                        std::to_string(kMaxGreedyRegions) + ", got \"" +
+                                        text->second + "\"");
+  return n;
+}
 
 std::unique_ptr<Placer> create(const PlaceParameters& p, const PlaceBasics& b) {
   GreedyMethodSettings s;
@@ -330,6 +423,7 @@ std::unique_ptr<Placer> create(const PlaceParameters& p, const PlaceBasics& b) {
   s.probeSpp = p.integer("candidateSamplesPerProbe", s.probeSpp);
   s.swapPasses = p.integer("swapPasses", s.swapPasses);
   s.swapNeighbours = p.integer("swapNeighbours", s.swapNeighbours);
+  s.regions = readRegions(p);
   checkGreedyMethodSettings(s, b.budget, b.keptCount);
   return std::make_unique<GreedyPlacer>(s);
 }

@@ -66,12 +66,24 @@ struct GreedyMethodSettings {
   bool visibility = true;
   int swapPasses = kGreedySwapPasses;          ///< >= 0; 0: none [swapPasses]
   int swapNeighbours = kGreedySwapNeighbours;  ///< >= 0 [swapNeighbours]
+  /// Regional greedy (core/placement/RegionalGreedy.h): -1 auto (regionalGreedyRegions of the
+  /// new probes; plain without a budget), 1 off (plain greedy), N >= 2 that many regions
+  /// (budget required). [regions: the word auto or off, or a count]
+  int regions = -1;
 };
+
+/// Regions at most (GreedyMethodSettings::regions).
+inline constexpr int kMaxGreedyRegions = 4096;
 
 /// Throws ps::ParameterError naming the parameter when a setting is out of range for `budget`
 /// (0: none) and `keptCount` kept probes.
 void checkGreedyMethodSettings(const GreedyMethodSettings& settings, int budget,
                                size_t keptCount = 0);
+
+/// The regions greedy runs with for `settings`, `budget` (0: none) and `keptCount` kept
+/// probes: settings.regions, or with auto regionalGreedyRegions of the new probes (1 without a
+/// budget). 1: plain greedy.
+int greedyRegions(const GreedyMethodSettings& settings, int budget, size_t keptCount);
 
 /// The dense field greedy builds for `settings` and `seed` (its importance volumes are left to
 /// the caller).

@@ -1,0 +1,319 @@
+#include "core/placement/RegionalGreedy.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <mutex>
+#include <numeric>
+#include <string>
+
+#include "core/common/Check.h"
+#include "core/common/Error.h"
+
+namespace ps {
+
+namespace {
+
+/// A cut of the k-d split: points with coordinate `axis` below `at` go to `left`, the others
+/// to `right` (node indices; a leaf has region >= 0).
+struct KdNode {
+  int axis = 0;
+  double at = 0;
+  int left = -1, right = -1;
+  int region = -1;
+};
+
+/// Splits `idx` (field sample indices) into `regions` leaves, appending nodes to `nodes` and
+/// each leaf's samples to `leaves` in region order; returns the node's index. O(S log S) per
+/// level, log2(regions) levels.
+int splitSamples(const DenseField& field, std::vector<size_t> idx, int regions,
+                 std::vector<KdNode>& nodes, std::vector<std::vector<size_t>>& leaves) {
+  const int self = int(nodes.size());
+  nodes.emplace_back();
+  if (regions <= 1 || idx.size() < 2) {
+    nodes[size_t(self)].region = int(leaves.size());
+    leaves.push_back(std::move(idx));
+    return self;
+  }
+  Bounds3 box;
+  for (size_t i : idx) box.extend(field.samples[i].position);
+  const Vec3 e = box.extent();
+  const int axis = e.x >= e.y && e.x >= e.z ? 0 : e.y >= e.z ? 1 : 2;
+  auto coord = [&](size_t i) { return field.samples[i].position[axis]; };
+  std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) {
+    return coord(a) < coord(b) || (coord(a) == coord(b) && a < b);
+  });
+  const int leftRegions = regions / 2;
+  const size_t target =
+      std::clamp<size_t>(idx.size() * size_t(leftRegions) / size_t(regions), 1, idx.size() - 1);
+  // The nearest place to the target where the coordinate changes: a plane between the halves.
+  size_t cut = target;
+  for (size_t d = 0; d < idx.size(); ++d) {
+    if (target >= d && target - d >= 1 && coord(idx[target - d - 1]) < coord(idx[target - d])) {
+      cut = target - d;
+      break;
+    }
+    if (target + d < idx.size() && coord(idx[target + d - 1]) < coord(idx[target + d])) {
+      cut = target + d;
+      break;
+    }
+  }
+  const double at = coord(idx[cut - 1]) < coord(idx[cut])
+                        ? 0.5 * (coord(idx[cut - 1]) + coord(idx[cut]))
+                        : coord(idx[cut]);
+  std::vector<size_t> right(idx.begin() + std::ptrdiff_t(cut), idx.end());
+  idx.resize(cut);
+  const int l = splitSamples(field, std::move(idx), leftRegions, nodes, leaves);
+  const int r = splitSamples(field, std::move(right), regions - leftRegions, nodes, leaves);
+  nodes[size_t(self)].axis = axis;
+  nodes[size_t(self)].at = at;
+  nodes[size_t(self)].left = l;
+  nodes[size_t(self)].right = r;
+  return self;
+}
+
+/// The region of the leaf holding `p`.
+size_t regionOf(const std::vector<KdNode>& nodes, Vec3 p) {
+  size_t n = 0;
+  while (nodes[n].region < 0)
+    n = size_t(p[nodes[n].axis] < nodes[n].at ? nodes[n].left : nodes[n].right);
+  return size_t(nodes[n].region);
+}
+
+/// A region's own inputs: its field (its samples, the whole field's domain), held-out points
+/// and kept probes, and its samples' indices in the whole field.
+struct RegionInput {
+  DenseField field;
+  std::vector<size_t> sampleIndex;
+  std::vector<HeldOutSample> heldOut;
+  std::vector<KeptProbe> kept;
+  double shareWeight = 0;  ///< held-out weight (or samples) it stands for
+  size_t free = 0;         ///< samples a new probe may go on (outside the light clearance)
+};
+
+/// A step of a region's lower convex hull of (new probes, weighted squared error): from
+/// `from` to `to` new probes, dropping the error by `drop` per probe.
+struct HullStep {
+  size_t region = 0, from = 0, to = 0;
+  double drop = 0;
+};
+
+/// The lower convex hull's steps of `err` (weighted squared error with k additions at index k,
+/// k from 0), offset by `base` probes. O(k).
+std::vector<HullStep> hullSteps(size_t region, size_t base, const std::vector<double>& err) {
+  std::vector<size_t> hull;  // indices into err, the lower convex hull's vertices
+  for (size_t k = 0; k < err.size(); ++k) {
+    while (hull.size() >= 2) {
+      const size_t a = hull[hull.size() - 2], b = hull.back();
+      // b lies on or above the segment a..k: not a vertex of the lower hull.
+      if ((err[b] - err[a]) * double(k - a) >= (err[k] - err[a]) * double(b - a))
+        hull.pop_back();
+      else
+        break;
+    }
+    hull.push_back(k);
+  }
+  std::vector<HullStep> steps;
+  for (size_t m = 1; m < hull.size(); ++m)
+    steps.push_back({region, base + hull[m - 1], base + hull[m],
+                     (err[hull[m - 1]] - err[hull[m]]) / double(hull[m] - hull[m - 1])});
+  return steps;
+}
+
+/// The budget each region gets (new probes): its initial ones, then the hull steps with the
+/// largest drop per probe, whole while they fit, the last one in part. `initial[r]` and
+/// `steps` (all regions') as measured; `newBudget` at least the sum of `initial`.
+std::vector<size_t> shareBudget(const std::vector<size_t>& initial, std::vector<HullStep> steps,
+                                size_t newBudget) {
+  std::vector<size_t> take = initial;
+  size_t left = newBudget - std::accumulate(initial.begin(), initial.end(), size_t(0));
+  std::sort(steps.begin(), steps.end(), [](const HullStep& a, const HullStep& b) {
+    return a.drop > b.drop ||
+           (a.drop == b.drop && (a.region < b.region || (a.region == b.region && a.from < b.from)));
+  });
+  for (const HullStep& s : steps) {
+    if (left == 0) break;
+    // The hull's steps of a region fall in drop, so a region's steps come in order.
+    PS_CHECK_EQ(take[s.region], s.from);
+    const size_t n = std::min(left, s.to - s.from);
+    take[s.region] += n;
+    left -= n;
+    if (n < s.to - s.from) break;  // the rest of the budget goes to no later step
+  }
+  return take;
+}
+
+}  // namespace
+
+int regionalGreedyRegions(size_t newProbes) {
+  if (newProbes <= size_t(kRegionalMinNewProbes)) return 1;
+  return int(newProbes / size_t(kRegionalProbesPerRegion));
+}
+
+RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<const KeptProbe> kept,
+                                         const GreedySettings& settings, int regionCount,
+                                         const RegionCaptureFactory& captureFor,
+                                         const ProgressFn& progress) {
+  checkGreedySettings(settings, kept.size());
+  if (settings.budget == 0) throw ParameterError("budget", "regional greedy needs a probe budget");
+  PS_CHECK_GE(regionCount, 2);
+  const size_t R = size_t(regionCount);
+  const size_t newBudget = size_t(settings.budget) - kept.size();
+  if (newBudget < 8 * R)
+    throw ParameterError("regions", std::to_string(R) + " regions need at least 8 new probes " +
+                                        "each, and the budget leaves " + std::to_string(newBudget));
+  // 1. Split.
+  std::vector<size_t> all(field.samples.size());
+  std::iota(all.begin(), all.end(), size_t(0));
+  std::vector<KdNode> nodes;
+  std::vector<std::vector<size_t>> leaves;
+  splitSamples(field, std::move(all), regionCount, nodes, leaves);
+  PS_CHECK_EQ(leaves.size(), R);
+  std::vector<RegionInput> in(R);
+  const double avoidSq = settings.avoidRadius * settings.avoidRadius;
+  for (size_t r = 0; r < R; ++r) {
+    RegionInput& g = in[r];
+    g.field.domain = field.domain;
+    g.field.baseSpacingMeters = field.baseSpacingMeters;
+    g.sampleIndex = leaves[r];
+    for (size_t i : leaves[r]) {
+      g.field.samples.push_back(field.samples[i]);
+      bool avoided = false;
+      for (const Vec3& a : settings.avoid) {
+        const Vec3 d = field.samples[i].position - a;
+        avoided = avoided || dot(d, d) < avoidSq;
+      }
+      g.free += avoided ? 0 : 1;
+    }
+    if (settings.heldOut.empty()) g.shareWeight = double(leaves[r].size());
+  }
+  for (const HeldOutSample& h : settings.heldOut) {
+    RegionInput& g = in[regionOf(nodes, h.position)];
+    g.heldOut.push_back(h);
+    g.shareWeight += h.weight;
+  }
+  for (const KeptProbe& k : kept) in[regionOf(nodes, k.position)].kept.push_back(k);
+  double totalWeight = 0;
+  for (const RegionInput& g : in) totalWeight += g.shareWeight;
+  size_t freeTotal = 0;
+  for (const RegionInput& g : in) freeTotal += g.free;
+  if (newBudget > freeTotal)
+    throw ParameterError("budget", "expected at most " + std::to_string(kept.size() + freeTotal) +
+                                       " probes: the dense field has " + std::to_string(freeTotal) +
+                                       " samples to place new probes on (a finer field has "
+                                       "more), got " +
+                                       std::to_string(settings.budget));
+
+  RegionalGreedyResult out;
+  out.regions.resize(R);
+  std::vector<GreedyResult> results(R);
+  std::mutex progressMutex;
+  std::atomic<bool> cancelled{false};
+  size_t done = 0;
+  auto regionDone = [&](double pass0, double passShare) {
+    const std::lock_guard<std::mutex> lock(progressMutex);
+    ++done;
+    if (progress && !progress(pass0 + passShare * double(done) / double(R))) cancelled = true;
+  };
+  const ProgressFn regionProgress = [&](double) { return !cancelled.load(); };
+  // Runs greedy in every region at once with `budgetOf(r)` new probes and `swapPasses`.
+  auto runRegions = [&](int pass, const std::vector<size_t>& budgetOf, int swapPasses, double pass0,
+                        double passShare) {
+    done = 0;
+    tbb::parallel_for(size_t(0), R, [&](size_t r) {
+      RegionInput& g = in[r];
+      GreedyRegion& info = out.regions[r];
+      results[r] = GreedyResult();
+      if (!info.refused.empty() || budgetOf[r] == 0) {
+        regionDone(pass0, passShare);
+        return;
+      }
+      GreedySettings s = settings;
+      s.budget = int(g.kept.size() + budgetOf[r]);
+      s.maxError = 0;
+      s.swapPasses = swapPasses;
+      s.heldOut = g.heldOut;
+      if (captureFor) s.captureProbeValues = captureFor(r, pass);
+      try {
+        results[r] = placeGreedy(g.field, g.kept, s, regionProgress);
+      } catch (const ParameterError& e) {
+        info.refused = e.what();
+      }
+      regionDone(pass0, passShare);
+    });
+    if (cancelled) throw Cancelled();
+  };
+
+  // 2. Measure.
+  std::vector<size_t> measureBudget(R);
+  for (size_t r = 0; r < R; ++r) {
+    const RegionInput& g = in[r];
+    const double share = totalWeight > 0 ? g.shareWeight / totalWeight : 1.0 / double(R);
+    const size_t wanted = size_t(std::ceil(kRegionalOvershoot * double(newBudget) * share));
+    measureBudget[r] = std::min(g.free, std::max<size_t>(wanted, 8));
+    if (measureBudget[r] < 4) measureBudget[r] = 0;  // no room for a mesh: no new probes
+    out.regions[r].box = Bounds3();
+    for (const FieldSample& f : g.field.samples) out.regions[r].box.extend(f.position);
+    out.regions[r].samples = g.field.samples.size();
+    out.regions[r].heldOut = g.heldOut.size();
+    out.regions[r].kept = g.kept.size();
+  }
+  runRegions(0, measureBudget, 0, 0.0, 0.4);
+
+  // 3. Share.
+  std::vector<size_t> initial(R, 0);
+  std::vector<HullStep> steps;
+  for (size_t r = 0; r < R; ++r) {
+    const GreedyResult& m = results[r];
+    out.trials += m.trials;
+    out.regions[r].measuredProbes = m.positions.size();
+    if (m.positions.empty()) continue;
+    initial[r] = m.initialCount;
+    std::vector<double> err;
+    for (double e : m.errorHistory) err.push_back(e * e * m.errorNorm);
+    const std::vector<HullStep> own = hullSteps(r, m.initialCount, err);
+    steps.insert(steps.end(), own.begin(), own.end());
+  }
+  size_t initialSum = std::accumulate(initial.begin(), initial.end(), size_t(0));
+  PS_CHECK_LE(initialSum, newBudget);
+  std::vector<size_t> take = shareBudget(initial, steps, newBudget);
+  // Past every region's measured curve (its free samples capped it): the rest in region order
+  // to the regions with free samples left.
+  size_t taken = std::accumulate(take.begin(), take.end(), size_t(0));
+  for (size_t r = 0; r < R && taken < newBudget; ++r) {
+    if (take[r] == 0) continue;
+    const size_t more = std::min(newBudget - taken, in[r].free - take[r]);
+    take[r] += more;
+    taken += more;
+  }
+  if (taken < newBudget)
+    throw ParameterError(
+        "budget", "the regions greedy can place in hold " + std::to_string(taken + kept.size()) +
+                      " probes, fewer than the budget of " + std::to_string(settings.budget));
+
+  // 4. Place.
+  runRegions(1, take, settings.swapPasses, 0.4, 0.6);
+  double errSum = 0, normSum = 0;
+  for (size_t r = 0; r < R; ++r) {
+    const GreedyResult& g = results[r];
+    GreedyRegion& info = out.regions[r];
+    info.probes = g.positions.size();
+    info.errorNorm = g.errorNorm;
+    info.weightedErrSq = g.fieldError * g.fieldError * g.errorNorm;
+    errSum += info.weightedErrSq;
+    normSum += info.errorNorm;
+    out.trials += g.trials;
+    out.swaps += g.swaps;
+    for (size_t i = 0; i < g.positions.size(); ++i) {
+      out.positions.push_back(g.positions[i]);
+      out.sampleIndex.push_back(in[r].sampleIndex[g.sampleIndex[i]]);
+      out.scores.push_back(g.scores[i]);
+    }
+  }
+  out.fieldError = normSum > 0 ? std::sqrt(errSum / normSum) : 0.0;
+  return out;
+}
+
+}  // namespace ps

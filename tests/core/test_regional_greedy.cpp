@@ -1,0 +1,142 @@
+// Regional greedy (core/placement/RegionalGreedy.h) on synthetic dense fields: the budget placed
+// exactly, the same probes run after run, and the budget shared by the error of each region.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "core/common/Error.h"
+#include "core/placement/GreedyMethod.h"
+#include "core/placement/PlacementMethod.h"
+#include "core/placement/RegionalGreedy.h"
+
+namespace ps {
+namespace {
+
+/// A cell-centred grid of samples (cells of `h` metres) over [0, 16] x [0, 3] x [0, 3] m, their
+/// radiance uniform (SH DC only) and of value 1 where x < 8; where x >= 8, a bright spot at
+/// (12, 1.5, 1.5) adds 20 / (1 + d^2) to the DC term and tilts the l = 1 band towards it.
+DenseField halfLitField(double h) {
+  DenseField f;
+  f.baseSpacingMeters = h;
+  for (double x = 0.5 * h; x < 16; x += h)
+    for (double y = 0.5 * h; y < 3; y += h)
+      for (double z = 0.5 * h; z < 3; z += h) {
+        FieldSample s;
+        s.position = {x, y, z};
+        s.cellSize = h;
+        double dc = 1;
+        Vec3 tilt;
+        if (x >= 8) {
+          const Vec3 d = Vec3(12, 1.5, 1.5) - s.position;
+          const double bump = 20 / (1 + dot(d, d));
+          dc += bump;
+          tilt = d * (0.1 * bump / (1 + std::sqrt(dot(d, d))));
+        }
+        s.sh.c[0] = Rgb(dc, dc, dc);
+        s.sh.c[1] = Rgb(tilt.y, tilt.y, tilt.y);
+        s.sh.c[2] = Rgb(tilt.z, tilt.z, tilt.z);
+        s.sh.c[3] = Rgb(tilt.x, tilt.x, tilt.x);
+        f.domain.extend(s.position);
+        f.samples.push_back(s);
+      }
+  return f;
+}
+
+TEST(RegionalGreedy, PlacesTheBudgetDeterministically) {
+  const DenseField f = halfLitField(0.5);
+  GreedySettings s;
+  s.budget = 64;
+  s.swapPasses = 1;
+  s.swapNeighbours = 8;
+  const RegionalGreedyResult a = placeRegionalGreedy(f, {}, s, 4, {});
+  const RegionalGreedyResult b = placeRegionalGreedy(f, {}, s, 4, {});
+  ASSERT_EQ(a.positions.size(), 64u);
+  ASSERT_EQ(a.regions.size(), 4u);
+  EXPECT_EQ(a.sampleIndex, b.sampleIndex);
+  EXPECT_EQ(a.fieldError, b.fieldError);
+  size_t sum = 0;
+  for (const GreedyRegion& r : a.regions) {
+    EXPECT_TRUE(r.refused.empty()) << r.refused;
+    sum += r.probes;
+  }
+  EXPECT_EQ(sum, 64u);
+  // Every probe is a field sample of its own region's box, and no sample is used twice.
+  std::vector<char> used(f.samples.size(), 0);
+  for (size_t i : a.sampleIndex) {
+    ASSERT_LT(i, f.samples.size());
+    EXPECT_FALSE(used[i]);
+    used[i] = 1;
+  }
+  size_t k = 0;
+  for (const GreedyRegion& r : a.regions)
+    for (size_t m = 0; m < r.probes; ++m, ++k) {
+      const Vec3 p = a.positions[k];
+      EXPECT_TRUE(p.x >= r.box.lo.x && p.x <= r.box.hi.x && p.y >= r.box.lo.y &&
+                  p.y <= r.box.hi.y && p.z >= r.box.lo.z && p.z <= r.box.hi.z);
+    }
+}
+
+TEST(RegionalGreedy, RegionsGetProbesByTheirError) {
+  // Two regions, cut at x = 8: the uniform half is interpolated exactly by its initial
+  // corners, so its error curve is flat and every further probe goes to the lit half.
+  const DenseField f = halfLitField(0.5);
+  GreedySettings s;
+  s.budget = 48;
+  const RegionalGreedyResult r = placeRegionalGreedy(f, {}, s, 2, {});
+  ASSERT_EQ(r.regions.size(), 2u);
+  const GreedyRegion& uniform = r.regions[0].box.hi.x < 8 ? r.regions[0] : r.regions[1];
+  const GreedyRegion& lit = r.regions[0].box.hi.x < 8 ? r.regions[1] : r.regions[0];
+  EXPECT_LT(uniform.box.hi.x, 8);
+  EXPECT_GT(lit.box.lo.x, 8);
+  EXPECT_EQ(uniform.probes, 8u) << "the uniform half keeps only its initial corners";
+  EXPECT_EQ(lit.probes, 40u);
+  EXPECT_LT(uniform.weightedErrSq, 1e-12 * lit.weightedErrSq + 1e-20);
+  // The measuring pass saw past the lit region's final count, so its share was the error's.
+  EXPECT_GT(lit.measuredProbes, 24u);
+}
+
+TEST(RegionalGreedy, RefusesTooSmallABudget) {
+  const DenseField f = halfLitField(1.0);
+  GreedySettings s;
+  s.budget = 20;
+  EXPECT_THROW(placeRegionalGreedy(f, {}, s, 4, {}), ParameterError);
+}
+
+TEST(RegionalGreedy, AutoSplitsOnlyLargeBudgets) {
+  // Plain greedy up to kRegionalMinNewProbes new probes: the scenes' benchmarks (32 to 512
+  // probes) run as they did.
+  EXPECT_EQ(regionalGreedyRegions(32), 1);
+  EXPECT_EQ(regionalGreedyRegions(512), 1);
+  EXPECT_EQ(regionalGreedyRegions(size_t(kRegionalMinNewProbes) + 1),
+            (kRegionalMinNewProbes + 1) / kRegionalProbesPerRegion);
+  EXPECT_EQ(regionalGreedyRegions(4096), 4096 / kRegionalProbesPerRegion);
+  GreedyMethodSettings m;
+  EXPECT_EQ(greedyRegions(m, 512, 0), 1);
+  EXPECT_EQ(greedyRegions(m, 0, 0), 1);
+  m.regions = 1;
+  EXPECT_EQ(greedyRegions(m, 4096, 0), 1);
+}
+
+TEST(RegionalGreedy, RegionsParameterIsChecked) {
+  auto refusal = [](const std::string& word, int budget) -> std::string {
+    PlaceParameters p;
+    p.setText("regions", word);
+    try {
+      greedyPlacementMethod().create(p, PlaceBasics{budget, 0});
+    } catch (const ParameterError& e) {
+      return e.parameter();
+    }
+    return "";
+  };
+  EXPECT_EQ(refusal("auto", 64), "");
+  EXPECT_EQ(refusal("off", 64), "");
+  EXPECT_EQ(refusal("4", 64), "");
+  EXPECT_EQ(refusal("many", 64), "regions");
+  EXPECT_EQ(refusal("0", 64), "regions");
+  EXPECT_EQ(refusal("4x", 64), "regions");
+  EXPECT_EQ(refusal("16", 64), "regions");  // 8 new probes per region at least
+}
+
+}  // namespace
+}  // namespace ps
