@@ -147,6 +147,27 @@ assert e["probes"] >= len(s["probes"]) and e["queries"] == 128, e
 assert math.isfinite(e["rel_rmse"]) and 0 < e["rel_rmse"] < 2, e
 PY
 
+# Regional greedy on the small level: exactly the budget, the same bytes run after run, every
+# region with probes, in under a minute.
+start=$SECONDS
+for run in 1 2; do
+  "$cli" place "$tmp/a.glb" --method greedy --budget 48 --regions 4 --field-depth 1 \
+    --field-spp 32 --probe-spp 32 --held-out 32 --swap-passes 1 --no-leak-refine "${sky[@]}" \
+    -o "$tmp/regional$run.json" >"$tmp/regional$run.out" 2>&1
+done
+took=$((SECONDS - start))
+echo "small level: regional greedy twice in $took s"
+[ "$took" -lt 60 ] || { echo "FAIL: regional greedy took $took s (at most 59)"; exit 1; }
+cmp "$tmp/regional1.json" "$tmp/regional2.json" || { echo "FAIL: regional greedy differs between runs"; exit 1; }
+grep -q "greedy: 4 regions of the dense field" "$tmp/regional1.out" || { cat "$tmp/regional1.out"; exit 1; }
+python3 - "$tmp/regional1.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+greedy = [p for p in s["probes"] if p["method"] == "greedy"]
+assert len(greedy) == 48 and len(s["probes"]) == 48, len(s["probes"])
+assert len({tuple(p["position"]) for p in greedy}) == 48, "a position twice"
+PY
+
 fail=0
 expect_error() {  # expect_error "expected text" cmd...: exit 1, one line on stderr naming it
   local expected="$1"; shift
@@ -188,4 +209,8 @@ expect_error "--budget: expected at most 169 probes: the dense field has 169 sam
   "$cli" place "$tmp/a.glb" --method greedy --budget 400 --field-depth 0 --field-spp 16 \
   --held-out 0 --probe-spp 16 --swap-passes 0 --no-leak-refine "${sky[@]}" -o "$tmp/over.json"
 test ! -e "$tmp/over.json" || { echo "FAIL: a refused budget wrote its output"; fail=1; }
+expect_error '--regions: expected auto, off or a region count from 2 to 4096, got "many"' \
+  "$cli" place "$tmp/a.glb" --method greedy --budget 64 --regions many "${sky[@]}" -o "$tmp/over.json"
+expect_error "--regions: 16 regions need at least 8 new probes each; the budget leaves 64" \
+  "$cli" place "$tmp/a.glb" --method greedy --budget 64 --regions 16 "${sky[@]}" -o "$tmp/over.json"
 exit $fail
