@@ -211,6 +211,17 @@ std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const Lightin
 
 namespace {
 
+/// The note for a run whose held-out points' captures mostly resolve no light (`share` of
+/// them, above 0.5).
+std::string unresolvedWarning(double share, const DenseFieldSettings& fs) {
+  return formatNote(
+      "warning: the captures of %.0f %% of the held-out points resolve no light (at %d "
+      "samples each); the perceptual objective, a ratio, then measures their noise and "
+      "can leave the volume too dark: raise the field's samples per probe, or use the "
+      "energy objective",
+      100 * share, fs.samplesPerProbe);
+}
+
 /// `greedy`: the dense field, then error-driven additions and swaps (core/placement/Greedy.h).
 class GreedyPlacer : public Placer {
  public:
@@ -285,13 +296,7 @@ class GreedyPlacer : public Placer {
                          gs.heldOut.size(), g.positions.size() + kept.size()));
     // Half the held-out points unresolved: the objective measures their noise (the Cornell box,
     // lit by a small emissive panel, 99 % at 64 samples; two-rooms 37 %).
-    if (g.unresolvedShare > 0.5)
-      out.notes.push_back(formatNote(
-          "warning: the captures of %.0f %% of the held-out points resolve no light (at %d "
-          "samples each); the perceptual objective, a ratio, then measures their noise and "
-          "can leave the volume too dark: raise the field's samples per probe, or use the "
-          "energy objective",
-          100 * g.unresolvedShare, fs.samplesPerProbe));
+    if (g.unresolvedShare > 0.5) out.notes.push_back(unresolvedWarning(g.unresolvedShare, fs));
     if (g.swapPasses > 0) {
       std::string errors;
       for (double e : g.swapErrorHistory) errors += formatNote(" %.4f", e);
@@ -361,6 +366,7 @@ class GreedyPlacer : public Placer {
         "interpolated from its region's probes; %zu trials, %zu swap moves",
         regions, fewest, most, g.fieldError, gs.heldOut.size(), g.positions.size() + kept.size(),
         g.trials, g.swaps));
+    if (g.unresolvedShare > 0.5) out.notes.push_back(unresolvedWarning(g.unresolvedShare, fs));
     for (const GreedyRegion& region : g.regions)
       if (!region.refused.empty())
         out.notes.push_back(formatNote("greedy: a region of %zu samples got no new probes: %s",

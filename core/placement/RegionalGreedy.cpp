@@ -295,7 +295,7 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
 
   // 4. Place.
   runRegions(1, take, settings.swapPasses, 0.4, 0.6);
-  double errSum = 0, normSum = 0;
+  double errSum = 0, normSum = 0, unresolvedSum = 0;
   for (size_t r = 0; r < R; ++r) {
     const GreedyResult& g = results[r];
     GreedyRegion& info = out.regions[r];
@@ -304,6 +304,7 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
     info.weightedErrSq = g.fieldError * g.fieldError * g.errorNorm;
     errSum += info.weightedErrSq;
     normSum += info.errorNorm;
+    unresolvedSum += g.unresolvedShare * info.errorNorm;
     out.trials += g.trials;
     out.swaps += g.swaps;
     for (size_t i = 0; i < g.positions.size(); ++i) {
@@ -313,6 +314,7 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
     }
   }
   out.fieldError = normSum > 0 ? std::sqrt(errSum / normSum) : 0.0;
+  out.unresolvedShare = normSum > 0 ? unresolvedSum / normSum : 0.0;
   return out;
 }
 

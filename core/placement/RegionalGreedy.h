@@ -61,6 +61,9 @@ struct RegionalGreedyResult {
   /// sqrt(sum of the regions' weighted squared errors / sum of their norms): the objective's
   /// figure over the regions' own meshes (a point is interpolated from its region's probes).
   double fieldError = 0;
+  /// kPerceptual: the weighted share of the error points whose capture resolves no light
+  /// (GreedyResult::unresolvedShare over the regions, weighted by their errorNorm); 0 for kEnergy.
+  double unresolvedShare = 0;
   size_t trials = 0;  ///< meshes tried, over both passes
   size_t swaps = 0;   ///< moves the second pass's swaps made
 };
