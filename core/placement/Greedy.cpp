@@ -672,16 +672,16 @@ void checkGreedySettings(const GreedySettings& s, size_t keptCount) {
                          "expected 0 or more samples, got " + std::to_string(s.swapNeighbours));
   if (!(s.swapMinGain >= 0 && s.swapMinGain < 1))
     throw ParameterError("swapMinGain", "expected a share in [0, 1)");
-  if (s.visibility && !s.captureProbeValues)
-    throw ParameterError("interpolant",
-                         "the visibility-aware interpolant needs the probes' own captures "
-                         "(their visibility maps); expected candidate samples per probe above "
-                         "the field's, or the barycentric interpolant");
 }
 
 GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,
                          const GreedySettings& settings, const ProgressFn& progress) {
   checkGreedySettings(settings, kept.size());
+  if (settings.visibility && !settings.captureProbeValues)
+    throw ParameterError("interpolant",
+                         "the visibility-aware interpolant needs the probes' own captures "
+                         "(their visibility maps); expected candidate samples per probe above "
+                         "the field's, or the barycentric interpolant");
   GreedySearch search(field, kept, settings, progress);
   search.addInitialSamples();
   search.weighPoints();

@@ -192,8 +192,9 @@ void checkGreedySettings(const GreedySettings& settings, size_t keptCount);
 /// errorHistory stays that of the additions (fieldError is after the swaps).
 /// Throws ps::ParameterError when neither budget nor maxError is set, a budget is below 4 or
 /// below kept + 4 or above kept plus the field's free samples (outside the light clearance),
-/// the field has fewer than 4 samples or is black, or the initial probes span
-/// less than 3D; ps::Cancelled through `progress`.
+/// the field has fewer than 4 samples or is black, the initial probes span less than 3D, or
+/// visibility is asked for without captureProbeValues ("interpolant"); ps::Cancelled through
+/// `progress`.
 GreedyResult placeGreedy(const DenseField& field, std::span<const KeptProbe> kept,
                          const GreedySettings& settings, const ProgressFn& progress = {});
 
