@@ -178,7 +178,7 @@ Vec3 ShGrid::centre(size_t index) const {
                    (double(k) + 0.5) * cellMeters.z);
 }
 
-ShGrid sampleGrid(const ProbeVolume& volume, const Bounds3& box, int maxCellsPerAxis) {
+ShGrid shGridLayout(const Bounds3& box, int maxCellsPerAxis) {
   ShGrid g;
   if (box.empty() || maxCellsPerAxis < 1) return g;
   const Vec3 e = box.extent();
@@ -187,12 +187,18 @@ ShGrid sampleGrid(const ProbeVolume& volume, const Bounds3& box, int maxCellsPer
   for (int a = 0; a < 3; ++a) g.dims[a] = std::max(1, int(std::ceil(e[a] / cell - 1e-9)));
   g.cellMeters = Vec3(e.x / g.dims[0], e.y / g.dims[1], e.z / g.dims[2]);
   g.lo = box.lo;
-  const size_t n = size_t(g.dims[0]) * size_t(g.dims[1]) * size_t(g.dims[2]);
+  g.sh.resize(size_t(g.dims[0]) * size_t(g.dims[1]) * size_t(g.dims[2]));
+  return g;
+}
+
+ShGrid sampleGrid(const ProbeVolume& volume, const Bounds3& box, int maxCellsPerAxis) {
+  ShGrid g = shGridLayout(box, maxCellsPerAxis);
+  const size_t n = g.size();
+  if (n == 0) return g;
   std::vector<Vec3> points(n);
   for (size_t i = 0; i < n; ++i) points[i] = g.centre(i);
   std::vector<VolumeLocation> locs(n);
   locateBatch(volume, points, locs);
-  g.sh.resize(n);
   for (size_t i = 0; i < n; ++i) g.sh[i] = interpolate(volume, locs[i]);
   return g;
 }

@@ -116,8 +116,12 @@ struct ShGrid {
   Vec3 centre(size_t index) const;
 };
 
-/// Samples `volume` (locate + interpolate, walks starting from the previous cell) on a grid over
-/// `box` whose longest side has `maxCellsPerAxis` cells (cubic cells; every axis gets >= 1).
+/// The grid over `box` whose longest side has `maxCellsPerAxis` cells (cubic cells; every axis
+/// gets >= 1), its SH zero; empty for an empty box or maxCellsPerAxis < 1.
+ShGrid shGridLayout(const Bounds3& box, int maxCellsPerAxis);
+
+/// Samples `volume` (locate + interpolate, walks starting from the previous cell) on
+/// shGridLayout(box, maxCellsPerAxis).
 ShGrid sampleGrid(const ProbeVolume& volume, const Bounds3& box, int maxCellsPerAxis);
 
 /// Unique edges of the volume's tetrahedra (vertex pairs, smaller index first), sorted.

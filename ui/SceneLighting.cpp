@@ -25,20 +25,6 @@ std::vector<Vec3> fibonacciSphere(int n) {
   return dirs;
 }
 
-/// The cell layout of sampleGrid (LightingField.cpp) over `box`.
-ShGrid gridLayout(const Bounds3& box, int maxCellsPerAxis) {
-  ShGrid g;
-  if (box.empty() || maxCellsPerAxis < 1) return g;
-  const Vec3 e = box.extent();
-  const double longest = std::max({e.x, e.y, e.z, 1e-9});
-  const double cell = longest / maxCellsPerAxis;
-  for (int a = 0; a < 3; ++a) g.dims[a] = std::max(1, int(std::ceil(e[a] / cell - 1e-9)));
-  g.cellMeters = Vec3(e.x / g.dims[0], e.y / g.dims[1], e.z / g.dims[2]);
-  g.lo = box.lo;
-  g.sh.resize(size_t(g.dims[0]) * size_t(g.dims[1]) * size_t(g.dims[2]));
-  return g;
-}
-
 /// Cells flagged invalid take the mean of their valid face neighbours, in passes outward from
 /// the valid ones (at most 4 passes; a cell still unreached keeps what it traced).
 void fillInvalidCells(ShGrid& g, std::vector<uint8_t>& invalid) {
@@ -82,7 +68,7 @@ bool hasAnyLight(const Scene& scene, const LightingRig& rig) {
 
 ShGrid directLightGrid(const Tracer& tracer, const LightingRig& rig, const Bounds3& box,
                        int maxCellsPerAxis, int skyRays, const std::function<bool()>& cancelled) {
-  ShGrid g = gridLayout(box, maxCellsPerAxis);
+  ShGrid g = shGridLayout(box, maxCellsPerAxis);
   if (g.sh.empty()) return g;
   const Scene& scene = tracer.scene();
   const std::vector<Light> lights = allLights(scene, rig);
@@ -129,7 +115,7 @@ ShGrid directLightGrid(const Tracer& tracer, const LightingRig& rig, const Bound
   // many rays to be seen without spots. Each front face hit reflects the direct light found
   // there (Lambertian: albedo x E(n) / pi, E read from the direct grid); the coarse grid is then
   // added to the direct one trilinearly.
-  ShGrid bounce = gridLayout(box, std::max(1, maxCellsPerAxis / 2));
+  ShGrid bounce = shGridLayout(box, std::max(1, maxCellsPerAxis / 2));
   const std::vector<Vec3> bounceDirs = fibonacciSphere(8 * int(dirs.size()));
   const double bounceWeight = 4.0 * kPi / double(bounceDirs.size());
   std::vector<uint8_t> bounceInvalid(bounce.sh.size(), 0);
