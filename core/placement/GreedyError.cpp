@@ -158,6 +158,26 @@ bool clampMayChange(const NewParts& parts, const std::vector<uint64_t>& hull, co
   return false;
 }
 
+/// The barycentric coordinates of p in tet t of `volume`, exactly to double rounding: ratios of
+/// the signed volumes of the tetrahedra p makes with each face (the float positions taken as
+/// exact). Non-finite for a tetrahedron flat in double.
+std::array<double, 4> exactBarycentric(const ProbeVolume& volume, int32_t t, Vec3 p) {
+  const auto& tv = volume.tets[size_t(t)];
+  std::array<Vec3, 4> v;
+  for (int c = 0; c < 4; ++c) v[size_t(c)] = volume.position(tv[size_t(c)]);
+  auto signedVolume = [](Vec3 a, Vec3 b, Vec3 c, Vec3 d) {
+    return dot(a - d, cross(b - d, c - d));
+  };
+  const double whole = signedVolume(v[0], v[1], v[2], v[3]);
+  std::array<double, 4> w{};
+  for (int c = 0; c < 4; ++c) {
+    std::array<Vec3, 4> q = v;
+    q[size_t(c)] = p;
+    w[size_t(c)] = signedVolume(q[0], q[1], q[2], q[3]) / whole;
+  }
+  return w;
+}
+
 /// A point's visibility-aware weights are fragile when the barycentric weight of the probes that
 /// see it sums to less than this: float rounding of the barycentric weights (a point on a face
 /// shared by two tetrahedra) then moves the result by far more than rounding.
@@ -214,6 +234,10 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
     std::array<double, 4> weights{};
     for (int c = 0; c < 4; ++c) weights[size_t(c)] = double(loc.weights[size_t(c)]);
     bool fragile = false;
+    // How much the weights' rounding can grow through the visibility-aware renormalisation
+    // w'_c = b_c f_c / S, S = sum_j b_j f_j: |dw'_c| <= eps (f_c + w'_c sum_j f_j) / S, so the
+    // blend moves by at most eps * 5 max(f) / S times the largest value.
+    double amplification = 1;
     if (!visibility.empty()) {
       const std::array<double, 4> barycentric = weights;
       std::array<double, 4> factors{};
@@ -227,6 +251,8 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
       for (int c = 0; c < 4; ++c) seen += barycentric[size_t(c)] * factors[size_t(c)];
       fragile = combineVisibleWeights(barycentric, factors, weights) != VisibleFallback::None ||
                 seen < kFragileVisibleWeight;
+      const double maxFactor = *std::max_element(factors.begin(), factors.end());
+      amplification = fragile ? 1 : 5 * maxFactor / seen;
     }
     IrrVec interp{};
     for (int c = 0; c < 4; ++c) {
@@ -234,16 +260,60 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
       const double w = weights[size_t(c)];
       for (int k = 0; k < kNormals; ++k) interp[k] += w * values[p][k];
     }
+    // The rounding bound (SampleState::roundoff), per normal in irradiance: the weights' own
+    // (kWeightRoundingBound each), and for a clamped point the clamp's position rounding times
+    // the gradient of the tetrahedron's linear interpolant (the rows of its barycentric matrix
+    // are the weights' gradients, the fourth's their negated sum).
+    IrrVec bound{};
+    {
+      const auto& m = volume.matrices[size_t(loc.tet)];
+      std::array<double, 4> gradient{};
+      // Inside, each weight's actual rounding when it exceeds the contract's (a point within the
+      // walk's slack outside its tetrahedron has a weight clamped to 0 from a slightly negative
+      // one): the exact interpolation of the neighbour holding the point is then that far off.
+      std::array<double, 4> rounding;
+      rounding.fill(kWeightRoundingBound);
+      if (!loc.outside) {
+        const std::array<double, 4> exact = exactBarycentric(volume, loc.tet, points.position[i]);
+        for (int c = 0; c < 4; ++c) {
+          const double off = std::abs(double(loc.weights[size_t(c)]) - exact[size_t(c)]);
+          if (std::isfinite(off)) rounding[size_t(c)] = std::max(rounding[size_t(c)], off);
+        }
+      } else {
+        Vec3 sum;
+        for (int r = 0; r < 3; ++r) {
+          const Vec3 row(m[size_t(3 * r)], m[size_t(3 * r + 1)], m[size_t(3 * r + 2)]);
+          gradient[size_t(r)] = length(row);
+          sum = sum + row;
+        }
+        gradient[3] = length(sum);
+      }
+      for (int c = 0; c < 4; ++c) {
+        const size_t p = size_t(mesh.slotOf(tv[size_t(c)]));
+        const double perUnitValue =
+            amplification * (rounding[size_t(c)] + points.clampMargin * gradient[size_t(c)]);
+        for (int k = 0; k < kNormals; ++k) bound[k] += perUnitValue * std::abs(values[p][k]);
+      }
+    }
     const IrrVec& ref = points.ref[i];
-    double e = 0;
+    double e = 0, roundoff = 0;
     if (points.objective == GreedyObjective::kPerceptual)
       for (int k = 0; k < kNormals; ++k) {
         const double stops = errorStops(interp[k], ref[k], points.floorLuminance);
         e += stops * stops;
+        // d log2(E) / dE = 1 / (E ln 2), E floored as errorStops floors it, taken at the lowest
+        // value two evaluations can give.
+        const double low = std::max(interp[k] - 2 * bound[k], points.floorLuminance);
+        roundoff = std::max(roundoff, bound[k] / (low * std::log(2.0)));
       }
     else
-      for (int k = 0; k < kNormals; ++k) e += (interp[k] - ref[k]) * (interp[k] - ref[k]);
+      for (int k = 0; k < kNormals; ++k) {
+        e += (interp[k] - ref[k]) * (interp[k] - ref[k]);
+        roundoff = std::max(roundoff, bound[k]);
+      }
     SampleState& st = trial.changedState[q];
+    st.rmsError = std::sqrt(e / kNormals);
+    st.roundoff = roundoff;
     st.errSq = (isProbe[i] || i == extraProbe)
                    ? 0.0
                    : std::clamp(e / kNormals - points.noiseVar[i], 0.0, points.errSqCap);
@@ -516,16 +586,19 @@ size_t GreedyErrorState::countMismatches(const Trial& full) const {
     const SampleState& have = mesh_.state[full.changed[q]];
     // A point on a face shared by two tetrahedra can be found in either, with the same
     // interpolation to float rounding of the barycentric weights: its tetrahedron need only
-    // be one of the mesh's. The error is the square of a difference that can be far smaller
-    // than the values, so that rounding moves it by more, relatively (up to 1.3e-4 on the
-    // bundled scenes). A point outside the hull must also keep a face of the hull, at the
-    // distance of the nearest (a stale clamp can keep a face and tetrahedron that still
+    // be one of the mesh's. The interpolations differ by at most the sum of the two states'
+    // roundoff bounds D, so the squared errors (means over the normals of squares of
+    // differences that can be far smaller than the values) by at most 2 r D + D^2 for the
+    // larger RMS error r (Cauchy-Schwarz over the normals; subtracting the noise and the cap
+    // only bring them closer). A point outside the hull must also keep a face of the hull, at
+    // the distance of the nearest (a stale clamp can keep a face and tetrahedron that still
     // exist, with an error close to the right one).
     // A point whose visibility-aware weights are fragile rests on probes it barely lies
     // towards (or, fallen back, on all four), so that on a shared face each tetrahedron gives
     // its own error: any of the mesh's tetrahedra holding it is right.
     const bool sameTet = have.tet == want.tet;
-    const double tolerance = sameTet ? 1e-5 : 1e-3;
+    const double d = kRoundoffMargin * (have.roundoff + want.roundoff);
+    const double tolerance = 2 * std::max(have.rmsError, want.rmsError) * d + d * d;
     const bool eitherFragile = have.fragile || want.fragile;
     const bool clampRight =
         !want.outside ||
@@ -535,7 +608,7 @@ size_t GreedyErrorState::countMismatches(const Trial& full) const {
         (sameTet || std::binary_search(full.tets.begin(), full.tets.end(), have.tet)) &&
         have.outside == want.outside && clampRight &&
         ((eitherFragile && !sameTet) ||
-         std::abs(have.errSq - want.errSq) <= tolerance * want.errSq + 1e-12 * unit * unit);
+         std::abs(have.errSq - want.errSq) <= tolerance + 1e-12 * unit * unit);
     mismatches += same ? 0 : 1;
   }
   return mismatches;

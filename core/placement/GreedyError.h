@@ -29,6 +29,14 @@ const std::array<Vec3, kNormals>& errorNormals();
 /// standard deviations of its noise (about 95 % confidence, one-sided 1.64 sigma rounded up).
 inline constexpr double kResolvedSigmas = 2.0;
 
+/// locate()'s weights lie within this of the exact barycentrics of the point in the tetrahedron
+/// of the float positions (core/traversal/ProbeVolume.h), each.
+inline constexpr double kWeightRoundingBound = 1e-7;
+/// countMismatches' factor on the sum of two states' roundoff bounds: the bounds are first-order
+/// (the perceptual objective's logarithm, the renormalisation's quotient), and the comparison
+/// must not flag a state that rounding alone explains.
+inline constexpr double kRoundoffMargin = 4.0;
+
 /// Probe slots are packed in 16 bits (tetKey): at most this many probes, kept ones included.
 inline constexpr size_t kMaxProbes = 65535;
 /// No point (held-out points follow the field's samples, so the point count is an index too).
@@ -120,6 +128,17 @@ struct SampleState {
   /// that see the point hold less than 1e-4 of its barycentric weight, so that a point on a
   /// face shared by two tetrahedra reads differently in each (countMismatches allows it).
   bool fragile = false;
+  /// The RMS over the normals of the interpolation's error, before the noise is subtracted and
+  /// the cap applied (errSq comes from its square), in the objective's unit.
+  double rmsError = 0;
+  /// A bound on how far this evaluation's interpolated values lie from the exact interpolation
+  /// of the same probes at the same point, in the objective's unit (the largest over the
+  /// normals): the float barycentric weights' rounding (locate's contract,
+  /// kWeightRoundingBound), amplified by the visibility-aware renormalisation, and for a clamped
+  /// point the clamp's position rounding (ErrorPoints::clampMargin) times the interpolant's
+  /// gradient. Two evaluations whose exact interpolations agree (the same tetrahedron, or two
+  /// sharing the face the point lies on) differ by at most the sum of their bounds.
+  double roundoff = 0;
   /// Outside: the hull face it is clamped to (as in Trial::hull; 0 when not known) and its
   /// squared distance to it (m^2).
   uint64_t face = 0;
@@ -191,7 +210,9 @@ class GreedyErrorState {
   double commit(const Trial& trial);
 
   /// Points whose committed state differs from `full` (a kAllPoints trial of the same probes)
-  /// beyond the rounding that a different but equivalent tetrahedron or clamp can give.
+  /// beyond the rounding that a different but equivalent tetrahedron or clamp can give: their
+  /// squared errors may differ by what the two states' roundoff bounds allow
+  /// (2 r D + D^2 for an RMS error r and D = kRoundoffMargin times the sum of the bounds).
   size_t countMismatches(const Trial& full) const;
 
   const CommittedMesh& committed() const { return mesh_; }
