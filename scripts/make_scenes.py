@@ -1,7 +1,13 @@
 #!/usr/bin/env python3
 """Writes ProbeStudio's bundled default scenes (glTF 2.0, embedded data-URI buffers).
 
-Usage: scripts/make_scenes.py [OUTPUT_DIR]   (default: resources/scenes/ next to this script)
+Usage: scripts/make_scenes.py [--unit-copies] [OUTPUT_DIR]
+       (default OUTPUT_DIR: resources/scenes/ next to this script)
+
+--unit-copies also writes two-rooms-cm.gltf and two-rooms-mm.gltf: two-rooms with every length
+(vertex positions, node translations) in centimetres and in millimetres, for the scene-unit
+tests (tests/cli/test_units.sh generates them; they are not committed). Loaded with
+`--units cm` / `--units mm` they are two-rooms.gltf scaled back to metres.
 
 Output is deterministic (same bytes on every run), so the files are committed and this script
 regenerates them. Python 3 standard library only. tests/core/test_scene.cpp checks that the
@@ -95,8 +101,9 @@ def r6(x):
 
 
 class GltfBuilder:
-    def __init__(self, name):
+    def __init__(self, name, units_per_metre=1.0):
         self.name = name
+        self.scale = units_per_metre  # every length written is multiplied by it
         self.blob = bytearray()
         self.doc = {
             "asset": {"version": "2.0", "generator": "ProbeStudio scripts/make_scenes.py"},
@@ -144,6 +151,9 @@ class GltfBuilder:
 
     def box(self, name, lo, hi, material, translation=None, rotation=None):
         """Adds one box mesh and one root node. lo/hi are in the node's local frame."""
+        lo, hi = [x * self.scale for x in lo], [x * self.scale for x in hi]
+        if translation is not None:
+            translation = [t * self.scale for t in translation]
         positions, normals, indices = box_mesh(lo, hi)
         pdata = b"".join(struct.pack("<3f", *p) for p in positions)
         ndata = b"".join(struct.pack("<3f", *n) for n in normals)
@@ -175,6 +185,10 @@ class GltfBuilder:
     def light(self, name, light, translation=None, rotation=None):
         self.extensions_used.add("KHR_lights_punctual")
         light = dict(light, name=name)
+        if "range" in light:
+            light["range"] = light["range"] * self.scale
+        if translation is not None:
+            translation = [t * self.scale for t in translation]
         self.lights.append(light)
         node = {"name": name,
                 "extensions": {"KHR_lights_punctual": {"light": len(self.lights) - 1}}}
@@ -257,8 +271,8 @@ def pillar_room():
     return b
 
 
-def two_rooms():
-    b = GltfBuilder("two-rooms")
+def two_rooms(units_per_metre=1.0):
+    b = GltfBuilder("two-rooms", units_per_metre)
     b.material("wall", [0.8, 0.8, 0.8])
     b.material("floor-a", [0.55, 0.4, 0.3])
     b.material("floor-b", [0.45, 0.5, 0.55])
@@ -299,9 +313,13 @@ def two_rooms():
 
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
-    out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "..", "resources", "scenes")
+    args = [a for a in sys.argv[1:] if a != "--unit-copies"]
+    out = args[0] if args else os.path.join(here, "..", "resources", "scenes")
     os.makedirs(out, exist_ok=True)
-    for make, name in ((cornell, "cornell"), (pillar_room, "pillar-room"), (two_rooms, "two-rooms")):
+    scenes = [(cornell, "cornell"), (pillar_room, "pillar-room"), (two_rooms, "two-rooms")]
+    if "--unit-copies" in sys.argv[1:]:
+        scenes += [(lambda: two_rooms(100.0), "two-rooms-cm"), (lambda: two_rooms(1000.0), "two-rooms-mm")]
+    for make, name in scenes:
         path = os.path.join(out, name + ".gltf")
         make().write(path)
         print("wrote", os.path.normpath(path))

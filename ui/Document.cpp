@@ -21,6 +21,7 @@
 #include "core/io/VolumeFile.h"
 #include "core/placement/Place.h"
 #include "core/placement/Uniform.h"
+#include "core/scene/SceneUnits.h"
 #include "core/trace/Tracer.h"
 #include "ui/LightingField.h"
 #include "ui/ProbeCommands.h"
@@ -39,12 +40,12 @@ struct LoadedScene {
   uint64_t hash = 0;  ///< sceneContentHash() of the file
 };
 
-LoadedScene load(const QString& path) {
-  auto scene = std::make_shared<const Scene>(loadScene(toPath(path)));
+LoadedScene load(const QString& path, double metresPerUnit) {
+  auto scene = std::make_shared<const Scene>(loadScene(toPath(path), metresPerUnit));
   // The deleter keeps the scene alive for as long as the tracer lives.
   auto tracer =
       std::shared_ptr<const Tracer>(new Tracer(*scene), [scene](const Tracer* t) { delete t; });
-  return {scene, tracer, sceneContentHash(toPath(path))};
+  return {scene, tracer, sceneContentHash(toPath(path), metresPerUnit)};
 }
 
 /// The same lights where they shine: type, position, direction and intensity.
@@ -142,19 +143,30 @@ void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const
   }
 }
 
-void Document::openScene(const QString& path) {
-  LoadedScene loaded = load(path);  // throws; nothing changed yet
+/// The unit hint for a scene loaded in `metresPerUnit` (empty unless read as metres).
+static QString unitHintOf(const QString& path, const Scene& scene, double metresPerUnit) {
+  if (metresPerUnit != 1.0) return QString();
+  return QString::fromStdString(
+      sceneUnitHint(QFileInfo(path).fileName().toStdString(), scene.bounds, "--units"));
+}
+
+void Document::openScene(const QString& path, double metresPerUnit) {
+  LoadedScene loaded = load(path, metresPerUnit);  // throws; nothing changed yet
   ProbeSet set;
   set.scenePath = path.toStdString();
   set.sceneHash = loaded.hash;
+  set.metresPerUnit = metresPerUnit;
   replace(loaded.scene, loaded.tracer, std::move(set), path, QString());
   sceneHash_ = loaded.hash;
+  unitHint_ = unitHintOf(path, *loaded.scene, metresPerUnit);
   if (autoPropose_) proposeCandidates();
 }
 
 void Document::openProbeSet(const QString& path, bool keepScene) {
   ProbeSet set = loadProbeSet(toPath(path));  // throws; nothing changed yet
-  if (keepScene && scene_) {
+  // The open scene serves only when it was read in the set's unit.
+  const bool sameUnit = set.metresPerUnit == set_.metresPerUnit;
+  if (keepScene && scene_ && sameUnit) {
     set.scenePath = scenePath_.toStdString();
     replace(scene_, tracer_, std::move(set), scenePath_, path);
     pickUpVolumeBeside(path);
@@ -164,14 +176,17 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
     throw FileError(path.toStdString(), "scene", "the probe set names no scene");
   const QString scenePath = QString::fromStdString(set.scenePath);
   std::error_code ec;  // a missing file is simply "not the same scene"
-  if (scene_ && std::filesystem::equivalent(toPath(scenePath), toPath(scenePath_), ec)) {
+  if (scene_ && sameUnit &&
+      std::filesystem::equivalent(toPath(scenePath), toPath(scenePath_), ec)) {
     replace(scene_, tracer_, std::move(set), scenePath_, path);
     pickUpVolumeBeside(path);
     return;
   }
-  LoadedScene loaded = load(scenePath);  // throws; nothing changed yet
+  const double unit = set.metresPerUnit;
+  LoadedScene loaded = load(scenePath, unit);  // throws; nothing changed yet
   replace(loaded.scene, loaded.tracer, std::move(set), scenePath, path);
   sceneHash_ = loaded.hash;
+  unitHint_ = unitHintOf(scenePath, *loaded.scene, unit);
   pickUpVolumeBeside(path);
 }
 
@@ -191,14 +206,20 @@ void Document::pickUpVolumeBeside(const QString& setPath) {
   // The volume is current when it holds every accepted probe where the set has it (a bake adds
   // leak refinement's probes, never moves the accepted ones); the evaluation then measures it.
   bool current = volume_ != nullptr;
+  // In metres the volume holds the set's floats exactly; in another unit the file's floats were
+  // scaled there and back, which rounds in the last bit or two.
+  const float slack = set_.metresPerUnit == 1.0 ? 0.f : 1e-6f;
+  auto near = [slack](float a, double b) {
+    return std::abs(a - float(b)) <= slack * (1.f + std::abs(a));
+  };
   if (current) {
     const std::vector<float>& pos = volume_->positions;
     for (const Probe& p : set_.probes) {
       if (p.state != ProbeState::Accepted) continue;
       bool found = false;
       for (size_t i = 0; i + 2 < pos.size() && !found; i += 3)
-        found = pos[i] == float(p.position.x) && pos[i + 1] == float(p.position.y) &&
-                pos[i + 2] == float(p.position.z);
+        found = near(pos[i], p.position.x) && near(pos[i + 1], p.position.y) &&
+                near(pos[i + 2], p.position.z);
       if (!found) {
         current = false;
         break;
@@ -231,6 +252,7 @@ void Document::setScene(Scene scene) {
   set.scenePath = s->sourcePath;
   replace(s, nullptr, std::move(set), QString::fromStdString(s->sourcePath), QString());
   sceneHash_ = 0;  // built in memory: no file to hash
+  unitHint_.clear();
 }
 
 int Document::indexOf(uint64_t id) const {
@@ -349,10 +371,12 @@ void Document::recover(const QString& recoveryPath, const QString& originalSetPa
     throw FileError(recoveryPath.toStdString(), "scene", "the recovery file names no scene");
   const QString scenePath = QString::fromStdString(set.scenePath);
   std::error_code ec;
-  if (scene_ && std::filesystem::equivalent(toPath(scenePath), toPath(scenePath_), ec)) {
+  if (scene_ && set.metresPerUnit == set_.metresPerUnit &&
+      std::filesystem::equivalent(toPath(scenePath), toPath(scenePath_), ec)) {
     replace(scene_, tracer_, std::move(set), scenePath_, originalSetPath);
   } else {
-    LoadedScene loaded = load(scenePath);  // throws; nothing changed yet
+    const double unit = set.metresPerUnit;
+    LoadedScene loaded = load(scenePath, unit);  // throws; nothing changed yet
     replace(loaded.scene, loaded.tracer, std::move(set), scenePath, originalSetPath);
   }
   undo_.resetClean();  // the recovered edits are not saved anywhere but the recovery file

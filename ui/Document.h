@@ -137,12 +137,19 @@ class Document : public QObject {
 
   // --- loading and saving (throw ps::Error; the document is unchanged when they throw) ---
 
-  /// Loads a glTF scene and starts an empty probe set for it (then, when autoPropose() is on,
-  /// proposes candidates in the background).
-  void openScene(const QString& path);
-  /// Loads a probe set. Its scene is loaded too unless `keepScene` and a scene is open. A volume
-  /// beside it (volumePathFor) becomes volume(), current when it holds the accepted probes.
+  /// Loads a glTF scene in its unit (`metresPerUnit`, core/scene/SceneUnits.h; the document
+  /// works in metres) and starts an empty probe set for it, saved with that unit (then, when
+  /// autoPropose() is on, proposes candidates in the background).
+  void openScene(const QString& path, double metresPerUnit = 1.0);
+  /// Loads a probe set. Its scene is loaded too, in the set's unit, unless `keepScene` and a
+  /// scene is open in that unit. A volume beside it (volumePathFor) becomes volume(), current
+  /// when it holds the accepted probes.
   void openProbeSet(const QString& path, bool keepScene = false);
+  /// The scene's unit, metres per unit; saved with the set ("units").
+  double metresPerUnit() const { return set_.metresPerUnit; }
+  /// One line when the open scene was read as metres and its size suggests cm or mm
+  /// (sceneUnitHint), naming the editor's --units option; empty otherwise.
+  const QString& unitHint() const { return unitHint_; }
   /// Saves atomically to `path` and makes it the document's file; marks the document clean.
   void saveProbeSet(const QString& path);
 
@@ -355,6 +362,7 @@ class Document : public QObject {
   std::vector<Light> fileLights_;  ///< the scene file's lights as loaded
   QString scenePath_, setPath_;
   uint64_t sceneHash_ = 0;
+  QString unitHint_;  ///< unitHint()
   QUndoStack undo_;
   bool autoPropose_ = true;
   ProposalSettings proposal_;

@@ -636,15 +636,17 @@ void MainWindow::showError(const QString& title, const QString& given) {
   QMessageBox::warning(this, title, message);
 }
 
-bool MainWindow::openScene(const QString& path) {
+bool MainWindow::openScene(const QString& path, double metresPerUnit) {
   if (promptOnClose_ && !maybeSave()) return false;
   try {
-    doc_->openScene(path);
+    doc_->openScene(path, metresPerUnit);
   } catch (const Error& e) {
     showError(tr("Open scene"), QString::fromStdString(e.what()));
     return false;
   }
   addRecentFile(path);
+  if (!doc_->unitHint().isEmpty())
+    statusBar()->showMessage(tr("Warning: %1 (probestudio-editor --units)").arg(doc_->unitHint()));
   viewport_->frameAll();
   return true;
 }
@@ -658,6 +660,8 @@ bool MainWindow::openProbeSet(const QString& path) {
     return false;
   }
   addRecentFile(path);
+  if (!doc_->unitHint().isEmpty())
+    statusBar()->showMessage(tr("Warning: %1 (probestudio-editor --units)").arg(doc_->unitHint()));
   const std::string stale = doc_->staleCapturesText();
   if (!stale.empty())
     statusBar()->showMessage(

@@ -47,7 +47,8 @@ class MainWindow : public QMainWindow {
 
   // Actions, public so that main() and tests can drive them. They return false (after showing
   // the error, unless quiet) when the operation failed; the document is then unchanged.
-  bool openScene(const QString& path);
+  /// Opens a scene in its unit (metres per unit); shows the unit hint in the status bar.
+  bool openScene(const QString& path, double metresPerUnit = 1.0);
   bool openProbeSet(const QString& path);
   bool save();
   bool saveAs(const QString& path = {});

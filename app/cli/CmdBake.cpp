@@ -45,6 +45,7 @@ void registerBake(CLI::App& app) {
     double overCutWeight = LeakCutSettings{}.overCutWeight;
     bool fit = false;
     FitSettings fitSettings;
+    UnitOptions units;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -53,6 +54,7 @@ void registerBake(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "Volume to write (.psv)")->required();
   o->sampling.add(*cmd);
   o->domain.add(*cmd);
+  o->units.add(*cmd);
   cmd->add_option("--seed", o->seed, "Random seed");
   cmd->add_option("--cache", o->cacheDir,
                   "Capture cache folder (default: SET.capture-cache beside the probe set)");
@@ -136,13 +138,14 @@ void registerBake(CLI::App& app) {
     const DomainSettings domainSettings = o->domain.build();
     const ProbeSet set = loadProbeSet(o->set);
     if (set.scenePath.empty()) throw FileError(o->set, "scene", "the probe set names no scene");
-    const Scene scene = loadScene(set.scenePath);
-    for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
+    // The scene in the set's unit; the volume is written in it too.
+    const double unit = o->units.agreeWith(set.metresPerUnit, o->set);
+    const Scene scene = loadSceneReporting(set.scenePath, unit, o->units.given().has_value());
     const Tracer tracer(scene);
     BakeSettings bs;
     o->sampling.apply(bs.capture);
     bs.capture.seed = o->seed;
-    bs.sceneHash = sceneContentHash(set.scenePath);
+    bs.sceneHash = sceneContentHash(set.scenePath, unit);
     bs.leakRefine = leakHandling;
     bs.leakCuts = !o->noLeakCuts;
     bs.leakCutProbes = o->leakCutProbes;

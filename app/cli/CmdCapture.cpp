@@ -31,13 +31,15 @@ void registerCapture(CLI::App& app) {
     uint64_t seed = 1;
     bool json = false, histograms = false, virtualOffset = false;
     RigOptions rig;
+    UnitOptions units;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
       app.add_subcommand("capture", "Capture probes at given points and print their SH");
   cmd->add_option("scene", o->scene, "glTF scene")->required();
-  auto* at = cmd->add_option("--at", o->at, "One point X,Y,Z");
-  auto* pf = cmd->add_option("--points", o->pointsFile, "File with one \"x y z\" per line");
+  auto* at = cmd->add_option("--at", o->at, "One point X,Y,Z (in the scene's unit, --units)");
+  auto* pf = cmd->add_option("--points", o->pointsFile,
+                             "File with one \"x y z\" per line (in the scene's unit)");
   at->excludes(pf);
   o->sampling.add(*cmd);
   cmd->add_option("--mode", o->mode, "full or indirect")
@@ -52,13 +54,17 @@ void registerCapture(CLI::App& app) {
                 "Add luminance_histogram and hue_histogram (layout in core/capture/Capture.h) "
                 "to each object");
   o->rig.add(*cmd);
+  o->units.add(*cmd);
   cmd->callback([o] {
     if (o->at.empty() && o->pointsFile.empty())
       throw ParameterError("capture: give --at X,Y,Z or --points FILE");
     std::vector<Vec3> pts =
         o->at.empty() ? readPointsFile(o->pointsFile) : std::vector<Vec3>{parseVec3(o->at, "--at")};
-    const Scene scene = loadScene(o->scene);
-    for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
+    // Points and the rig's positions in the scene's unit, the core's in metres.
+    const std::optional<double> given = o->units.given();
+    const double unit = given.value_or(1.0);
+    for (Vec3& p : pts) p = p * unit;
+    const Scene scene = loadSceneReporting(o->scene, unit, given.has_value());
     const Tracer tracer(scene);
     if (o->virtualOffset)
       for (Vec3& p : pts)
@@ -67,7 +73,7 @@ void registerCapture(CLI::App& app) {
     o->sampling.apply(cs);
     cs.seed = o->seed;
     cs.mode = o->mode == "indirect" ? CaptureMode::IndirectOnly : CaptureMode::Full;
-    const auto caps = captureProbes(tracer, o->rig.build(), pts, cs);
+    const auto caps = captureProbes(tracer, scaledRig(o->rig.build(), unit), pts, cs);
     ojson out = ojson::array();
     const std::pair<const char*, Vec3> axes[6] = {{"+x", {1, 0, 0}}, {"-x", {-1, 0, 0}},
                                                   {"+y", {0, 1, 0}}, {"-y", {0, -1, 0}},
@@ -75,7 +81,7 @@ void registerCapture(CLI::App& app) {
     for (size_t i = 0; i < pts.size(); ++i) {
       const ProbeCapture& c = caps[i];
       ojson o2;
-      o2["position"] = vecToJson(pts[i]);
+      o2["position"] = vecToJson(pts[i] * (1.0 / unit));
       ojson sh = ojson::array(), se = ojson::array();
       for (int k = 0; k < kShCoeffCount; ++k) {
         sh.push_back(rgbJson(c.sh.c[k]));

@@ -44,16 +44,19 @@ struct EvalReport {
 };
 
 /// --per-query: one CSV line per query (header in the option's help), written atomically.
-void writePerQueryCsv(const std::string& path, const EvalResult& r, std::span<const double> stops) {
+/// Positions in the scene's unit (`metresPerUnit`).
+void writePerQueryCsv(const std::string& path, const EvalResult& r, std::span<const double> stops,
+                      double metresPerUnit) {
   std::string csv =
       "x,y,z,nx,ny,nz,reference,reference_std,interpolated,rel_error,leaking,outside,stops\n";
   char line[512];
   for (size_t i = 0; i < r.perQuery.size(); ++i) {
     const EvalQuery& q = r.perQuery[i];
-    std::snprintf(
-        line, sizeof line, "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d,%d,%.6g\n",
-        q.point.x, q.point.y, q.point.z, q.normal.x, q.normal.y, q.normal.z, q.reference,
-        q.referenceStd, q.interpolated, q.relError, q.leaking ? 1 : 0, q.outside ? 1 : 0, stops[i]);
+    const Vec3 p = q.point * (1.0 / metresPerUnit);
+    std::snprintf(line, sizeof line,
+                  "%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.9g,%.6g,%.9g,%.6g,%d,%d,%.6g\n", p.x, p.y, p.z,
+                  q.normal.x, q.normal.y, q.normal.z, q.reference, q.referenceStd, q.interpolated,
+                  q.relError, q.leaking ? 1 : 0, q.outside ? 1 : 0, stops[i]);
     csv += line;
   }
   writeFileAtomic(path, csv);
@@ -170,6 +173,7 @@ void registerEval(CLI::App& app) {
     std::string perQuery;
     double lightClearance = kDefaultLightClearanceRelative;
     int floorSpp = 0;
+    UnitOptions units;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -205,10 +209,12 @@ void registerEval(CLI::App& app) {
       ->check(CLI::Range(0, 1 << 24));
   cmd->add_option("--per-query", o->perQuery,
                   "Write every query to this CSV: x,y,z,nx,ny,nz,reference,reference_std,"
-                  "interpolated,rel_error,leaking,outside,stops (luminance of the irradiance; "
+                  "interpolated,rel_error,leaking,outside,stops (x,y,z in the scene's unit; "
+                  "luminance of the irradiance; "
                   "rel_error as for p95; outside: clamped to the probes' hull; stops: the "
                   "perceptual error, |log2| of interpolated over reference above the floor)");
   o->domainOptions.add(*cmd);
+  o->units.add(*cmd);
   cmd->callback([o] {
     const DomainSettings domainSettings = o->domainOptions.build();
     // Absurd requests get a message before anything is allocated or traced.
@@ -223,8 +229,10 @@ void registerEval(CLI::App& app) {
     std::optional<ProbeSet> set;
     std::vector<Bounds3> domain;           // the set's importance volumes: where the queries go
     std::vector<std::string> regionNames;  // their names (a volume keeps their boxes only)
+    double unit = 1;                       // the scene's, as the input was saved
     if (isVolumePath(o->input)) {
       VolumeFile vf = loadVolume(o->input);
+      unit = vf.metresPerUnit;
       const VolumeSource src = volumeSource(vf, o->input);
       scenePath = src.scenePath;
       rig = src.rig;
@@ -234,13 +242,14 @@ void registerEval(CLI::App& app) {
       volume = std::move(vf.volume);
     } else {
       set = loadProbeSet(o->input);
+      unit = set->metresPerUnit;
       scenePath = set->scenePath;
       rig = set->rig;
       domain = importanceBoxes(set->importanceVolumes);
       for (const ImportanceVolume& v : set->importanceVolumes) regionNames.push_back(v.name);
     }
-    const Scene scene = loadScene(scenePath);
-    for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
+    o->units.agreeWith(unit, o->input);
+    const Scene scene = loadSceneReporting(scenePath, unit, o->units.given().has_value());
     const Tracer tracer(scene);
     if (set) {
       BakeSettings bs;
@@ -259,7 +268,7 @@ void registerEval(CLI::App& app) {
     es.useVisibility = !o->noVisibility;
     es.visibilityNormalTerm = o->visibilityNormalTerm;
     if (!o->noCache) {
-      es.sceneHash = sceneContentHash(scenePath);
+      es.sceneHash = sceneContentHash(scenePath, unit);
       if (!o->cacheDir.empty()) {
         es.cacheDir = fs::path(o->cacheDir);  // a folder asked for must work (else an error)
       } else {
@@ -291,7 +300,7 @@ void registerEval(CLI::App& app) {
       report.rooms = labelledRegionErrors(r.perQuery, report.stops, labels, rooms.roomNames());
       report.roomVolumes = rooms.roomVolumes();
     }
-    if (!o->perQuery.empty()) writePerQueryCsv(o->perQuery, r, report.stops);
+    if (!o->perQuery.empty()) writePerQueryCsv(o->perQuery, r, report.stops, unit);
     // Notes go to stderr: with --json, stdout holds the JSON only.
     for (const std::string& n : r.notes) std::cerr << "note: " << n << "\n";
     if (o->json)

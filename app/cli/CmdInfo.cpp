@@ -52,7 +52,8 @@ void registerInfo(CLI::App& app) {
         std::printf("  visibility maps: %dx%d texels per probe, %zu probes inside geometry\n",
                     vf.volume.visibilityMapSize, vf.volume.visibilityMapSize, inside);
       }
-      std::printf("  scene %s, %zu rig lights\n", src.scenePath.c_str(), src.rig.lights.size());
+      std::printf("  scene %s in units %s, %zu rig lights\n", src.scenePath.c_str(),
+                  sceneUnitName(vf.metresPerUnit).c_str(), src.rig.lights.size());
       // How the probes' values were made (volumeSource has checked the metadata is JSON).
       const ojson meta = ojson::parse(vf.metadataJson, nullptr, false);
       const ojson* fit = meta.is_object() && meta.contains("fit") ? &meta["fit"] : nullptr;
@@ -73,7 +74,8 @@ void registerInfo(CLI::App& app) {
       locked += p.locked;
     }
     std::printf("%s: probe set, format version %d\n", file->c_str(), ProbeSet::kFormatVersion);
-    std::printf("  scene %s\n", set.scenePath.c_str());
+    std::printf("  scene %s in units %s (positions are in them)\n", set.scenePath.c_str(),
+                sceneUnitName(set.metresPerUnit).c_str());
     std::printf(
         "  probes %zu: %zu candidate, %zu accepted, %zu rejected; %zu locked, %zu captured\n",
         set.probes.size(), counts[0], counts[1], counts[2], locked, captured);
@@ -88,7 +90,7 @@ void registerInfo(CLI::App& app) {
                   sceneHashText(set.sceneHash).c_str());
       return;
     }
-    const uint64_t now = sceneContentHash(set.scenePath);
+    const uint64_t now = sceneContentHash(set.scenePath, set.metresPerUnit);
     std::printf(
         "  scene hash %s, %s\n", sceneHashText(set.sceneHash).c_str(),
         set.sceneHash == now ? "matches the scene" : ("scene now " + sceneHashText(now)).c_str());

@@ -128,6 +128,7 @@ struct PlaceOpts {
   bool leakRefine = false;
   RigOptions rig;
   DomainOptions domain;
+  UnitOptions units;
 };
 
 /// Draws of the valid-space check (each of up to 1000 points, DomainPoints::draw).
@@ -196,6 +197,7 @@ void registerPlace(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "Probe set to write (.json)")->required();
   o->rig.add(*cmd);
   o->domain.add(*cmd);
+  o->units.add(*cmd);
   cmd->callback([o] {
     const auto t0 = std::chrono::steady_clock::now();
     PlaceRequest& request = o->request;
@@ -206,24 +208,28 @@ void registerPlace(CLI::App& app) {
     request.newState = o->accept ? ProbeState::Accepted : ProbeState::Candidate;
     ProbeSet set;
     set.scenePath = fs::absolute(o->scene).string();
-    set.rig = o->rig.build();
-    if (!o->keep.empty()) {
+    // The unit: --units, else the kept set's, else metres.
+    const std::optional<double> unit = o->units.given();
+    std::optional<ProbeSet> old;
+    if (!o->keep.empty()) old = loadProbeSet(o->keep);
+    set.metresPerUnit = unit ? *unit : old ? old->metresPerUnit : 1.0;
+    // The rig's positions are given in the scene's unit; the core's are metres.
+    set.rig = scaledRig(o->rig.build(), set.metresPerUnit);
+    if (old) {
       // The kept set's probes, importance volumes and ids; its rig unless rig options are given
-      // (its captures were made with it).
-      const ProbeSet old = loadProbeSet(o->keep);
-      set.importanceVolumes = old.importanceVolumes;
+      // (its captures were made with it). Its lengths are in metres in memory, whatever its unit.
+      set.importanceVolumes = old->importanceVolumes;
       if (o->rig.suns.empty() && o->rig.points.empty() && o->rig.env.empty() &&
           o->rig.envMap.empty())
-        set.rig = old.rig;
-      set.nextId = old.nextId;
-      set.probes = old.probes;
+        set.rig = old->rig;
+      set.nextId = old->nextId;
+      set.probes = old->probes;
     }
     try {
       checkPlaceRequest(request, set);  // before the scene is loaded
-      const Scene scene = loadScene(o->scene);
-      for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
+      const Scene scene = loadSceneReporting(o->scene, set.metresPerUnit, unit || old);
       const Tracer tracer(scene);
-      set.sceneHash = sceneContentHash(o->scene);
+      set.sceneHash = sceneContentHash(o->scene, set.metresPerUnit);
       checkValidSpace(tracer, set, request.seed, o->scene);
       const PlaceResult placed = placeProbeSet(
           tracer, set, request, [](const std::string& stage) { return terminalProgress(stage); });

@@ -32,8 +32,10 @@ void registerQuery(CLI::App& app) {
   CLI::App* cmd =
       app.add_subcommand("query", "Locate points in a volume and interpolate irradiance");
   cmd->add_option("volume", o->volume, "Baked volume (.psv)")->required();
-  auto* at = cmd->add_option("--at", o->at, "One point X,Y,Z");
-  auto* pf = cmd->add_option("--points", o->pointsFile, "File with one \"x y z\" per line");
+  auto* at = cmd->add_option("--at", o->at,
+                             "One point X,Y,Z, in the volume's unit (the scene's, as baked)");
+  auto* pf = cmd->add_option("--points", o->pointsFile,
+                             "File with one \"x y z\" per line, in the volume's unit");
   at->excludes(pf);
   auto* nn =
       cmd->add_option("--normal", o->normal, "Normal NX,NY,NZ for every point (default 0,1,0)");
@@ -66,7 +68,9 @@ void registerQuery(CLI::App& app) {
         throw FileError(o->normalsFile, "normal " + std::to_string(i),
                         "has zero length; expected a non-zero normal");
       }
-      const VolumeLocation loc = locate(vf.volume, pts[i], hint);
+      // The volume is in metres in memory; the points in its file's unit.
+      const Vec3 p = pts[i] * vf.metresPerUnit;
+      const VolumeLocation loc = locate(vf.volume, p, hint);
       hint = loc.tet;
       ojson q;
       q["position"] = vecToJson(pts[i]);

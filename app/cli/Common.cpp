@@ -10,6 +10,7 @@
 
 #include "core/common/Error.h"
 #include "core/io/JsonFields.h"
+#include "core/scene/SceneUnits.h"
 
 namespace ps::cli {
 
@@ -41,7 +42,7 @@ VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& vol
   std::filesystem::path scene(root.at("scene").string());
   if (scene.is_relative()) scene = std::filesystem::absolute(volumePath).parent_path() / scene;
   s.scenePath = scene.lexically_normal().string();
-  s.rig = rigFromJson(root.at("rig"));
+  s.rig = scaledRig(rigFromJson(root.at("rig")), vf.metresPerUnit);
   if (root.has("domain")) {
     const JsonField domain = root.at("domain");
     for (size_t i = 0; i < domain.arraySize(); ++i) {
@@ -51,6 +52,8 @@ VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& vol
       b.hi = box.at("max").vec3();
       if (!(b.lo.x <= b.hi.x && b.lo.y <= b.hi.y && b.lo.z <= b.hi.z))
         box.fail("expected min <= max on every axis");
+      b.lo = b.lo * vf.metresPerUnit;
+      b.hi = b.hi * vf.metresPerUnit;
       s.domain.push_back(b);
     }
   }
@@ -77,6 +80,42 @@ Vec3 parseVec3(const std::string& text, const std::string& option) {
   if (v.size() != 3)
     throw ParameterError(option + ": expected X,Y,Z (3 numbers), got " + std::to_string(v.size()));
   return {v[0], v[1], v[2]};
+}
+
+void UnitOptions::add(CLI::App& cmd) {
+  cmd.add_option(
+      "--units", units,
+      "The scene's length unit: m, cm, mm or metres per unit (0.0254: inches). "
+      "Positions on the command line and in the files written are in it; physical "
+      "settings named in metres (--spacing, --domain-band, ...) stay in metres. Default: "
+      "the unit a probe set or volume read was saved with, else m");
+}
+
+std::optional<double> UnitOptions::given() const {
+  if (units.empty()) return std::nullopt;
+  const std::optional<double> unit = parseSceneUnit(units);
+  if (!unit)
+    throw ParameterError("--units", std::string(kSceneUnitExpected) + ", got \"" + units + "\"");
+  return unit;
+}
+
+double UnitOptions::agreeWith(double fileUnit, const std::string& file) const {
+  const std::optional<double> unit = given();
+  if (unit && *unit != fileUnit)
+    throw ParameterError("--units", "is " + sceneUnitName(*unit) + ", but " + file +
+                                        " was saved in units \"" + sceneUnitName(fileUnit) +
+                                        "\" (its positions are in them); leave --units out");
+  return fileUnit;
+}
+
+Scene loadSceneReporting(const std::string& path, double metresPerUnit, bool unitGiven) {
+  Scene scene = loadScene(path, metresPerUnit);
+  for (const std::string& w : scene.warnings) std::cerr << "warning: " << w << "\n";
+  if (!unitGiven && metresPerUnit == 1.0) {
+    const std::string hint = sceneUnitHint(path, scene.bounds, "--units");
+    if (!hint.empty()) std::cerr << "warning: " << hint << "\n";
+  }
+  return scene;
 }
 
 void DomainOptions::add(CLI::App& cmd) {
@@ -117,9 +156,10 @@ void RigOptions::add(CLI::App& cmd) {
   cmd.add_option("--env-map", envMap,
                  "Sky: equirectangular .hdr/.exr radiance map (W/m^2/sr, +Y up, centre column "
                  "towards -Z), added to --env");
-  cmd.add_option("--point", points,
-                 "Point light: X,Y,Z,I[,R,G,B] — position (m), radiant intensity (W/sr), optional "
-                 "colour; repeatable");
+  cmd.add_option(
+      "--point", points,
+      "Point light: X,Y,Z,I[,R,G,B] — position (scene units), radiant intensity (W/sr), optional "
+      "colour; repeatable");
 }
 
 LightingRig RigOptions::build() const {

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "core/io/ProbeSet.h"
 #include "core/io/VolumeFile.h"
 #include "core/scene/LightingRig.h"
+#include "core/scene/SceneUnits.h"
 #include "core/traversal/ProbeVolume.h"
 
 namespace ps::cli {
@@ -35,6 +37,26 @@ struct DomainOptions {
   /// Throws ps::ParameterError naming the flag and what was expected.
   DomainSettings build() const;
 };
+
+/// The scene's unit, --units m|cm|mm|METRES_PER_UNIT (core/scene/SceneUnits.h), on every
+/// subcommand that reads a scene. The core works in metres; positions on the command line and
+/// in the files and outputs are in the scene's unit.
+struct UnitOptions {
+  std::string units;  ///< as given; empty when not given
+  void add(CLI::App& cmd);
+  /// Metres per unit, or nullopt when --units was not given. Throws ps::ParameterError naming
+  /// --units for a malformed value.
+  std::optional<double> given() const;
+  /// The unit of a command that reads a probe set or a volume stating its unit (`fileUnit`,
+  /// metres per unit, from `file`): that unit. --units, when given, must agree with it; else
+  /// throws ps::ParameterError naming both.
+  double agreeWith(double fileUnit, const std::string& file) const;
+};
+
+/// Loads the scene in `metresPerUnit` and prints its warnings on stderr. When `unitGiven` is
+/// false and the scene is read as metres, also prints the unit hint (sceneUnitHint) when its
+/// size suggests centimetres or millimetres: one line, naming --units.
+Scene loadSceneReporting(const std::string& path, double metresPerUnit, bool unitGiven);
 
 /// Samples per probe, fixed (--spp N) or adaptive (--target-error E [--max-spp N]), shared by
 /// capture and bake.
@@ -73,10 +95,12 @@ bool isVolumePath(const std::filesystem::path& p);
 /// Scene path stored in a volume's metadata, resolved against the volume's folder, and the rig.
 struct VolumeSource {
   std::string scenePath;
-  LightingRig rig;
-  /// The baked set's importance volumes (metadata "domain"; empty when it had none).
+  LightingRig rig;  ///< metres (the metadata holds it in the scene's unit)
+  /// The baked set's importance volumes (metadata "domain", in the scene's unit there), in
+  /// metres; empty when it had none.
   std::vector<Bounds3> domain;
 };
+/// Reads the metadata of `vf` (loaded with loadVolume: vf.metresPerUnit is its unit).
 /// Throws ps::FileError naming the volume and the metadata field.
 VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& volumePath);
 

@@ -19,6 +19,7 @@
 #include <exception>
 
 #include "core/common/Error.h"
+#include "core/scene/SceneUnits.h"
 #include "ui/Document.h"
 #include "ui/LightingField.h"
 #include "ui/MainWindow.h"
@@ -148,6 +149,11 @@ int main(int argc, char** argv) {
       "file", "glTF scene (.gltf, .glb), or a probe set (.json) to open with its scene",
       "[SCENE | SET.json]");
   const QCommandLineOption probesOpt("probes", "Probe set to open.", "SET.json");
+  const QCommandLineOption unitsOpt(
+      "units",
+      "The scene's length unit: m (default), cm, mm or metres per unit; saved with the probe "
+      "set. A probe set opens its scene in its own unit.",
+      "UNIT");
   const QCommandLineOption shotOpt(
       "screenshot", "Render the viewport to OUT.png (+ OUT.png.json) and exit.", "OUT.png");
   const QCommandLineOption sizeOpt("size", "Viewport size for --screenshot.", "WxH", "1024x768");
@@ -177,9 +183,9 @@ int main(int argc, char** argv) {
       "accept-proposal",
       "Accept the proposed candidates once they are there (one undo step, an unsaved edit): "
       "a scripted session's work, for the recovery test.");
-  parser.addOptions({acceptOpt, probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt, overlaysOpt,
-                     selectOpt, saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt, windowShotOpt,
-                     noCutsOpt});
+  parser.addOptions({acceptOpt, unitsOpt, probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt,
+                     overlaysOpt, selectOpt, saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt,
+                     windowShotOpt, noCutsOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -194,6 +200,16 @@ int main(int argc, char** argv) {
     return 1;
   }
   const QString scenePath = argumentIsSet ? QString() : argument;
+  double metresPerUnit = 1.0;
+  if (parser.isSet(unitsOpt)) {
+    const std::optional<double> unit = ps::parseSceneUnit(parser.value(unitsOpt).toStdString());
+    if (!unit) {
+      fail(QStringLiteral("--units: %1, got \"%2\"")
+               .arg(QString::fromLatin1(ps::kSceneUnitExpected), parser.value(unitsOpt)));
+      return 1;
+    }
+    metresPerUnit = *unit;
+  }
   const QString probesPath = argumentIsSet ? argument : parser.value(probesOpt);
 
   const auto m = QRegularExpression("^(\\d+)x(\\d+)$").match(parser.value(sizeOpt));
@@ -240,7 +256,7 @@ int main(int argc, char** argv) {
     doc->setAutoPropose(probesPath.isEmpty());
 
     bool ok = true;
-    if (!scenePath.isEmpty()) ok = w.openScene(scenePath);
+    if (!scenePath.isEmpty()) ok = w.openScene(scenePath, metresPerUnit);
     if (ok && !probesPath.isEmpty()) {
       if (doc->hasScene()) {
         try {

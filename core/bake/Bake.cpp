@@ -179,7 +179,11 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   nlohmann::ordered_json meta;
   meta["generator"] = "probestudio";
   meta["scene"] = set.scenePath;
-  meta["rig"] = rigToJson(set.rig);
+  // Lengths in the metadata are in the scene's unit, like the volume's (saveVolume).
+  const double unitsPerMetre = 1.0 / set.metresPerUnit;
+  r.file.metresPerUnit = set.metresPerUnit;
+  meta["units"] = sceneUnitName(set.metresPerUnit);
+  meta["rig"] = rigToJson(scaledRig(set.rig, unitsPerMetre));
   meta["capture_spp"] = settings.capture.samplesPerProbe;
   meta["probe_ids"] = probes.ids;
   meta["leak_probes_added"] = r.leakProbesAdded;
@@ -200,7 +204,8 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   if (!set.importanceVolumes.empty()) {
     nlohmann::ordered_json domain = nlohmann::ordered_json::array();
     for (const ImportanceVolume& v : set.importanceVolumes)
-      domain.push_back({{"min", {v.lo.x, v.lo.y, v.lo.z}}, {"max", {v.hi.x, v.hi.y, v.hi.z}}});
+      domain.push_back(
+          {{"min", vecToJson(v.lo * unitsPerMetre)}, {"max", vecToJson(v.hi * unitsPerMetre)}});
     meta["domain"] = std::move(domain);
   }
   r.file.metadataJson = meta.dump();

@@ -5,11 +5,13 @@
 #include <cmath>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "core/common/Error.h"
 #include "core/math/Vec3.h"
 #include "core/scene/LightingRig.h"
+#include "core/scene/SceneUnits.h"
 
 namespace ps {
 
@@ -90,6 +92,15 @@ class JsonField {
   std::string file_, path_;
   const Json* j_;
 };
+
+/// A "units" field (core/scene/SceneUnits.h): "m", "cm", "mm" or a positive number of metres
+/// per unit, as text. Returns metres per unit; fails naming the field for anything else.
+inline double sceneUnitFromJson(const JsonField& f) {
+  const std::string s = f.string();
+  const std::optional<double> unit = parseSceneUnit(s);
+  if (!unit) f.fail(std::string(kSceneUnitExpected) + ", got \"" + s + "\"");
+  return *unit;
+}
 
 inline nlohmann::ordered_json vecToJson(Vec3 v) {
   return {v.x, v.y, v.z};

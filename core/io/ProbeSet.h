@@ -13,9 +13,13 @@ namespace ps {
 
 enum class ProbeState { Candidate, Accepted, Rejected };
 
+// In memory every length is in metres (the core's unit); the file stores positions, importance
+// volumes and rig light positions in the scene's unit (`metresPerUnit`), converted on save and
+// load (core/io/ProbeSetFile.h).
+
 struct Probe {
   uint64_t id = 0;  ///< stable across edits and saves; never reused within a set
-  Vec3 position;
+  Vec3 position;    ///< metres
   ProbeState state = ProbeState::Candidate;
   bool locked = false;      ///< placement keeps locked probes where they are
   std::string method;       ///< provenance: the placement method, or "manual"
@@ -46,8 +50,11 @@ struct PlacementSettings {
 };
 
 struct ProbeSet {
-  static constexpr int kFormatVersion = 2;
+  static constexpr int kFormatVersion = 3;
   std::string scenePath;  ///< relative to the probe-set file when saved
+  /// The scene's unit, metres per unit (core/scene/SceneUnits.h): the scene is loaded with it,
+  /// and the file's lengths are in it. 1 (metres) for a file older than version 3.
+  double metresPerUnit = 1.0;
   /// sceneContentHash() of the scene when the set was last saved from a loaded scene; 0 = unknown.
   uint64_t sceneHash = 0;
   LightingRig rig;

@@ -56,6 +56,12 @@ uint64_t hashFromHex(const JsonField& f) {
   return std::stoull(s, nullptr, 16);
 }
 
+// Version 2 -> 3: version 3 has the scene unit; a version-2 file is in metres.
+void migrateV2ToV3(ojson& j) {
+  j["version"] = 3;
+  if (!j.contains("units")) j["units"] = "m";
+}
+
 // Version 1 -> 2: version 2 has the scene hash, importance volumes and the per-capture scene
 // hash. A version-1 file has none of them: its captures are of an unknown scene state.
 void migrateV1ToV2(ojson& j) {
@@ -78,9 +84,12 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
     if (!ec && !rel.empty()) scene = rel.generic_string();
   }
   j["scene"] = scene;
+  j["units"] = sceneUnitName(set.metresPerUnit);
   j["scene_hash"] = hashToHex(set.sceneHash);
+  // Lengths go to the file in the scene's unit.
+  const double unitsPerMetre = 1.0 / set.metresPerUnit;
   // The environment map's path, like the scene's, is stored relative to the set's folder.
-  LightingRig rig = set.rig;
+  LightingRig rig = scaledRig(set.rig, unitsPerMetre);
   if (!rig.envMapPath.empty()) {
     const fs::path base = fs::absolute(path).parent_path();
     std::error_code ec;
@@ -95,8 +104,8 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
   for (const ImportanceVolume& v : set.importanceVolumes) {
     ojson o;
     o["name"] = v.name;
-    o["min"] = vecToJson(v.lo);
-    o["max"] = vecToJson(v.hi);
+    o["min"] = vecToJson(v.lo * unitsPerMetre);
+    o["max"] = vecToJson(v.hi * unitsPerMetre);
     o["weight"] = v.weight;
     volumes.push_back(std::move(o));
   }
@@ -106,7 +115,7 @@ void saveProbeSet(const ProbeSet& set, const fs::path& path) {
   for (const Probe& p : set.probes) {
     ojson o;
     o["id"] = p.id;
-    o["position"] = vecToJson(p.position);
+    o["position"] = vecToJson(p.position * unitsPerMetre);
     o["state"] = toString(p.state);
     o["locked"] = p.locked;
     o["method"] = p.method;
@@ -155,6 +164,7 @@ ProbeSet parseProbeSet(const std::string& text, const fs::path& path) {
   if (version < 1)
     root.at("version").fail("expected a version >= 1, got " + std::to_string(version));
   if (version == 1) migrateV1ToV2(j);
+  if (version <= 2) migrateV2ToV3(j);
 
   ProbeSet set;
   const std::string scene = root.at("scene").string();
@@ -163,8 +173,10 @@ ProbeSet parseProbeSet(const std::string& text, const fs::path& path) {
     if (sp.is_relative()) sp = fs::absolute(path).parent_path() / sp;
     set.scenePath = sp.lexically_normal().string();
   }
+  set.metresPerUnit = sceneUnitFromJson(root.at("units"));
+  const double m = set.metresPerUnit;  // file lengths -> metres
   set.sceneHash = hashFromHex(root.at("scene_hash"));
-  if (root.has("rig")) set.rig = rigFromJson(root.at("rig"));
+  if (root.has("rig")) set.rig = scaledRig(rigFromJson(root.at("rig")), m);
   if (!set.rig.envMapPath.empty()) {
     fs::path ep(set.rig.envMapPath);
     if (ep.is_relative()) ep = fs::absolute(path).parent_path() / ep;
@@ -185,6 +197,8 @@ ProbeSet parseProbeSet(const std::string& text, const fs::path& path) {
     v.hi = vf.at("max").vec3();
     for (int a = 0; a < 3; ++a)
       if (v.lo[a] > v.hi[a]) vf.at("max").fail("expected max >= min on every axis");
+    v.lo = v.lo * m;
+    v.hi = v.hi * m;
     v.weight = vf.at("weight").number();
     if (!(v.weight >= 0)) vf.at("weight").fail("expected a weight >= 0");
     set.importanceVolumes.push_back(std::move(v));
@@ -201,7 +215,7 @@ ProbeSet parseProbeSet(const std::string& text, const fs::path& path) {
     if (id <= 0) pf.at("id").fail("expected a positive integer, got " + std::to_string(id));
     p.id = static_cast<uint64_t>(id);
     if (!seenIds.insert(p.id).second) pf.at("id").fail("duplicate id " + std::to_string(id));
-    p.position = pf.at("position").vec3();
+    p.position = pf.at("position").vec3() * m;
     p.state = parseState(pf.at("state"));
     if (pf.has("locked")) p.locked = pf.at("locked").boolean();
     if (pf.has("method")) p.method = pf.at("method").string();

@@ -5,6 +5,7 @@
 
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
+#include "core/scene/SceneUnits.h"
 
 namespace ps {
 
@@ -50,7 +51,7 @@ std::string percentDecode(const std::string& s) {
 
 }  // namespace
 
-uint64_t sceneContentHash(const fs::path& scene) {
+uint64_t sceneContentHash(const fs::path& scene, double metresPerUnit) {
   const std::string bytes = readWholeFile(scene);
   uint64_t h = fnv1a64(bytes.data(), bytes.size());
   if (lowerExtension(scene) == ".gltf") {
@@ -80,6 +81,12 @@ uint64_t sceneContentHash(const fs::path& scene) {
         }
       }
     }
+  }
+  // The scene the core sees is the file scaled to metres: another unit is another scene. Metres
+  // fold nothing in, so hashes of scenes in metres are those of the file alone.
+  if (metresPerUnit != 1.0) {
+    const std::string unit = "\x01units " + sceneUnitName(metresPerUnit);
+    h = fnv1a64(unit.data(), unit.size(), h);
   }
   return h == 0 ? 1 : h;
 }

@@ -16,8 +16,10 @@ uint64_t fnv1a64(const void* data, size_t size, uint64_t h = 0xcbf29ce484222325u
 /// external buffer and image it references (in document order; data: URIs are inside the file
 /// already). Never 0 (0 means "unknown" in a probe set). Throws ps::FileError when the scene or
 /// a referenced buffer cannot be read; a missing or unreadable image is hashed as missing (the
-/// loader falls back to the material's factor with a warning).
-uint64_t sceneContentHash(const std::filesystem::path& scene);
+/// loader falls back to the material's factor with a warning). A unit other than metres
+/// (`metresPerUnit` != 1, core/scene/SceneUnits.h) is folded in: the same file read in another
+/// unit is another scene to every cache.
+uint64_t sceneContentHash(const std::filesystem::path& scene, double metresPerUnit = 1.0);
 
 /// `h` with the texels of the rig's environment map folded in (`h` itself when it has none).
 /// A rig names its map by path only, so cache keys fold this in: a map edited in place must

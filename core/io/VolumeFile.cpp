@@ -7,6 +7,7 @@
 
 #include "core/common/Check.h"
 #include "core/common/Error.h"
+#include "core/io/JsonFields.h"
 #include "core/io/ProbeSetFile.h"
 
 // Layout (docs/formats.md, "Probe volume"), all little-endian:
@@ -112,7 +113,20 @@ uint32_t crc32(const void* data, size_t size, uint32_t crc) {
 }
 
 void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
-  const ProbeVolume& v = vf.volume;
+  std::string metadata = vf.metadataJson;
+  ProbeVolume scaled;
+  const bool metres = vf.metresPerUnit == 1.0;
+  if (!metres) {
+    scaled = vf.volume;
+    scaleVolume(scaled, 1.0 / vf.metresPerUnit);
+  }
+  auto meta = nlohmann::ordered_json::parse(metadata, nullptr, /*allow_exceptions=*/false);
+  PS_CHECK(metres || meta.is_object());
+  if (meta.is_object() && (!metres || meta.contains("units"))) {
+    meta["units"] = sceneUnitName(vf.metresPerUnit);
+    metadata = meta.dump();
+  }
+  const ProbeVolume& v = metres ? vf.volume : scaled;
   const bool maps = v.hasVisibility();
   // Version 3 always holds the cut section (empty when there are no cuts).
   const bool cutSection = maps || !v.cutPlanes.empty();
@@ -127,7 +141,7 @@ void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
   w.u32(static_cast<uint32_t>(v.probeCount()));
   w.u32(static_cast<uint32_t>(v.tets.size()));
   w.u32(static_cast<uint32_t>(v.hullFaces.size()));
-  w.u32(static_cast<uint32_t>(vf.metadataJson.size()));
+  w.u32(static_cast<uint32_t>(metadata.size()));
   if (cutSection) w.u32(static_cast<uint32_t>(v.cutPlanes.size()));
   if (maps) w.u32(static_cast<uint32_t>(R));
   w.array(v.positions);
@@ -147,7 +161,7 @@ void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
     w.array(v.probeInside);
     w.array(v.visibility);
   }
-  w.bytes(vf.metadataJson.data(), vf.metadataJson.size());
+  w.bytes(metadata.data(), metadata.size());
   w.u32(crc32(w.str().data(), w.str().size()));
   writeFileAtomic(path, w.str());
 }
@@ -276,7 +290,14 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
     }
   }
   if (cuts && C == 0) v.cutStart.clear();  // version 3 without cuts: no cut section in memory
-  buildLocator(v);                         // derived search data is not stored
+  // The file's unit (metadata "units"; metres without it): the volume in memory is in metres.
+  const auto meta = nlohmann::ordered_json::parse(vf.metadataJson, nullptr, false);
+  if (meta.is_object() && meta.contains("units"))
+    vf.metresPerUnit = sceneUnitFromJson(JsonField(file, "metadata", &meta).at("units"));
+  if (vf.metresPerUnit != 1.0)
+    scaleVolume(v, vf.metresPerUnit);  // rebuilds the locator
+  else
+    buildLocator(v);  // derived search data is not stored
   return vf;
 }
 

@@ -35,6 +35,7 @@
 
 #include "core/common/Error.h"
 #include "core/scene/Scene.h"
+#include "core/scene/SceneUnits.h"
 
 namespace ps {
 namespace {
@@ -801,7 +802,7 @@ void checkGlbHeader(const std::vector<unsigned char>& bytes, const std::string& 
 
 }  // namespace
 
-Scene loadScene(const std::filesystem::path& path) {
+Scene loadScene(const std::filesystem::path& path, double metresPerUnit) {
   const std::string file = path.string();
   const std::vector<unsigned char> bytes = readFile(path, file);
   if (bytes.size() > std::numeric_limits<unsigned int>::max())
@@ -840,6 +841,7 @@ Scene loadScene(const std::filesystem::path& path) {
   Scene scene;
   scene.sourcePath = file;
   Flattener(model, file, scene).run();
+  scaleScene(scene, metresPerUnit);
   return scene;
 }
 

@@ -27,6 +27,11 @@ struct LightingRig {
   }
 };
 
+/// The rig with its point and spot lights' positions multiplied by `factor`: the rig in another
+/// length unit (the probe set and the volume store positions in the scene's unit). Directions,
+/// intensities and rangeMeters (metres in every unit) are unchanged.
+LightingRig scaledRig(LightingRig rig, double factor);
+
 /// The scene's lights followed by the rig's.
 std::vector<Light> allLights(const Scene& scene, const LightingRig& rig);
 

@@ -1,6 +1,7 @@
 #pragma once
 // A scene flattened to world-space triangle arrays: what the tracer and every stage read.
-// Conventions (README "Conventions"): glTF +Y up, metres; Lambertian materials whose albedo is
+// Conventions (README "Conventions"): glTF +Y up, metres (a scene in another unit is scaled to
+// metres on load, core/scene/SceneUnits.h); Lambertian materials whose albedo is
 // baseColor and whose emitted radiance is emissive.
 #include <cstdint>
 #include <filesystem>
@@ -94,9 +95,12 @@ struct Scene {
 /// Loads a .gltf or .glb file and flattens its default scene (or every root node when the file
 /// names none) to world space. Node TRS and matrix transforms are applied; normals are
 /// transformed by the inverse transpose (or computed from faces when absent).
+/// `metresPerUnit` is the file's unit (1: metres, 0.001: millimetres; positive, finite): the
+/// result is in metres, scaled by scaleScene() (positions, bounds, light positions and ranges;
+/// light intensities and emission are unit-free and stay as written).
 /// Throws ps::FileError naming the file and the glTF path (e.g. `meshes[3].primitives[0]`) for
 /// a missing or malformed file, an accessor out of range, an index out of range, NaN or
 /// infinite vertices, or a scene with no triangles.
-Scene loadScene(const std::filesystem::path& path);
+Scene loadScene(const std::filesystem::path& path, double metresPerUnit = 1.0);
 
 }  // namespace ps

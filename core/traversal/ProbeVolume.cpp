@@ -377,6 +377,21 @@ ProbeVolume buildProbeVolume(const Tetrahedralization& t, std::span<const ShRgb>
   return v;
 }
 
+void scaleVolume(ProbeVolume& v, double factor) {
+  PS_CHECK_OP(factor, >, 0.0);
+  PS_CHECK(std::isfinite(factor));
+  if (factor == 1.0) return;
+  for (float& x : v.positions) x = static_cast<float>(double(x) * factor);
+  for (size_t k = 0; k < v.tets.size(); ++k) v.matrices[k] = tetMatrix(v, static_cast<int32_t>(k));
+  for (ProbeVolume::CutPlane& c : v.cutPlanes)
+    c.plane[3] = static_cast<float>(double(c.plane[3]) * factor);
+  for (size_t k = 0; k + 1 < v.visibility.size(); k += 2) {
+    v.visibility[k] = static_cast<float>(double(v.visibility[k]) * factor);
+    v.visibility[k + 1] = static_cast<float>(double(v.visibility[k + 1]) * factor * factor);
+  }
+  buildLocator(v);
+}
+
 void buildLocator(ProbeVolume& v) {
   v.thinTets.assign(v.tets.size(), 0);
   v.frames.assign(v.tets.size(), {});

@@ -84,6 +84,13 @@ struct ProbeVolume {
 /// Builds the runtime volume. `shOfVertex` has one entry per tetrahedralization vertex.
 ProbeVolume buildProbeVolume(const Tetrahedralization& t, std::span<const ShRgb> shOfVertex);
 
+/// Every length of `v` times `factor` (> 0, finite): a change of unit. Positions, cut planes'
+/// offsets and visibility distances (mean times factor, mean square times factor^2) scale; the
+/// matrices are recomputed from the scaled float positions, and the locator rebuilt. Every
+/// query of the scaled volume at factor * p gives the weights of p in `v` (the interpolant is
+/// scale-free), up to float rounding. O(probes + tets + map texels).
+void scaleVolume(ProbeVolume& v, double factor);
+
 /// (Re)builds the derived search data (thinTets, frames, locator grid) of `v` from its positions,
 /// tets, neighbours and matrices.
 void buildLocator(ProbeVolume& v);

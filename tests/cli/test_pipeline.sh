@@ -54,7 +54,7 @@ tmp = sys.argv[1]
 s = json.load(open(f"{tmp}/set.json"))
 n = len(s["probes"])
 assert 36 <= n <= 44, f"budget 40 gave {n} probes"
-assert s["version"] == 2 and len(s["scene_hash"]) == 16 and s["scene"].endswith("cornell.gltf")
+assert s["version"] == 3 and s["units"] == "m" and len(s["scene_hash"]) == 16 and s["scene"].endswith("cornell.gltf")
 e = json.load(open(f"{tmp}/eval.json"))
 assert e["probes"] == n and e["queries"] == 32
 for k in ("rel_rmse", "p95_rel_error", "max_rel_error", "seconds"):

@@ -6,14 +6,18 @@
 #include <unistd.h>
 #include <chrono>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "core/common/Error.h"
 #include "core/io/ProbeSetFile.h"
 #include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
+#include "core/runtime/ps_volume_reader.h"
+#include "core/scene/SceneUnits.h"
 #include "tests/core/TestFiles.h"
 
 namespace fs = std::filesystem;
@@ -112,6 +116,54 @@ TEST(ProbeSetFile, RoundTripKeepsEverythingExactly) {
   EXPECT_EQ(r.importanceVolumes[0].weight, 4.0);
 }
 
+// The file holds lengths in the set's scene unit; memory holds metres.
+TEST(ProbeSetFile, SceneUnitScalesTheFileAndReadsBackInMetres) {
+  const fs::path dir = tempDir();
+  ProbeSet s = sampleSet(dir);
+  s.metresPerUnit = 0.01;
+  Light lamp;
+  lamp.type = LightType::Point;
+  lamp.position = {1, 2, 3};
+  lamp.rangeMeters = 5;
+  s.rig.lights.push_back(lamp);
+  saveProbeSet(s, dir / "cm.json");
+  const auto j = nlohmann::json::parse(readText(dir / "cm.json"));
+  EXPECT_EQ(j["units"], "cm");
+  EXPECT_NEAR(j["probes"][3]["position"][1].get<double>(), 100 * s.probes[3].position.y, 1e-9);
+  EXPECT_NEAR(j["importance_volumes"][0]["max"][1].get<double>(), 300, 1e-9);
+  EXPECT_NEAR(j["rig"]["lights"][1]["position"][2].get<double>(), 300, 1e-9);
+  EXPECT_EQ(j["rig"]["lights"][1]["range_m"].get<double>(), 5);  // metres in every unit
+  EXPECT_EQ(j["placement"]["spacing_m"].get<double>(), 0.75);
+  const ProbeSet r = loadProbeSet(dir / "cm.json");
+  EXPECT_EQ(r.metresPerUnit, 0.01);
+  for (size_t i = 0; i < s.probes.size(); ++i)
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(r.probes[i].position[a], s.probes[i].position[a], 1e-12);
+  EXPECT_NEAR(r.importanceVolumes[0].hi.y, 3, 1e-12);
+  EXPECT_NEAR(r.rig.lights[1].position.z, 3, 1e-12);
+}
+
+TEST(SceneUnits, NamesParseAndTheHintTellsMetresFromCentimetresAndMillimetres) {
+  EXPECT_EQ(parseSceneUnit("m"), 1.0);
+  EXPECT_EQ(parseSceneUnit("cm"), 0.01);
+  EXPECT_EQ(parseSceneUnit("mm"), 0.001);
+  EXPECT_EQ(parseSceneUnit("0.0254"), 0.0254);
+  for (const char* bad : {"", "km", "0", "-1", "1e999", "nan", "1 m", "mm "})
+    EXPECT_FALSE(parseSceneUnit(bad).has_value()) << bad;
+  for (double u : {1.0, 0.01, 0.001, 0.0254, 0.3048})
+    EXPECT_EQ(parseSceneUnit(sceneUnitName(u)), u);
+  auto box = [](double x, double y, double z) { return Bounds3{{0, 0, 0}, {x, y, z}}; };
+  EXPECT_FALSE(suggestedSceneUnit(box(12.5, 3.4, 6.4)));         // two-rooms, metres
+  EXPECT_FALSE(suggestedSceneUnit(box(200, 14.3, 60)));          // the generated full level
+  EXPECT_FALSE(suggestedSceneUnit(box(4000, 150, 4000)));        // an open world in metres
+  EXPECT_EQ(suggestedSceneUnit(box(1250, 340, 640)), 0.01);      // two-rooms in cm
+  EXPECT_EQ(suggestedSceneUnit(box(12500, 3400, 6400)), 0.001);  // two-rooms in mm
+  EXPECT_EQ(suggestedSceneUnit(box(10240, 2600, 8000)), 0.001);  // a hotel room in mm
+  EXPECT_EQ(sceneUnitHint("a.gltf", box(10240, 2600, 8000), "--units"),
+            "a.gltf is 10240 units across and 2600 tall; if it is in millimetres, pass --units mm");
+  EXPECT_EQ(sceneUnitHint("a.gltf", box(12.5, 3.4, 6.4), "--units"), "");
+}
+
 TEST(ProbeSetFile, Version1IsMigrated) {
   const fs::path dir = tempDir();
   writeText(dir / "v1.json",
@@ -135,8 +187,9 @@ TEST(ProbeSetFile, Version1IsMigrated) {
   EXPECT_TRUE(st.changed.empty());
   EXPECT_EQ(st.unknown, std::vector<uint64_t>{1});
   // Saving writes the current version.
-  saveProbeSet(r, dir / "v2.json");
-  EXPECT_NE(readText(dir / "v2.json").find("\"version\": 2"), std::string::npos);
+  saveProbeSet(r, dir / "v3.json");
+  EXPECT_NE(readText(dir / "v3.json").find("\"version\": 3"), std::string::npos);
+  EXPECT_NE(readText(dir / "v3.json").find("\"units\": \"m\""), std::string::npos);
 }
 
 TEST(ProbeSetFile, StaleCapturesAreNamedWhenTheSceneChanges) {
@@ -183,7 +236,7 @@ TEST(ProbeSetFile, NewerVersionIsRefusedWithAClearMessage) {
   writeText(dir / "v9.json", R"({"format": "probestudio.probeset", "version": 9, "probes": []})");
   EXPECT_EQ(loadError(dir / "v9.json"),
             (dir / "v9.json").string() +
-                ": version: version 9 is newer than this build reads (2); update ProbeStudio");
+                ": version: version 9 is newer than this build reads (3); update ProbeStudio");
 }
 
 TEST(ProbeSetFile, SceneIsStoredRelativeToTheFile) {
@@ -297,6 +350,39 @@ TEST(VolumeFile, RoundTripIsBitExact) {
   EXPECT_EQ(r.volume.matrices, vf.volume.matrices);
   EXPECT_EQ(r.volume.hullFaces, vf.volume.hullFaces);
   EXPECT_EQ(r.metadataJson, vf.metadataJson);
+}
+
+// A volume of a scene in millimetres: the file holds its lengths in mm (what an engine reads),
+// the metadata says so, and the loader gives the volume back in metres.
+TEST(VolumeFile, SceneUnitScalesTheFileAndReadsBackInMetres) {
+  const fs::path dir = tempDir();
+  VolumeFile vf = oneTetVolume();
+  vf.metresPerUnit = 0.001;
+  saveVolume(vf, dir / "mm.psv");
+  ps_runtime::Volume raw;
+  std::string why;
+  ASSERT_TRUE(ps_runtime::loadVolumeFile((dir / "mm.psv").c_str(), raw, &why)) << why;
+  ASSERT_EQ(raw.positions.size(), vf.volume.positions.size());
+  for (size_t i = 0; i < raw.positions.size(); ++i)
+    EXPECT_EQ(raw.positions[i], vf.volume.positions[i] * 1000.f);
+  EXPECT_NE(raw.metadataJson.find("\"units\":\"mm\""), std::string::npos) << raw.metadataJson;
+  const VolumeFile r = loadVolume(dir / "mm.psv");
+  EXPECT_EQ(r.metresPerUnit, 0.001);
+  EXPECT_EQ(r.volume.positions, vf.volume.positions);
+  for (size_t k = 0; k < 9; ++k)
+    EXPECT_NEAR(r.volume.matrices[0][k], vf.volume.matrices[0][k], 1e-6);
+  // A malformed unit names the metadata field. (saveVolume writes its own unit: the field is
+  // renamed in the bytes, and the CRC made good.)
+  VolumeFile bad = oneTetVolume();
+  bad.metadataJson = R"({"scene":"a.gltf","unitz":"furlong"})";
+  saveVolume(bad, dir / "bad.psv");
+  std::string bytes = readText(dir / "bad.psv");
+  bytes.replace(bytes.find("unitz"), 5, "units");
+  const uint32_t crc = crc32(bytes.data(), bytes.size() - 4);
+  std::memcpy(bytes.data() + bytes.size() - 4, &crc, 4);
+  writeText(dir / "bad.psv", bytes);
+  EXPECT_EQ(volumeError(dir / "bad.psv"), (dir / "bad.psv").string() + ": metadata.units: " +
+                                              kSceneUnitExpected + ", got \"furlong\"");
 }
 
 // A volume without leak cuts is written as version 1 (readers of version 1 read it); one with

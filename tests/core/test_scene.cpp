@@ -311,6 +311,39 @@ TEST(BundledScenes, GeneratorIsDeterministicAndFilesAreCurrent) {
         << name << " differs from scripts/make_scenes.py output: regenerate it";
 }
 
+// The centimetre and millimetre copies of two-rooms (make_scenes.py --unit-copies), loaded in
+// their unit, are the metre scene: positions and light positions scaled, intensities as written.
+TEST(BundledScenes, UnitCopiesLoadedInTheirUnitAreTheMetreScene) {
+  const fs::path script = fs::path(PS_SOURCE_DIR) / "scripts" / "make_scenes.py";
+  if (std::system("python3 --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no python3";
+  const fs::path out = tempDir() / "units";
+  const std::string cmd =
+      "python3 '" + script.string() + "' --unit-copies '" + out.string() + "' > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const ps::Scene m = ps::loadScene(kScenes / "two-rooms.gltf");
+  for (const auto& [name, unit] :
+       {std::pair{"two-rooms-cm.gltf", 0.01}, {"two-rooms-mm.gltf", 0.001}}) {
+    SCOPED_TRACE(name);
+    const ps::Scene s = ps::loadScene(out / name, unit);
+    ASSERT_EQ(s.positions.size(), m.positions.size());
+    for (size_t i = 0; i < s.positions.size(); ++i)
+      ASSERT_NEAR(s.positions[i], m.positions[i], 1e-6 * 12.5) << i;
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(s.bounds.lo[a], m.bounds.lo[a], 1e-5);
+      EXPECT_NEAR(s.bounds.hi[a], m.bounds.hi[a], 1e-5);
+    }
+    ASSERT_EQ(s.lights.size(), m.lights.size());
+    for (size_t k = 0; k < s.lights.size(); ++k) {
+      EXPECT_NEAR(length(s.lights[k].position - m.lights[k].position), 0, 1e-5);
+      EXPECT_EQ(s.lights[k].intensity, m.lights[k].intensity);
+      EXPECT_NEAR(length(s.lights[k].direction - m.lights[k].direction), 0, 1e-9);
+    }
+    // Read as metres, the copy is 1 / unit times larger.
+    const ps::Scene raw = ps::loadScene(out / name);
+    EXPECT_NEAR(raw.bounds.extent().y, m.bounds.extent().y / unit, 1e-3 / unit);
+  }
+}
+
 // ---------------------------------------------------------------------------- small glTFs
 
 TEST(GltfLoader, TrsParentWithMatrixChildLandsWhereExpected) {
