@@ -644,6 +644,7 @@ void Document::requestCancel() {
 
 void Document::startJob(const QString& kind, const QString& firstMessage, JobFn work) {
   busy_ = true;
+  jobInFlight_ = true;
   jobKind_ = kind;
   const int generation = generation_;
   jobCancel_ = std::make_shared<std::atomic<bool>>(false);
@@ -1075,6 +1076,7 @@ void Document::openVolume(const QString& path) {
 }
 
 void Document::onJobDone() {
+  jobInFlight_ = false;
   std::shared_ptr<JobResult> r = watcher_->result();
   if (!r || r->generation != generation_) return;  // stale: the document moved on
   busy_ = false;

@@ -230,6 +230,10 @@ class Document : public QObject {
   /// Starts uniform placement + quick capture; the result is pushed as one undo command.
   void proposeCandidates();
   bool isBusy() const { return busy_; }
+  /// A job's work was started and the end of it has not been handled yet: true from its start
+  /// until its finished signal reaches the document (its result applied, or dropped when the
+  /// document moved on), also after replace() stopped it and reported jobFinished.
+  bool isJobInFlight() const { return jobInFlight_; }
   /// What the running job is ("propose", "place", "bake"), empty when idle.
   QString jobKind() const { return busy_ ? jobKind_ : QString(); }
   /// What the last finished job reported it did (a placement method's notes), one line each.
@@ -367,6 +371,7 @@ class Document : public QObject {
   bool autoPropose_ = true;
   ProposalSettings proposal_;
   bool busy_ = false;
+  bool jobInFlight_ = false;  ///< isJobInFlight()
   int lastMergeKey_ = 0;
   quint64 changeCount_ = 0;
   int generation_ = 0;  ///< bumped by every document replacement; stale jobs are dropped

@@ -185,6 +185,13 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// Starts rebuilding the fields on a worker thread when they are out of date (paintGL calls
   /// it: the frame keeps the previous fields until fieldsUpdated()).
   void startFieldsRebuild();
+  /// The fields drawn are those of the document as it is now: nothing changed since they were
+  /// computed and no background rebuild's result waits to be applied. Brings nothing up to date.
+  bool fieldsCurrent() const { return !fieldsDirty_ && !fieldsPending_; }
+  /// A background rebuild was started and the end of it has not been handled yet: true from
+  /// startFieldsRebuild() until its finished signal reaches the view, also when updateFields()
+  /// took its result before (the handler then drops it).
+  bool isFieldsRebuildRunning() const { return fieldsRebuildRunning_; }
   /// The preview volume as it is now, without bringing it up to date.
   bool hasPreviewVolume() const { return previewVolume_.has_value(); }
   /// The preview volume the test object is lit by now, without bringing it up to date: during
@@ -431,7 +438,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   int32_t testTetHint_ = -1;
   mutable std::unordered_map<uint64_t, std::pair<Vec3, bool>> validity_;
   QFutureWatcher<std::shared_ptr<Fields>>* fieldsWatcher_ = nullptr;
-  bool fieldsPending_ = false;  ///< a background rebuild's result is not applied yet
+  bool fieldsPending_ = false;         ///< a background rebuild's result is not applied yet
+  bool fieldsRebuildRunning_ = false;  ///< isFieldsRebuildRunning()
   bool rejectedVisible_ = true;
   Tool tool_ = Tool::Select;
   bool cutaway_ = true;

@@ -431,9 +431,11 @@ void Viewport::startFieldsRebuild() {
   if (!fieldsDirty_ || fieldsPending_) return;
   fieldsDirty_ = false;
   fieldsPending_ = true;
+  fieldsRebuildRunning_ = true;
   if (!fieldsWatcher_) {
     fieldsWatcher_ = new QFutureWatcher<std::shared_ptr<Fields>>(this);
     connect(fieldsWatcher_, &QFutureWatcherBase::finished, this, [this] {
+      fieldsRebuildRunning_ = false;
       if (!fieldsPending_) return;  // already taken by updateFields()
       fieldsPending_ = false;
       if (auto r = fieldsWatcher_->result()) applyFields(std::move(*r));  // emits fieldsUpdated

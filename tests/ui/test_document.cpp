@@ -250,9 +250,15 @@ class TestDocument : public QObject {
     doc.openScene(kScene);
     QVERIFY(doc.isBusy());
     doc.setAutoPropose(false);
+    QSignalSpy inserted(&doc, &Document::probeInserted), finished(&doc, &Document::jobFinished);
     doc.openScene(kScene);  // waits for the old job to stop, drops its result
     QVERIFY(!doc.isBusy());
-    QTest::qWait(200);
+    QVERIFY(doc.isJobInFlight());   // its finished signal is still queued
+    QCOMPARE(finished.count(), 1);  // the stopped job, reported by the reopening
+    // Once the old job's own finished signal has reached the document, nothing came of it.
+    QTRY_VERIFY_WITH_TIMEOUT(!doc.isJobInFlight(), 60000);
+    QCOMPARE(finished.count(), 1);
+    QCOMPARE(inserted.count(), 0);
     QCOMPARE(doc.probes().size(), size_t(0));
   }
 };

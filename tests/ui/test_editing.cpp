@@ -730,10 +730,14 @@ class TestEditing : public QObject {
     // Taken synchronously while the signal is still queued: applied once, not emptied later.
     doc->undoStack()->undo();
     vp->startFieldsRebuild();
+    QVERIFY(vp->isFieldsRebuildRunning());
     QCOMPARE(vp->previewVolume()->probeCount(), before);
     const size_t cells = vp->glyphGrid().size();
     QVERIFY(cells > 100);
-    QTest::qWait(200);  // delivers the rebuild's finished signal
+    updated.clear();
+    // Once the rebuild's finished signal has reached the view, nothing more was applied.
+    QTRY_VERIFY_WITH_TIMEOUT(!vp->isFieldsRebuildRunning(), 60000);
+    QCOMPARE(updated.count(), 0);
     QCOMPARE(vp->glyphGrid().size(), cells);
     QCOMPARE(vp->previewVolume()->probeCount(), before);
     doc->undoStack()->redo();

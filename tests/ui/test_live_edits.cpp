@@ -61,20 +61,29 @@ std::optional<ShRgb> volumeAt(Viewport* vp, Vec3 p) {
 
 /// The move the tests make: the brightest probe (two-rooms: beside room A's lamp) into the
 /// darkest place, half-way between the darkest captured probe and its nearest neighbour (free
-/// space, as both are).
-std::pair<uint64_t, Vec3> brightIntoDark(const std::vector<Probe>& probes) {
+/// space, as both are). With `lowest`, among the probes of the lowest layer only (within 5 cm of
+/// the lowest captured probe's height): those light the floor, which a view from above shows.
+std::pair<uint64_t, Vec3> brightIntoDark(const std::vector<Probe>& probes, bool lowest = false) {
+  double floorY = 1e300;
+  for (const Probe& p : probes)
+    if (p.sh) floorY = std::min(floorY, p.position.y);
+  auto counts = [&](size_t i) {
+    return probes[i].sh && (!lowest || probes[i].position.y <= floorY + 0.05);
+  };
   size_t bright = 0, dark = 0;
+  while (bright < probes.size() && !counts(bright)) ++bright;
+  dark = bright;
   for (size_t i = 0; i < probes.size(); ++i) {
-    if (!probes[i].sh) continue;
+    if (!counts(i)) continue;
     if (!probes[bright].sh || meanRadiance(*probes[i].sh) > meanRadiance(*probes[bright].sh))
       bright = i;
     if (!probes[dark].sh || meanRadiance(*probes[i].sh) < meanRadiance(*probes[dark].sh)) dark = i;
   }
-  size_t nearest = dark == 0 ? 1 : 0;
+  size_t nearest = probes.size();
   for (size_t i = 0; i < probes.size(); ++i)
-    if (i != dark && i != bright &&
-        length(probes[i].position - probes[dark].position) <
-            length(probes[nearest].position - probes[dark].position))
+    if (i != dark && i != bright && (!lowest || counts(i)) &&
+        (nearest == probes.size() || length(probes[i].position - probes[dark].position) <
+                                         length(probes[nearest].position - probes[dark].position)))
       nearest = i;
   return {probes[bright].id, (probes[dark].position + probes[nearest].position) * 0.5};
 }
@@ -248,11 +257,14 @@ class TestLiveEdits : public QObject {
     vp->setProbesVisible(false);  // the lit surfaces only, not the moved probe's sphere
     vp->setPreviewLighting(true);
     vp->frameAll();
-    QSignalSpy fields(vp, &Viewport::fieldsUpdated);
     vp->update();
-    QVERIFY(fields.wait(60000));
-    const auto [id, to] = brightIntoDark(doc->probes());
+    // The view draws the probes' light for the probes as they are: a rebuild started before
+    // they were all captured may land first, and the view then starts another.
+    QTRY_VERIFY_WITH_TIMEOUT(
+        vp->fieldsCurrent() && vp->shading() == Viewport::Shading::Probes && !doc->isBusy(), 60000);
+    const auto [id, to] = brightIntoDark(doc->probes(), true);
     const Vec3 from = doc->probe(id)->position;
+    const ShRgb oldSh = *doc->probe(id)->sh;
     const QImage before = vp->grabFramebuffer();
 
     QElapsedTimer clock;
@@ -260,33 +272,43 @@ class TestLiveEdits : public QObject {
     clock.start();
     doc->moveProbe(id, to, doc->newMergeKey());
     QVERIFY(captured.wait(60000));
-    // The first fields the view builds after the capture carry it.
-    fields.clear();
-    QVERIFY(fields.wait(60000));
+    // The drawn fields carry the capture: the preview volume has the probe at its new place with
+    // its new light (the brightest probe's light moved into the darkest place differs). A rebuild
+    // under way when the capture landed may bring older fields first.
+    auto showsTheCapture = [&] {
+      const ProbeVolume* v = vp->drawnPreviewVolume();
+      if (!v || vp->shading() != Viewport::Shading::Probes) return false;
+      for (size_t i = 0; i < v->probeCount(); ++i)
+        if (length(v->position(int32_t(i)) - to) < 1e-4)
+          return std::abs(meanRadiance(v->probeSh(int32_t(i))) - meanRadiance(oldSh)) >
+                 1e-3 * meanRadiance(oldSh);
+      return false;
+    };
+    QTRY_VERIFY_WITH_TIMEOUT(showsTheCapture(), 60000);
     const double seconds = double(clock.nsecsElapsed()) * 1e-9;
     const QImage after = vp->grabFramebuffer();
     const double frameSeconds = double(clock.nsecsElapsed()) * 1e-9;
-    // The pixels around the new place, or around the place it left, change: the view's
-    // exposure is metered from the surfaces in view, so the rest of the frame stays as it was.
+    // The pixels that visibly change (by more than 8 in some channel), near the new place or the
+    // place it left (within an eighth of the frame's width of where they project) and elsewhere:
+    // the view's exposure is metered from the surfaces in view, so the rest of the frame stays.
     const double scale = double(before.width()) / std::max(vp->width(), 1);
     const int r = before.width() / 8;
-    auto changeAround = [&](Vec3 world) {
-      const std::optional<QPointF> centre = vp->project(world);
-      if (!centre) return 0.0;
-      const int cx = int(centre->x() * scale), cy = int(centre->y() * scale);
-      double sum = 0;
-      int n = 0;
-      for (int y = std::max(0, cy - r); y < std::min(before.height(), cy + r); ++y)
-        for (int x = std::max(0, cx - r); x < std::min(before.width(), cx + r); ++x) {
-          const QColor a = before.pixelColor(x, y), b = after.pixelColor(x, y);
-          sum += std::abs(a.red() - b.red()) + std::abs(a.green() - b.green()) +
-                 std::abs(a.blue() - b.blue());
-          ++n;
-        }
-      return sum / (std::max(n, 1) * 3.0);
-    };
-    const double diffTo = changeAround(to), diffFrom = changeAround(from);
-    const double diff = std::max(diffTo, diffFrom);
+    std::vector<QPoint> centres;
+    for (Vec3 world : {to, from})
+      if (const std::optional<QPointF> c = vp->project(world))
+        centres.emplace_back(int(c->x() * scale), int(c->y() * scale));
+    QVERIFY(!centres.empty());
+    long changedNear = 0, changedElsewhere = 0;
+    for (int y = 0; y < before.height(); ++y)
+      for (int x = 0; x < before.width(); ++x) {
+        const QRgb a = before.pixel(x, y), b = after.pixel(x, y);
+        const int d = std::max({std::abs(qRed(a) - qRed(b)), std::abs(qGreen(a) - qGreen(b)),
+                                std::abs(qBlue(a) - qBlue(b))});
+        if (d <= 8) continue;
+        bool near = false;
+        for (const QPoint& c : centres) near |= std::abs(x - c.x()) < r && std::abs(y - c.y()) < r;
+        ++(near ? changedNear : changedElsewhere);
+      }
     const QByteArray artifacts = qgetenv("PS_ARTIFACTS");
     if (!artifacts.isEmpty()) {
       QDir().mkpath(QString::fromLocal8Bit(artifacts));
@@ -296,10 +318,16 @@ class TestLiveEdits : public QObject {
       after.save(base + "-after.png");
     }
     std::printf(
-        "shown view (%s): the lit preview reflects the move after %.3f s (frame read "
-        "back at %.3f s); mean change around the new place %.1f / 255, around the old %.1f\n",
-        qPrintable(QFileInfo(scenePath()).fileName()), seconds, frameSeconds, diffTo, diffFrom);
-    QVERIFY2(diff > 1.0, qPrintable(QString::number(diff)));
+        "shown view (%s): the lit preview reflects the move after %.3f s (frame read back at "
+        "%.3f s); pixels changed near the new and the old place %ld, elsewhere %ld\n",
+        qPrintable(QFileInfo(scenePath()).fileName()), seconds, frameSeconds, changedNear,
+        changedElsewhere);
+    // Measured on two-rooms (1400 x 900 window, software GL): 10140 pixels changed near the two
+    // places and 135 elsewhere in each of 5 runs (a frame that showed another capture of the
+    // probe changed 4831 in all); the bounds leave a factor of 2.4 and of 7.
+    QVERIFY2(
+        changedNear > 2000 && changedNear > 10 * changedElsewhere,
+        qPrintable(QStringLiteral("%1 near, %2 elsewhere").arg(changedNear).arg(changedElsewhere)));
   }
 
   void aMovedSelectionIsCapturedTogether() {
