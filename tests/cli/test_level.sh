@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The generated level (scripts/make_level.py): the same parameters give the same bytes; every box
 # is closed, outward-facing and apart from the others; the small level loads, places (greedy),
-# bakes and evaluates end to end in under a minute; bad parameters, a scene with no room for a
+# bakes and evaluates end to end; bad parameters, a scene with no room for a
 # probe and a budget the dense field cannot hold each say so clearly.
 # Usage: test_level.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
@@ -124,7 +124,8 @@ assert corridor["validity"] > 0.9 and corridor["irradiance"]["+y"][0] > 0, corri
 assert wall["validity"] < 0.5, wall
 PY
 
-# Place (greedy), bake (leak refinement, no cuts) and eval of the small level, in under a minute.
+# Place (greedy), bake (leak refinement, no cuts) and eval of the small level (the time is printed;
+# speed is measured in benchmarks, not here).
 start=$SECONDS
 "$cli" place "$tmp/a.glb" --method greedy --budget 16 --field-depth 1 --field-spp 32 \
   --probe-spp 32 --held-out 32 --accept "${sky[@]}" -o "$tmp/set.json"
@@ -132,7 +133,6 @@ start=$SECONDS
 "$cli" eval "$tmp/v.psv" --queries 128 --reference-spp 256 --json >"$tmp/eval.json"
 took=$((SECONDS - start))
 echo "small level: place, bake and eval in $took s"
-[ "$took" -lt 60 ] || { echo "FAIL: place, bake and eval took $took s (at most 59)"; exit 1; }
 python3 - "$tmp" <<'PY'
 import json, math, sys
 tmp = sys.argv[1]
@@ -148,7 +148,7 @@ assert math.isfinite(e["rel_rmse"]) and 0 < e["rel_rmse"] < 2, e
 PY
 
 # Regional greedy on the small level: exactly the budget, the same bytes run after run, every
-# region with probes, in under a minute.
+# region with probes.
 start=$SECONDS
 for run in 1 2; do
   "$cli" place "$tmp/a.glb" --method greedy --budget 48 --regions 4 --field-depth 1 \
@@ -157,7 +157,6 @@ for run in 1 2; do
 done
 took=$((SECONDS - start))
 echo "small level: regional greedy twice in $took s"
-[ "$took" -lt 60 ] || { echo "FAIL: regional greedy took $took s (at most 59)"; exit 1; }
 cmp "$tmp/regional1.json" "$tmp/regional2.json" || { echo "FAIL: regional greedy differs between runs"; exit 1; }
 grep -q "greedy: 4 regions of the dense field" "$tmp/regional1.out" || { cat "$tmp/regional1.out"; exit 1; }
 python3 - "$tmp/regional1.json" <<'PY'
