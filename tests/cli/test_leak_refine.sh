@@ -32,10 +32,10 @@ if "$cli" bake "$tmp/plain.json" -o "$tmp/x.psv" --leak-cuts-only --no-leak-cuts
 fi
 grep -q -- "--leak-cuts-only" "$tmp/err.txt"
 [ ! -e "$tmp/x.psv" ]
-"$cli" eval "$tmp/cuts-only.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-cuts-only.json"
+"$cli" eval "$tmp/cuts-only.psv" --queries 8192 --reference-spp 16 --json >"$tmp/e-cuts-only.json"
 # The cuts chosen for the leaks alone take more weight from probes in plain view.
 "$cli" bake "$tmp/plain.json" -o "$tmp/leaks-alone.psv" --spp 128 --leak-refine --over-cut-weight 0
-"$cli" eval "$tmp/leaks-alone.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-leaks-alone.json"
+"$cli" eval "$tmp/leaks-alone.psv" --queries 8192 --reference-spp 16 --json >"$tmp/e-leaks-alone.json"
 # With probes for what the cuts leave, the cuts count the leaks alone unless a weight is given.
 "$cli" bake "$tmp/plain.json" -o "$tmp/cut-probes.psv" --spp 128 --leak-cut-probes | tee "$tmp/bake-cut-probes.txt"
 grep -q "are for the cuts" "$tmp/bake-cut-probes.txt"
@@ -56,9 +56,9 @@ for bad in "--over-cut-weight nan" "--over-cut-weight 0.5 --leak-refine --no-lea
   grep -q -- "--over-cut-weight" "$tmp/err.txt"
   [ ! -e "$tmp/x.psv" ]
 done
-"$cli" eval "$tmp/plain.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-plain.json"
-"$cli" eval "$tmp/sukys.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-sukys.json"
-"$cli" eval "$tmp/baked-refined.psv" --queries 1024 --reference-spp 16 --json >"$tmp/e-refined.json"
+"$cli" eval "$tmp/plain.psv" --queries 8192 --reference-spp 16 --json >"$tmp/e-plain.json"
+"$cli" eval "$tmp/sukys.psv" --queries 8192 --reference-spp 16 --json >"$tmp/e-sukys.json"
+"$cli" eval "$tmp/baked-refined.psv" --queries 8192 --reference-spp 16 --json >"$tmp/e-refined.json"
 "$cli" info "$tmp/baked-refined.psv" | tee "$tmp/info.txt"
 grep -q "leak cuts: .* planes" "$tmp/info.txt"
 "$cli" info "$tmp/sukys.psv" >"$tmp/info-sukys.txt"
@@ -93,7 +93,10 @@ assert er["probes"] == es["probes"] > ep["probes"] == ec["probes"] == len(plain)
 assert ec["leaking_fraction"] < ep["leaking_fraction"] / 5, (ep, ec)
 assert 0 < ep["leaking_fraction"] <= 1, ep
 assert es["leaking_fraction"] < ep["leaking_fraction"], (ep, es)
-assert er["leaking_fraction"] < es["leaking_fraction"] / 5, (es, er)
+# 8192 queries, so that the counts are not a handful. Measured over eval seeds 1 to 5: the cuts
+# on Sukys's probes leave 0.06 to 0.17 of its leaking fraction, the cuts alone 0.01 to 0.05 of
+# the plain set's; the bounds are about twice the largest.
+assert er["leaking_fraction"] < es["leaking_fraction"] / 3, (es, er)
 print("leak refinement ok: +%d probes in place, leaking_fraction %.4f -> %.4f (Sukys) -> %.4f "
       "(cuts); %.4f with the cuts alone; over_cut_fraction %.4f (default), %.4f (leaks alone, "
       "leaking %.4f)" % (len(leak), ep["leaking_fraction"], es["leaking_fraction"],
