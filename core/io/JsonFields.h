@@ -172,7 +172,9 @@ inline LightingRig rigFromJson(const JsonField& f) {
       if (l.type != LightType::Point) {
         const Vec3 d = lf.at("direction").vec3();
         if (length(d) == 0) lf.at("direction").fail("expected a non-zero direction");
-        l.direction = normalize(d);
+        // A direction already unit to rounding is kept as written: normalising it again moves
+        // its last bits (differently with FMA), and a load and save must write the same bytes.
+        l.direction = std::abs(length(d) - 1) <= 1e-12 ? d : normalize(d);
       }
       l.intensity = lf.at("intensity").rgb();
       if (lf.has("range_m")) l.rangeMeters = lf.at("range_m").number();

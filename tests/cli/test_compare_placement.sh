@@ -30,9 +30,10 @@ for r in rows:
     assert abs(int(r["probes"]) - 16) <= 3, r  # the uniform grid's count is coarse at 16
     # The scene's SH floor, from the first row's eval, in every row (at 64 spp, mostly noise).
     assert float(r["sh_floor"]) > 0 and r["sh_floor"] == rows[0]["sh_floor"], r
-    # The perceptual error in stops: positive and finite (this tiny run is mostly noise, and
-    # the floor bounds a dark query's error at log2 of the brightest estimate over the floor).
-    assert 0 < float(r["p90_stops"]) < 20 and 0 < float(r["rms_stops"]) < 20, r
+    # The perceptual error in stops: measured over eval seeds 7 to 11, RMS 2.62 to 3.21 and p90
+    # 4.37 to 5.30 stops for both methods (16 probes, 64 queries); the bounds are about 1.5 times
+    # the largest.
+    assert 0 < float(r["p90_stops"]) < 8 and 0 < float(r["rms_stops"]) < 5, r
     assert 0 <= float(r["beyond_third_stop"]) <= 1, r
 PY
 [ ! -e "$tmp/p-error-vs-probes.png" ]

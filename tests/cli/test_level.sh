@@ -144,7 +144,11 @@ for p in s["probes"]:  # in the building (a window's opening too), between floor
     assert 0 < x < 26 and 0.3 < y < 3.5 and 0 < z < 14, p
 e = json.load(open(f"{tmp}/eval.json"))
 assert e["probes"] >= len(s["probes"]) and e["queries"] == 128, e
-assert math.isfinite(e["rel_rmse"]) and 0 < e["rel_rmse"] < 2, e
+# 128 queries resolve rel_rmse poorly on this level (0.22 to 1.58 over placement and eval seeds
+# 1 to 4, its heavy tail near the lamps), its RMS in stops well (1.02 to 1.19): the bound is
+# on the stops, about 1.7 times the largest seen.
+assert math.isfinite(e["rel_rmse"]) and e["rel_rmse"] > 0, e
+assert 0 < e["stops"]["rms"] < 2.0, e
 PY
 
 # Regional greedy on the small level: exactly the budget, the same bytes run after run, every
