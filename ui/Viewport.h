@@ -60,6 +60,8 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The query the artist picked (ringed in the ErrorPoints overlay); -1 for none.
   void setHighlightedQuery(int index);
 
+  /// World to clip space for the current camera and widget size (project() divides by w).
+  QMatrix4x4 viewProjection() const;
   /// Widget pixel (logical, origin top-left) of a world point, or nothing behind the camera.
   std::optional<QPointF> project(Vec3 world) const;
   /// True when the projected point lies inside the widget.
@@ -335,7 +337,6 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void cleanup();
   void uploadScene();
   void uploadProbes();
-  QMatrix4x4 viewProjection() const;
   void clipPlanes(float& nearDist, float& farDist) const;
   float baseRadius() const;
   void updateBaseRadius();

@@ -2,7 +2,8 @@
 //                    [--overlays glyphs,slice,tets,test-object,domain,preview,flat] [--select ID]
 // The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
 // probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
-// projected pixel position of every probe) and exits: 0 on success, 1 with a one-line error.
+// projected pixel position of every probe, the camera, the cut-away height) and exits: 0 on
+// success, 1 with a one-line error.
 #include <QAction>
 #include <QApplication>
 #include <QCommandLineParser>
@@ -83,6 +84,15 @@ bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) 
   root["modified"] = w.document()->isModified();
   root["probeSetPath"] = w.document()->probeSetPath();
   root["probes"] = probes;
+  // The camera: world to clip space, row-major. Image pixel = ((ndc.x + 1) / 2 * width,
+  // (1 - ndc.y) / 2 * height), as for the projected positions above.
+  const QMatrix4x4 viewProj = vp->viewProjection();
+  QJsonArray vpRows;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) vpRows.append(double(viewProj(r, c)));
+  root["viewProjection"] = vpRows;
+  // Geometry above this height (world y) is cut away; null when the whole scene is drawn.
+  root["cutHeight"] = vp->cutaway() ? QJsonValue(double(vp->cutHeight())) : QJsonValue();
   // Overlays: where the checker should find them.
   auto px = [&](ps::Vec3 world) -> QJsonValue {
     const auto p = vp->project(world);

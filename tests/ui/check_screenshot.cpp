@@ -4,7 +4,7 @@
 //   - the image is not uniform (standard deviation of luminance > 10);
 //   - the scene covers >= 20% of the frame (pixels of the probe-less render that differ from the
 //     background gradient by more than 12 in some channel);
-//   - >= 80% of on-screen probes are drawn where the JSON says: the mean absolute difference
+//   - >= 75% of on-screen probes are drawn where the JSON says: the mean absolute difference
 //     between the two renders over a small square at the projected centre exceeds 12;
 //   - at least 10 probes are on screen;
 //   - probes are shaded by their own SH: over the drawn probes, the Spearman rank correlation
@@ -15,7 +15,7 @@
 // glyphs,slice,...), BASE the same view without them. Thresholds:
 //   - glyphs: at least 60 % of the on-screen glyph centres in the sidecar have a pixel within
 //     3 px that differs from BASE by more than 40 in some channel (an arrow is drawn there);
-//   - slice: at least 60 % of a 5 x 5 grid of points inside the projected slice quad differ
+//   - slice: at least 50 % of a 5 x 5 grid of points inside the projected slice quad differ
 //     from BASE by more than 12 (the slice is drawn where its corners project);
 //   - nothing outside the scene: over the pixels where BASE shows the background gradient (but
 //     for the legends' rectangles, sidecar "legends"), the
@@ -36,7 +36,9 @@
 #include <QJsonArray>
 #include <QJsonDocument>
 #include <QJsonObject>
+#include <QMatrix4x4>
 #include <QRectF>
+#include <QVector4D>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -118,7 +120,11 @@ int checkOverlays(const char* shotPath, const char* basePath) {
     }
   std::printf("slice points on screen %d, drawn %d\n", sliceOn, sliceDrawn);
   if (sliceOn < 10) return fail("the slice is mostly off screen");
-  if (sliceDrawn < 0.6 * sliceOn) return fail("the slice is not drawn where it projects");
+  // Two-rooms, the slice at y = 0.99 m: measured 17-18 of 25 (0.68-0.72) at viewport sizes
+  // 640x480 ... 1280x960. In both renders 7 points are hidden at every size (5 behind the south
+  // wall, 2 under probes) and 0-1 under the selected probe's gizmo. At least 0.5: 13 of 25, 4
+  // points below the lowest measured.
+  if (sliceDrawn < 0.5 * sliceOn) return fail("the slice is not drawn where it projects");
 
   const QJsonObject bg = root["background"].toObject();
   const QJsonArray top = bg["top"].toArray(), bottom = bg["bottom"].toArray();
@@ -213,25 +219,112 @@ int checkDomain(const char* shotPath, const char* basePath) {
   return 0;
 }
 
+namespace {
+/// Which room of the two-rooms scene a pixel shows (scripts/make_scenes.py: the shared wall at
+/// x = 0 with a doorway, room A at -x lit by its lamp, room B at +x by the sun through its
+/// window), from the sidecar's camera: the side of the wall's outline, its top edge (at the
+/// cut-away height, else the ceiling) and the vertical edge of the outer south wall's face, but
+/// through the doorway the room beyond it.
+struct WallSplit {
+  QPointF top0, top1, foot;  // (0, top, z0), (0, top, z1 + t), (0, -t, z1 + t) projected
+  QPointF door[4];           // the doorway's outline in the plane x = 0, projected
+  bool roomAIsLeft = true, cameraInA = false;
+  /// Image x of the wall's outline at row y (its segments extended above and below).
+  double xAt(double y) const {
+    const bool upper = y < top1.y();
+    const QPointF a = upper ? top0 : top1, b = upper ? top1 : foot;
+    return a.x() + (b.x() - a.x()) * (y - a.y()) / (b.y() - a.y());
+  }
+  bool inDoor(QPointF p) const {
+    int sign = 0;
+    for (int i = 0; i < 4; ++i) {
+      const QPointF a = door[i], b = door[(i + 1) % 4];
+      const double c = (b.x() - a.x()) * (p.y() - a.y()) - (b.y() - a.y()) * (p.x() - a.x());
+      const int s = c > 0 ? 1 : -1;
+      if (sign != 0 && s != sign) return false;
+      sign = s;
+    }
+    return true;
+  }
+  bool inRoomA(int x, int y) const {
+    const QPointF p(x + 0.5, y + 0.5);
+    if (inDoor(p)) return !cameraInA;
+    return (p.x() < xAt(p.y())) == roomAIsLeft;
+  }
+};
+const char* wallSplit(const Pair& p, WallSplit& split) {
+  const QJsonArray m = p.root["viewProjection"].toArray();
+  if (m.size() != 16) return "no camera in the sidecar";
+  QMatrix4x4 vp;
+  for (int i = 0; i < 16; ++i) vp(i / 4, i % 4) = float(m[i].toDouble());
+  const double w = p.shot.width(), h = p.shot.height();
+  bool behind = false;
+  auto project = [&](double x, double y, double z) {
+    const QVector4D c = vp * QVector4D(float(x), float(y), float(z), 1.0f);
+    behind = behind || c.w() <= 0;
+    return QPointF((c.x() / c.w() * 0.5 + 0.5) * w, (0.5 - c.y() / c.w() * 0.5) * h);
+  };
+  // make_scenes.py two_rooms(): outer wall thickness, room and doorway extents.
+  const double wallT = 0.2, z0 = -3.0, z1 = 3.0, ceiling = 3.0, doorZ = 0.5, doorTop = 2.1;
+  const QJsonValue cut = p.root["cutHeight"];
+  const double top = cut.isDouble() ? std::min(cut.toDouble(), ceiling) : ceiling;
+  split.top0 = project(0, top, z0);
+  split.top1 = project(0, top, z1 + wallT);
+  split.foot = project(0, -wallT, z1 + wallT);
+  const double doorH = std::min(top, doorTop);
+  split.door[0] = project(0, 0, -doorZ);
+  split.door[1] = project(0, 0, doorZ);
+  split.door[2] = project(0, doorH, doorZ);
+  split.door[3] = project(0, doorH, -doorZ);
+  if (behind) return "the shared wall is behind the camera";
+  if (!(split.top0.y() < split.top1.y() && split.top1.y() < split.foot.y()))
+    return "the shared wall does not run down the image";
+  const QPointF a = project(-3, 0, 0);  // room A's floor
+  split.roomAIsLeft = a.x() < split.xAt(a.y());
+  // The eye is the point the view-projection maps to clip (0, 0, z, 0).
+  const QVector4D eye = vp.inverted() * QVector4D(0, 0, 1, 0);
+  split.cameraInA = eye.x() / eye.w() < 0;
+  return "";
+}
+}  // namespace
+
+/// --cuts: CUT shows the two-rooms probe-lighting preview with the leak cuts, NOCUT without. In
+/// the preview room A is the bright room and B the dark one; without the cuts the lighting by
+/// the shared wall blends in the other room's. Of the pixels that differ by more than 12 in some
+/// channel, split by the room they show (WallSplit): room B's turn darker (A's light no longer
+/// leaks in), room A's turn brighter (B's darkness no longer leaks in).
 int checkCuts(const char* cutPath, const char* noCutPath) {
-  const QImage cut = QImage(cutPath).convertToFormat(QImage::Format_RGB32);
-  const QImage noCut = QImage(noCutPath).convertToFormat(QImage::Format_RGB32);
-  if (cut.isNull() || noCut.isNull()) return fail("cannot read the images");
-  if (cut.size() != noCut.size()) return fail("the two renders differ in size");
+  Pair pair;
+  if (const char* why = loadPair(cutPath, noCutPath, pair); *why) return fail(why);
+  const QImage &cut = pair.shot, &noCut = pair.base;
+  WallSplit split;
+  if (const char* why = wallSplit(pair, split); *why) return fail(why);
   auto luma = [](QRgb c) { return 0.2126 * qRed(c) + 0.7152 * qGreen(c) + 0.0722 * qBlue(c); };
-  long changed = 0, darker = 0;
+  long changed[2] = {0, 0}, darker[2] = {0, 0};  // [0] room A's side, [1] room B's
   for (int y = 0; y < cut.height(); ++y)
     for (int x = 0; x < cut.width(); ++x) {
       const QRgb a = cut.pixel(x, y), b = noCut.pixel(x, y);
       if (channelDiff(a, b) <= 12) continue;
-      ++changed;
-      darker += luma(a) < luma(b);
+      const int side = split.inRoomA(x, y) ? 0 : 1;
+      ++changed[side];
+      darker[side] += luma(a) < luma(b);
     }
   const double frame = double(cut.width()) * cut.height();
-  std::printf("leak cuts: %ld pixels changed (%.2f %% of the frame), %ld of them darker\n", changed,
-              100.0 * changed / frame, darker);
-  if (changed < 0.005 * frame) return fail("the leak cuts change less than 0.5 % of the frame");
-  if (darker < 0.75 * changed) return fail("the leak cuts do not darken the room behind the wall");
+  const long total = changed[0] + changed[1];
+  auto share = [&](int side) { return changed[side] ? double(darker[side]) / changed[side] : 0.0; };
+  std::printf(
+      "leak cuts: %ld pixels changed (%.2f %% of the frame); room A's side %ld, %.3f of them "
+      "darker; room B's side %ld, %.3f of them darker\n",
+      total, 100.0 * total / frame, changed[0], share(0), changed[1], share(1));
+  // Thresholds from the figures measured at viewport sizes 640x480 ... 1280x960.
+  // Changed in room B: measured 2.12-2.23 % of the frame; at least 1 %.
+  if (changed[1] < 0.01 * frame) return fail("the leak cuts change little of the dark room");
+  // Changed in room A: measured 0.61-0.68 % of the frame; at least 0.25 %.
+  if (changed[0] < 0.0025 * frame) return fail("the leak cuts change little of the bright room");
+  // Darker share in room B: measured 0.968-0.974; at least 0.85.
+  if (share(1) < 0.85) return fail("the leak cuts do not darken the dark room by the wall");
+  // Darker share in room A: measured 0.041-0.056; at most 0.25.
+  if (share(0) > 0.25) return fail("the leak cuts darken the bright room by the wall");
   std::printf("check_screenshot --cuts: OK\n");
   return 0;
 }
@@ -346,7 +439,11 @@ int main(int argc, char** argv) {
   }
   std::printf("probes on screen %d, drawn at their projected position %d\n", onScreen, shown);
   if (onScreen < 10) return fail("fewer than 10 probes on screen");
-  if (shown < 0.8 * onScreen) return fail("fewer than 80% of on-screen probes are drawn");
+  // Two-rooms: measured 53-54 of 63 (0.84-0.86) at viewport sizes 640x480 ... 1280x960. Not
+  // drawn at every size: the 7 probes behind the south wall (x-ray ghosts, mean difference 3-13;
+  // the one at 12 decides 53 or 54) and 3 pale probes in front of room A's pale north wall (5-9).
+  // At least 0.75: 48 of 63, 5 probes below the lowest measured.
+  if (shown < 0.75 * onScreen) return fail("fewer than 75% of on-screen probes are drawn");
 
   // 4. Shaded by their own SH: brighter probes (mean radiance) look brighter.
   std::vector<std::pair<double, double>> pairs;  // mean radiance, centre luma
