@@ -52,13 +52,13 @@ struct PreviewCuts {
 };
 
 /// Above this many tetrahedra the preview gets no cuts: their time grows with the tetrahedra and
-/// the scene, and the fields wait for them after every edit, so the limit bounds that wait
-/// (BENCHMARKS.md, "Leak cuts in the preview").
+/// the scene, and the fields wait for them after every edit, so the limit bounds that wait.
 inline constexpr size_t kMaxPreviewCutTets = 30000;
 
 /// Bake's leak-cut settings with a quarter of its points (8 per tetrahedron at least, 2^16 in
-/// all): nearly as few leaking queries as bake's cuts, in about a quarter of the time
-/// (BENCHMARKS.md, "Leak cuts in the preview").
+/// all): the cuts' time grows with the points drawn, and the preview recomputes them after
+/// every edit. How many more leaking queries they leave than bake's cuts is not measured under
+/// today's defaults.
 LeakCutSettings previewLeakCutSettings();
 
 /// Cuts `volume` as bake would (computeLeakCuts with previewLeakCutSettings()) for queries in

@@ -85,7 +85,7 @@ const ParameterFlag kParameterFlags[] = {
      "greedy: field samples nearest to the probe taken out that each swap tries too (default 26; "
      "0: only the far candidates)"},
     {"--regions", "regions",
-     "greedy: auto (default: one region up to 256 new probes, else one per 128), off (plain "
+     "greedy: auto (default: one region up to 512 new probes, else one per 128), off (plain "
      "greedy) or a count: greedy runs in the regions of a k-d split of the dense field, the "
      "budget shared by the error each measured",
      false, true},

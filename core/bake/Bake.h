@@ -55,8 +55,9 @@ struct BakeSettings {
   bool leakCuts = true;
   /// With the cuts: probes where they cannot end a leak (refineForLeakCuts); off by default
   /// (`bake --leak-cut-probes`, which also sets leakCutSettings.overCutWeight to 0 unless
-  /// `--over-cut-weight` is given). Off by default because they end nearly every leak the cuts
-  /// leave but can raise rel_rmse at small probe counts (BENCHMARKS.md, "Leaks").
+  /// `--over-cut-weight` is given). Off by default: they end leaks the cuts leave by adding
+  /// probes beyond the placed set, so the volume's probe count is no longer the set's (their
+  /// effect on rel_rmse is not measured under today's defaults).
   bool leakCutProbes = false;
   LeakRefineSettings leakRefineSettings;
   LeakCutSettings leakCutSettings;

@@ -10,7 +10,7 @@
 // values of probes no point reaches unchanged).
 // The fit minimizes the absolute squared error, as eval's rel_rmse measures it: where a bright,
 // sharp feature (a sun patch) sits beside dark space, the piecewise-linear fit overshoots into
-// the dark side, and the relative error there can grow (BENCHMARKS.md, "Bake and evaluation").
+// the dark side, and the relative error there can grow.
 #include <cstdint>
 #include <span>
 #include <vector>

@@ -122,8 +122,8 @@ struct EvalResult {
   /// the nearest hull face and extrapolates, and of the queries that are outside and leak (a
   /// part of leakingFraction). Leaks outside the hull come from too few probes near the
   /// domain's edge, where a probe placed there ends them; leaks inside, from tetrahedra across
-  /// walls that the cuts could not split (BENCHMARKS.md, "Where greedy's error is on
-  /// dream-apartment").
+  /// walls that no leak cut splits. leakingFraction and outsideHullFraction on dream-apartment:
+  /// BENCHMARKS.md, "Placement quality under the default pipeline".
   double outsideHullFraction = 0;
   double leakingOutsideHullFraction = 0;
   /// Fraction of the queries that see every probe their tetrahedron would interpolate without

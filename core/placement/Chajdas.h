@@ -32,9 +32,8 @@ struct ChajdasSettings {
   /// field's sinks lie on the lights (f points at the brightest direction), so a cluster of
   /// samples around a bulb would put its representative on it: a capture of the 1/r^2
   /// singularity that the volume then spreads over tetrahedra metres across, so that a single
-  /// probe next to a light can dominate eval's error (BENCHMARKS.md, "Placement"). A
-  /// representative is chosen among samples at least this far from every light; a cluster
-  /// with none gets no probe.
+  /// probe next to a light can dominate eval's error. A representative is chosen among samples
+  /// at least this far from every light; a cluster with none gets no probe.
   std::vector<Vec3> punctualLights;
   double lightClearanceMeters = 0;
   uint64_t seed = 1;  ///< k-means initialisation

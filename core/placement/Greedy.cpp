@@ -502,7 +502,7 @@ void GreedySearch::neighboursOf(size_t slot, std::vector<size_t>& out) const {
 /// probes, avoided or already in `tried` (ties to the lower index), not captured yet. The other
 /// candidates come from wherever the error is largest once the probe is out, not from around
 /// it. The octree's samples are denser where the field is refined, so the moves are smaller
-/// there; most moves are to these (BENCHMARKS.md, "Placement"). O(samples).
+/// there; GreedyResult::localSwaps counts the moves to these, and `place` prints it. O(samples).
 std::vector<size_t> GreedySearch::nearestFree(Vec3 at, const std::vector<size_t>& tried) {
   std::vector<size_t> out;
   if (s_.swapNeighbours <= 0) return out;

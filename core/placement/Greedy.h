@@ -71,9 +71,8 @@ struct GreedySettings {
   /// Held-out points: when given, the error is measured at them alone (with their weights) and
   /// the field's samples are only the candidates. A field sample that becomes a
   /// probe has error 0 from then on, and few samples lie between probes, so the error on the
-  /// field's own samples falls faster than the error between the probes does, and tracks
-  /// eval's rel_rmse less closely than the error at held-out points (BENCHMARKS.md,
-  /// "Placement").
+  /// field's own samples falls faster than the error between the probes does, which is the
+  /// error eval measures at its random queries.
   std::vector<HeldOutSample> heldOut;
   /// When set, a candidate's value as a probe is its capture by this function (the bake's
   /// samples per probe) rather than its field sample's cheap capture, whose noise the
@@ -124,8 +123,7 @@ struct GreedyResult {
   /// error): the points' sum of weight |E|^2 for kEnergy, their sum of weights for kPerceptual.
   double errorNorm = 0;
   /// True when, at some point, no candidate lowered the field error (the field's noise, or error
-  /// its samples do not resolve; a field of more samples per probe moves that point but does
-  /// not lower eval's error: BENCHMARKS.md, "Placement"):
+  /// its samples do not resolve):
   /// without a budget placement stops there; with one it goes on, adding the least harmful
   /// candidate whenever none lowers the error and the best one otherwise, so errorHistory is
   /// non-increasing only up to probesAtNoImprovement (on the real scenes the field error still

@@ -17,7 +17,7 @@ namespace ps {
 
 /// Held-out points per probe of the budget, by default (GreedyMethodSettings::heldOutPerProbe).
 /// The error greedy lowers is measured there rather than at the field's own samples, which sit
-/// where the field refined and miss most of the volume (BENCHMARKS.md, Placement).
+/// where the field refined and miss most of the volume.
 inline constexpr int kGreedyHeldOutPerProbe = 128;
 /// Samples per probe of each candidate's own capture: the bake's default
 /// (BakeSettings::capture), so that greedy weighs a probe as the bake will capture it.

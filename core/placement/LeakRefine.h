@@ -106,9 +106,9 @@ struct LeakCutSettings {
   /// probe it interpolates (beyond a hull face: the face's three; the total variation of its
   /// weights, 0 to 1): a plane is infinite, and one through a pillar's face hides probes from
   /// points in plain view of them too. Non-negative; 0 counts the leaks alone. The default 0.25
-  /// spares most queries that see all their probes from having their weights moved, at the
-  /// cost of a few more leaking queries, and holds or lowers rel_rmse (BENCHMARKS.md,
-  /// "Over-cut").
+  /// spares queries that see all their probes from planes that end few leaks but move their
+  /// weights, at the cost of leaving those few leaks (its effect on rel_rmse is not measured
+  /// under today's defaults).
   double overCutWeight = 0.25;
   /// Validity of a point that sees a vertex hidden (Kontkanen & Laine sec. 5).
   int validityRays = 16;

@@ -1,7 +1,7 @@
 // Bake with the capture cache on dream-apartment (sun + sky): a full bake (every probe traced)
 // against a re-bake after moving one probe (one probe traced, the rest from the cache), and
 // against a full bake with least-squares values (bake --fit, its default settings), in the same
-// process. Figures: BENCHMARKS.md, "Bake and evaluation" and "Files".
+// process.
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 

@@ -4,7 +4,7 @@
 // with rtcIntersect1 / rtcOccluded1 on an Embree scene built here with the same settings, and
 // BM_CaptureRaysPerSecond runs the capture itself (1 and 2 threads), counting the same rays.
 // After the runs the ratios are printed: capture / bare (goal >= 0.7) and 2 threads / 1
-// (goal >= 1.8). Figures: BENCHMARKS.md, "Capture".
+// (goal >= 1.8).
 #include <benchmark/benchmark.h>
 #include <embree3/rtcore.h>
 

@@ -1,6 +1,5 @@
 // Chajdas placement run time over a prebuilt dense field (default settings) of the bundled
 // pillar-room and two-rooms scenes, at aggressiveness 1 and 2; the items are the field samples.
-// Figures: BENCHMARKS.md, "Placement".
 #include <benchmark/benchmark.h>
 
 #include <filesystem>

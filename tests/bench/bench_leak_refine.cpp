@@ -2,7 +2,7 @@
 // bundled two-rooms scene and on the shared japanese-bridge-garden; the items are the input
 // probes. Geometry only: no lighting is captured. Then the leak cuts on the refined set's mesh
 // (their bake cost), and a query's run-time cost with and without them, in the same process
-// on the same volume. Figures: BENCHMARKS.md, "Placement".
+// on the same volume.
 #include <benchmark/benchmark.h>
 
 #include <filesystem>

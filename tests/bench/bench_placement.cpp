@@ -1,7 +1,6 @@
 // Placement run time: the dense field, greedy at several budgets over a prebuilt field, and the
 // uniform baseline at the same budgets (the peer, in the same process), on the bundled two-rooms
-// scene and on the shared japanese-bridge-garden with a sun and sky. Figures: BENCHMARKS.md,
-// "Placement".
+// scene and on the shared japanese-bridge-garden with a sun and sky.
 #include <benchmark/benchmark.h>
 
 #include <filesystem>

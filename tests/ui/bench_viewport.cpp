@@ -54,7 +54,7 @@ struct Fixture {
     doc.addProbes(std::move(probes), "Add");
     vp = std::make_unique<Viewport>(&doc);
     // Flat colours, without the lit view's background rebuilds: the cost of the probes and the
-    // overlays themselves (the lit view's frame: BENCHMARKS.md, "Lit view").
+    // overlays themselves.
     vp->setFlatShading(true);
     vp->setPreviewLighting(false);
     vp->resize(1024, 768);

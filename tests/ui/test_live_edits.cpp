@@ -1,7 +1,7 @@
 // Live edits (QT_QPA_PLATFORM=offscreen): a probe moved into a dark room is captured there
 // alone in the background, quickly and then at the bake's sample count, and the inspector, the
 // preview volume and the lit preview's grid follow in place while the event loop keeps running.
-// It prints how long the preview took to reflect the move (BENCHMARKS.md, Editor):
+// It prints how long the preview took to reflect the move:
 //   PS_LIVE_SCENE=SCENE.glb PS_LIVE_SUN=1 build/tests/ui/test_live_edits
 // measures another scene (PS_LIVE_SUN=1 adds a sun and a sky when the scene brings no light).
 #include <QDir>

@@ -132,8 +132,9 @@ double meanAbsDifference(const QImage& a, const QImage& b) {
   return sum / (3.0 * a.width() * a.height());
 }
 
-/// The dream-apartment's rig of the placement benchmark (BENCHMARKS.md): a sun from
-/// (0.4, 0.8, 0.3) at 3 W/m² and a sky of radiance (0.3, 0.4, 0.6).
+/// The dream-apartment's rig of the placement benchmark (BENCHMARKS.md, "Placement quality
+/// under the default pipeline"): a sun from (0.4, 0.8, 0.3) at 3 W/m² and a sky of radiance
+/// (0.3, 0.4, 0.6).
 LightingRig sunAndSky() {
   LightingRig rig;
   Light sun;
