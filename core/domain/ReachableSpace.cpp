@@ -58,7 +58,7 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
       FreeSpaceGrid::chooseCell(tracer, domain, s.cellMeters, kMinAutoCellMeters, s.maxCells);
   if (!choice.note.empty())
     note_ = "reachable domain: " + choice.note +
-            "; walls and floors thinner than a cell may leave the rooms behind them joined";
+            "; the space kept may be off by half a cell at walls, floors and ceilings";
   const FreeSpaceGrid grid(tracer, domain, choice.meters, s.maxCells, s.seed);
   box_ = grid.box();
   cell_ = grid.cellMeters();
