@@ -21,6 +21,8 @@ namespace {
 /// validity rays first meet a back face.
 constexpr int kValidityRays = 32;
 constexpr double kInvalidBackfaceFraction = 0.25;
+/// The validity rays traced first (the same directions as the first of kValidityRays).
+constexpr int kFirstRays = 8;
 /// Rounds in which crossed cells take their state from a neighbour (a surface is seldom more
 /// than two cells from a clear cell at the grid's sizes).
 constexpr int kRounds = 3;
@@ -73,8 +75,10 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
 
   // Crossed cells: those a triangle's plane passes through within the triangle's bounds (a
   // conservative test: a cell it marks may hold none of the triangle), each cell's bounds
-  // widened by a ray offset so that a surface on a cell face marks both cells.
-  std::vector<char> crossed(cells, 0);
+  // widened by a ray offset so that a surface on a cell face marks both cells. Bit a: a
+  // triangle whose normal has a component along axis a, the only kind a segment along a can
+  // cross (one parallel to it is missed by rays, Embree's included).
+  std::vector<uint8_t> crossed(cells, 0);
   const Scene& scene = tracer.scene();
   const double pad = tracer.rayEpsilon() + 1e-6 * cell_;
   for (size_t t = 0; t < scene.triangleCount(); ++t) {
@@ -93,11 +97,14 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
     if (outside) continue;
     const Vec3 n = cross(v1 - v0, v2 - v0);
     const double reach = (0.5 * cell_ + pad) * (std::abs(n.x) + std::abs(n.y) + std::abs(n.z));
+    const uint8_t axes =
+        uint8_t((n.x != 0 ? 1u : 0u) | (n.y != 0 ? 2u : 0u) | (n.z != 0 ? 4u : 0u));
     for (int z = lo[2]; z <= hi[2]; ++z)
       for (int y = lo[1]; y <= hi[1]; ++y)
         for (int x = lo[0]; x <= hi[0]; ++x) {
           const size_t c = index(x, y, z);
-          if (!crossed[c] && std::abs(dot(n, centre(c) - v0)) <= reach) crossed[c] = 1;
+          if ((crossed[c] & axes) != axes && std::abs(dot(n, centre(c) - v0)) <= reach)
+            crossed[c] |= axes;
         }
   }
 
@@ -109,7 +116,11 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
   auto inBoxes = [&](Vec3 p) {
     return std::any_of(boxes.begin(), boxes.end(), [&](const Bounds3& b) { return b.contains(p); });
   };
+  // The first kFirstRays of the validity rays decide when they agree (all back faces, or
+  // none: what closed geometry gives), else all kValidityRays.
   auto outsideGeometry = [&](size_t c) {
+    const double first = backfaceFraction(tracer, centre(c), kFirstRays, streamSeed(seed, c));
+    if (first == 0 || first == 1) return first == 0;
     return backfaceFraction(tracer, centre(c), kValidityRays, streamSeed(seed, c)) <=
            kInvalidBackfaceFraction;
   };
@@ -151,7 +162,7 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
                     nb[2] >= m2 || seen[local(nb[0], nb[1], nb[2])])
                   continue;
                 const size_t f = index(b0 + nb[0], b1 + nb[1], b2 + nb[2]);
-                if (!member(f) || !linked(d, f)) continue;
+                if (!member(f) || !linked(d, f, side / 2)) continue;
                 seen[local(nb[0], nb[1], nb[2])] = 1;
                 stack[top++] = nb;
               }
@@ -159,7 +170,10 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
           }
     });
   };
-  auto clearSegment = [&](size_t c, size_t d) {
+  // The segment between the centres of face neighbours c and d crosses no surface: no ray
+  // when neither cell holds a triangle crossing their axis.
+  auto clearSegment = [&](size_t c, size_t d, int axis) {
+    if (((crossed[c] | crossed[d]) & (1u << axis)) == 0) return true;
     Ray ray;
     ray.origin = centre(c);
     ray.direction = centre(d) - ray.origin;
@@ -168,7 +182,7 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
     return !tracer.occluded(ray);
   };
   // Clear cells: a group holds no surface between its cells.
-  groupBlocks([&](size_t c) { return !crossed[c]; }, [](size_t, size_t) { return true; });
+  groupBlocks([&](size_t c) { return !crossed[c]; }, [](size_t, size_t, int) { return true; });
   // Crossed cells, in rounds: a cell takes the state of the first face neighbour (in side
   // order) known before the round whose centre it reaches along a segment that crosses no
   // surface; those that reach none after kRounds rounds are grouped as the clear cells are.
@@ -191,7 +205,7 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
           continue;
         const size_t d = index(nb[0], nb[1], nb[2]);
         // A neighbour known in an earlier round was tried in it.
-        if (state[d] != 0 && known[d] == round && clearSegment(d, c)) found[i] = state[d];
+        if (state[d] != 0 && known[d] == round && clearSegment(d, c, side / 2)) found[i] = state[d];
       }
     });
     // Applied after the round, so that no cell reads a state set in it (deterministic).
@@ -211,7 +225,7 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
   tbb::parallel_for(size_t(0), cells,
                     [&](size_t c) { free_[c] = state[c] == 1 && inBoxes(centre(c)) ? 1 : 0; });
   // Joins: bit a when the cell and its +a neighbour are free and the segment between their
-  // centres crosses no surface (no ray between two clear cells: their union holds none).
+  // centres crosses no surface.
   join_.assign(cells, 0);
   tbb::parallel_for(size_t(0), cells, [&](size_t c) {
     if (!free_[c]) return;
@@ -223,16 +237,7 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
       ++nb[a];
       const size_t d = index(nb[0], nb[1], nb[2]);
       if (!free_[d]) continue;
-      if (!crossed[c] && !crossed[d]) {
-        join_[c] |= uint8_t(1u << a);
-        continue;
-      }
-      Ray ray;
-      ray.origin = centre(c);
-      ray.direction = centre(d) - ray.origin;
-      ray.tMin = 0;
-      ray.tMax = 1;
-      if (!tracer.occluded(ray)) join_[c] |= uint8_t(1u << a);
+      if (clearSegment(c, d, a)) join_[c] |= uint8_t(1u << a);
     }
   });
 }

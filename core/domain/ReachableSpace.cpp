@@ -103,15 +103,19 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
   auto test = [&](size_t c) {
     if (enclosed[c] == 0) {
       uint64_t rng = streamSeed(s.seed ^ 0x5eedc0de5eedc0deull, c);
+      // Stops once the outcome is settled: more than `limit` open, or too few rays left to
+      // get there.
+      const double limit = s.maxOpenFraction * s.enclosureRays;
       int open = 0;
-      for (int r = 0; r < s.enclosureRays; ++r) {
+      for (int r = 0; r < s.enclosureRays && open <= limit && open + s.enclosureRays - r > limit;
+           ++r) {
         Ray out;
         out.origin = grid.centre(c);
         out.direction = uniformSphere(uniform01(rng), uniform01(rng));
         out.tMin = 0;
         if (!tracer.occluded(out)) ++open;
       }
-      enclosed[c] = open <= s.maxOpenFraction * s.enclosureRays ? 2 : 1;
+      enclosed[c] = open <= limit ? 2 : 1;
     }
     return enclosed[c];
   };
@@ -221,10 +225,14 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
           if (reachable_[grid.index(x, y, z)]) beside[c] = 1;
         }
   });
+  size_t count = 0;
   for (size_t c = 0; c < cells; ++c) {
     reachable_[c] = reachable_[c] || beside[c];
-    if (reachable_[c]) corners_.push_back(grid.centre(c) - Vec3(0.5, 0.5, 0.5) * cell_);
+    count += reachable_[c] ? 1 : 0;
   }
+  corners_.reserve(count);
+  for (size_t c = 0; c < cells; ++c)
+    if (reachable_[c]) corners_.push_back(grid.centre(c) - Vec3(0.5, 0.5, 0.5) * cell_);
   seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
