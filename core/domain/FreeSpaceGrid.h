@@ -35,9 +35,9 @@ class FreeSpaceGrid {
   /// see different shares of back faces, and all take the first one's.
   /// Throws ps::ParameterError("cellMeters") when the grid would exceed `maxCells` cells, or
   /// ps::ParameterError when the domain has no volume. Memory: 2 bytes per cell kept, 3 more
-  /// while building. Cost: a pass over each triangle's cells, 32 validity rays per group, a
-  /// few segment rays per crossed cell and per joined pair with a crossed cell, in parallel;
-  /// deterministic.
+  /// and 9 per crossed cell while building. Cost: a pass over each triangle's cells, 8 validity
+  /// rays per group (32 where those 8 disagree), a segment ray per pair of crossed neighbours whose
+  /// surfaces could block it, in parallel; deterministic.
   FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> domain, double cellMeters,
                 size_t maxCells, uint64_t seed);
 

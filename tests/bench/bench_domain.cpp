@@ -1,7 +1,9 @@
 // The domain on a generated level (scripts/make_level.py): the reachable space and the rooms as
 // place and eval build them by default (ReachableSettings{}, RoomSettings{}), on the full level
 // (200 x 60 m, 4 storeys) and on a 120 x 60 m level of 3 storeys (seed 7). The level is written
-// once into the temporary folder; its scene load and BVH are outside the timing. Figures:
+// once into the temporary folder; its scene load and BVH are outside the timing. The second
+// argument is maxCells of both (16 million by default; 400,000 makes the full level's cells
+// coarser than the rules need, for comparison). Figures:
 // BENCHMARKS.md, "The domain on the full level".
 #include <benchmark/benchmark.h>
 
@@ -55,13 +57,16 @@ void BM_DomainLevel(benchmark::State& state) {
     state.SkipWithError("scripts/make_level.py failed");
     return;
   }
+  ReachableSettings reachSettings;
+  RoomSettings roomSettings;
+  reachSettings.maxCells = roomSettings.maxCells = size_t(state.range(1));
   double reachSeconds = 0, roomSeconds = 0;
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
-    const ReachableSpace reach(*l->tracer, {});
+    const ReachableSpace reach(*l->tracer, {}, reachSettings);
     reachSeconds = secondsSince(start);
     const auto roomStart = std::chrono::steady_clock::now();
-    const RoomMap rooms(*l->tracer, {});
+    const RoomMap rooms(*l->tracer, {}, roomSettings);
     roomSeconds = secondsSince(roomStart);
     benchmark::DoNotOptimize(rooms.roomCount());
     state.counters["reach_s"] = reachSeconds;
@@ -76,9 +81,10 @@ void BM_DomainLevel(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_DomainLevel)
-    ->ArgName("level")
-    ->Arg(0)
-    ->Arg(1)
+    ->ArgNames({"level", "maxCells"})
+    ->Args({0, 16000000})
+    ->Args({1, 16000000})
+    ->Args({0, 400000})
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
