@@ -69,8 +69,9 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
   const size_t cells = cellsAt(box_, cell_);
   if (cells > maxCells)
     throw ParameterError("cellMeters", "a " + std::to_string(cell_) + " m cell makes " +
-                                           std::to_string(cells) + " cells, above " +
-                                           std::to_string(maxCells));
+                                           std::to_string(cells) + " cells, above maxCells " +
+                                           std::to_string(maxCells) +
+                                           ": give a larger edge, or 0 for the automatic one");
   for (int a = 0; a < kAxes; ++a) n_[a] = std::max(1, int(std::ceil(ext[a] / cell_)));
 
   // Crossed cells: those a triangle's plane passes through within the triangle's bounds (a

@@ -19,7 +19,7 @@ namespace {
 constexpr double kMinAutoCellMeters = 0.25;
 /// Edge of the blocks the enclosure test is sampled over, in cells (a power of two).
 constexpr int kEnclosureBlock = 8;
-/// Band cells among a block's eight corners that must agree for the block to take their outcome.
+/// Free cells among a block's eight corners that must agree for the block to take their outcome.
 constexpr int kEnclosureSamples = 4;
 
 }  // namespace
@@ -95,19 +95,23 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
     }
   });
   // Enclosed band cells: at most maxOpenFraction of enclosureRays uniform directions escape the
-  // scene. The test varies slowly away from openings, so it is sampled: a block whose corner
-  // cells include at least kEnclosureSamples band cells, all agreeing, gives its band cells
-  // their outcome; any other block is split in eight, down to blocks of 2^3 cells, whose band
-  // cells are each tested.
-  std::vector<char> enclosed(cells, 0);  // 0: untested, 1: open, 2: enclosed
-  auto test = [&](size_t c) {
+  // scene. The share escaping varies slowly away from openings, so it is sampled: a block
+  // whose corners include at least kEnclosureSamples free cells (in the band or not), all
+  // clearly on one side (at most half the limit escaping, or more than halfway from it to all
+  // of the rays), gives its band cells that outcome; any other block is split in eight, down
+  // to blocks of 2^3 cells, whose band cells are each tested. Near the limit the outcome is
+  // noise and is not spread.
+  // Per free cell: 0 untested, 1 clearly open, 2 open, 3 enclosed, 4 clearly enclosed.
+  std::vector<char> enclosed(cells, 0);
+  const double limit = s.maxOpenFraction * s.enclosureRays;
+  auto test = [&](size_t c, bool corner) {
     if (enclosed[c] == 0) {
       uint64_t rng = streamSeed(s.seed ^ 0x5eedc0de5eedc0deull, c);
-      // Stops once the outcome is settled: more than `limit` open, or too few rays left to
-      // get there.
-      const double limit = s.maxOpenFraction * s.enclosureRays;
+      // A corner counts every ray; any other cell stops once its outcome is settled (more
+      // than `limit` open, or too few rays left to get there).
       int open = 0;
-      for (int r = 0; r < s.enclosureRays && open <= limit && open + s.enclosureRays - r > limit;
+      for (int r = 0;
+           r < s.enclosureRays && (corner || (open <= limit && open + s.enclosureRays - r > limit));
            ++r) {
         Ray out;
         out.origin = grid.centre(c);
@@ -115,7 +119,10 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
         out.tMin = 0;
         if (!tracer.occluded(out)) ++open;
       }
-      enclosed[c] = open <= limit ? 2 : 1;
+      if (open <= limit)
+        enclosed[c] = corner && open <= 0.5 * limit ? 4 : 3;
+      else
+        enclosed[c] = corner && open >= 0.5 * (limit + s.enclosureRays) ? 1 : 2;
     }
     return enclosed[c];
   };
@@ -129,9 +136,10 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
       for (int k = 0; k < 8 && agree; ++k) {
         const size_t c = grid.index(k & 1 ? hi[0] - 1 : lo[0], k & 2 ? hi[1] - 1 : lo[1],
                                     k & 4 ? hi[2] - 1 : lo[2]);
-        if (!band[c]) continue;
-        agree = outcome == 0 || test(c) == outcome;
-        outcome = test(c);
+        if (!grid.isFree(c)) continue;
+        const char got = test(c, true);
+        agree = (got == 1 || got == 4) && (outcome == 0 || got == outcome);
+        outcome = got;
         ++samples;
       }
       if (agree && samples >= kEnclosureSamples) {
@@ -154,7 +162,7 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
     for (int z = lo[2]; z < hi[2]; ++z)
       for (int y = lo[1]; y < hi[1]; ++y)
         for (int x = lo[0]; x < hi[0]; ++x)
-          if (band[grid.index(x, y, z)]) test(grid.index(x, y, z));
+          if (band[grid.index(x, y, z)]) test(grid.index(x, y, z), false);
   };
   int blocks[3];
   for (int a = 0; a < 3; ++a) blocks[a] = (n_[a] + kEnclosureBlock - 1) / kEnclosureBlock;
@@ -165,7 +173,7 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
                            int(b / (size_t(blocks[0]) * size_t(blocks[1]))) * kEnclosureBlock};
         sample(sample, lo, kEnclosureBlock);
       });
-  for (char& e : enclosed) e = e == 2 ? 1 : 0;
+  for (size_t c = 0; c < cells; ++c) enclosed[c] = band[c] && enclosed[c] >= 3 ? 1 : 0;
   for (size_t c = 0; c < cells; ++c) {
     freeVolume_ += grid.isFree(c) ? cellVolume : 0;
     bandVolume_ += band[c] ? cellVolume : 0;
