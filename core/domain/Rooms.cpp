@@ -99,31 +99,31 @@ RoomMap::RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const Ro
   const double cellVolume = cell_ * cell_ * cell_;
   std::vector<std::vector<int32_t>> coreOf(size_t(levels) + 1);    // per level, per cell; -1
   std::vector<std::vector<size_t>> coreFirst(size_t(levels) + 1);  // per level, per core
-  {
-    std::vector<char> seen(cells, 0);
+  // Each level on its own (in parallel): label -2 marks a cell taken into the component being
+  // grown, -3 one of a component too small to be a core.
+  tbb::parallel_for(0, levels + 1, [&](int k) {
+    std::vector<int32_t>& label = coreOf[size_t(k)];
+    label.assign(cells, -1);
     std::vector<size_t> members;
-    for (int k = 0; k <= levels; ++k) {
-      std::vector<int32_t>& label = coreOf[size_t(k)];
-      label.assign(cells, -1);
-      std::fill(seen.begin(), seen.end(), 0);
-      auto inCore = [&](size_t c) { return freeCell(c) && (k == 0 || clearance[c] > float(k)); };
-      for (size_t c = 0; c < cells; ++c) {
-        if (!inCore(c) || seen[c]) continue;
-        members.assign(1, c);
-        seen[c] = 1;
-        for (size_t m = 0; m < members.size(); ++m)
-          forJoined(members[m], [&](size_t d) {
-            if (inCore(d) && !seen[d]) {
-              seen[d] = 1;
-              members.push_back(d);
-            }
-          });
-        if (double(members.size()) * cellVolume < s.minRoomCubicMeters) continue;
-        for (size_t m : members) label[m] = int32_t(coreFirst[size_t(k)].size());
-        coreFirst[size_t(k)].push_back(c);
-      }
+    auto inCore = [&](size_t c) { return freeCell(c) && (k == 0 || clearance[c] > float(k)); };
+    for (size_t c = 0; c < cells; ++c) {
+      if (!inCore(c) || label[c] != -1) continue;
+      members.assign(1, c);
+      label[c] = -2;
+      for (size_t m = 0; m < members.size(); ++m)
+        forJoined(members[m], [&](size_t d) {
+          if (label[d] == -1 && inCore(d)) {
+            label[d] = -2;
+            members.push_back(d);
+          }
+        });
+      const bool core = double(members.size()) * cellVolume >= s.minRoomCubicMeters;
+      for (size_t m : members) label[m] = core ? int32_t(coreFirst[size_t(k)].size()) : -3;
+      if (core) coreFirst[size_t(k)].push_back(c);
     }
-  }
+    for (int32_t& l : label)
+      if (l == -3) l = -1;
+  });
   // The rooms: a core that splits into two or more cores at a deeper level gives those
   // cores' rooms; one that does not (it shrinks as one, or vanishes) is a room itself.
   std::vector<std::vector<std::vector<int32_t>>> kids(size_t(levels) + 1);
