@@ -27,8 +27,9 @@ struct RoomSettings {
   /// Grid cell edge in metres; 0: doorwayMeters / 4, or when that makes more than maxCells
   /// cells the finest edge that does not (with a note(): doorways may not close).
   double cellMeters = 0;
-  /// Most cells of the grid: its memory, about 11 + 4 (levels + 1) bytes per cell while
-  /// building (levels: doorwayMeters / 2 in cells), 6 kept.
+  /// Most cells of the grid: its memory, about 16 + 4 (levels + 1) bytes per cell while
+  /// building (levels: doorwayMeters / 2 in cells) and 8 per cell of each level's largest
+  /// connected free space; 4 kept (each cell's room).
   size_t maxCells = 16000000;
   uint64_t seed = 1;  ///< of the validity rays (DomainPoints::valid)
 };
