@@ -21,6 +21,9 @@ constexpr double kMinAutoCellMeters = 0.25;
 constexpr int kEnclosureBlock = 8;
 /// Free cells among a block's eight corners that must agree for the block to take their outcome.
 constexpr int kEnclosureSamples = 4;
+/// Grids of at most this many cells test the enclosure of every band cell (under a second on 2
+/// cores); larger ones sample it over blocks.
+constexpr size_t kEnclosureSampledAbove = 1000000;
 
 }  // namespace
 
@@ -95,12 +98,13 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
     }
   });
   // Enclosed band cells: at most maxOpenFraction of enclosureRays uniform directions escape the
-  // scene. The share escaping varies slowly away from openings, so it is sampled: a block
-  // whose corners include at least kEnclosureSamples free cells (in the band or not), all
-  // clearly on one side (at most half the limit escaping, or more than halfway from it to all
-  // of the rays), gives its band cells that outcome; any other block is split in eight, down
-  // to blocks of 2^3 cells, whose band cells are each tested. Near the limit the outcome is
-  // noise and is not spread.
+  // scene. The share escaping varies slowly away from openings, so on a grid of more than
+  // kEnclosureSampledAbove cells it is sampled: a block whose corners include at least
+  // kEnclosureSamples free cells (in the band or not), all clearly on one side (at most half
+  // the limit escaping, or more than halfway from it to all of the rays), gives its band cells
+  // that outcome; any other block is split in eight, down to blocks of 2^3 cells, whose band
+  // cells are each tested. Near the limit the outcome is noise and is not spread; an opening
+  // narrower than a block between corners that all lie clearly inside may be missed.
   // Per free cell: 0 untested, 1 clearly open, 2 open, 3 enclosed, 4 clearly enclosed.
   std::vector<char> enclosed(cells, 0);
   const double limit = s.maxOpenFraction * s.enclosureRays;
@@ -164,15 +168,16 @@ ReachableSpace::ReachableSpace(const Tracer& tracer, std::span<const Bounds3> do
         for (int x = lo[0]; x < hi[0]; ++x)
           if (band[grid.index(x, y, z)]) test(grid.index(x, y, z), false);
   };
+  const int top = cells > kEnclosureSampledAbove ? kEnclosureBlock : 2;
   int blocks[3];
-  for (int a = 0; a < 3; ++a) blocks[a] = (n_[a] + kEnclosureBlock - 1) / kEnclosureBlock;
-  tbb::parallel_for(
-      size_t(0), size_t(blocks[0]) * size_t(blocks[1]) * size_t(blocks[2]), [&](size_t b) {
-        const int lo[3] = {int(b % size_t(blocks[0])) * kEnclosureBlock,
-                           int((b / size_t(blocks[0])) % size_t(blocks[1])) * kEnclosureBlock,
-                           int(b / (size_t(blocks[0]) * size_t(blocks[1]))) * kEnclosureBlock};
-        sample(sample, lo, kEnclosureBlock);
-      });
+  for (int a = 0; a < 3; ++a) blocks[a] = (n_[a] + top - 1) / top;
+  tbb::parallel_for(size_t(0), size_t(blocks[0]) * size_t(blocks[1]) * size_t(blocks[2]),
+                    [&](size_t b) {
+                      const int lo[3] = {int(b % size_t(blocks[0])) * top,
+                                         int((b / size_t(blocks[0])) % size_t(blocks[1])) * top,
+                                         int(b / (size_t(blocks[0]) * size_t(blocks[1]))) * top};
+                      sample(sample, lo, top);
+                    });
   for (size_t c = 0; c < cells; ++c) enclosed[c] = band[c] && enclosed[c] >= 3 ? 1 : 0;
   for (size_t c = 0; c < cells; ++c) {
     freeVolume_ += grid.isFree(c) ? cellVolume : 0;

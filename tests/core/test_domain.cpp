@@ -188,10 +188,10 @@ TEST(ReachableSpace, ADomainTooLargeForTheRulesCellGetsACoarserOneAndKeepsItsSpa
   }
 }
 
-TEST(ReachableSpace, SampledEnclosureKeepsWhatTestingEveryCellKeeps) {
+TEST(ReachableSpace, EnclosureNearItsLimitIsEachCellsOwnOutcome) {
   // Inside Cornell's open-fronted box about a quarter of the rays escape, the enclosure test's
-  // limit: there its outcome is noise, and sampling must not spread it. Each cell tested on its
-  // own keeps 64.5 m^3 of it (and 214.5 m^3 of two-rooms, which has no opening).
+  // limit: there its outcome is noise, and must not be spread over neighbours. Each cell tested
+  // on its own keeps 64.5 m^3 of it (and 214.5 m^3 of two-rooms, which has no opening).
   for (const auto& [name, kept] : {std::pair{"cornell.gltf", 64.5}, {"two-rooms.gltf", 214.5}}) {
     const Scene scene = loadScene(kScenes / name);
     const Tracer tracer(scene);
