@@ -294,6 +294,7 @@ void registerEval(CLI::App& app) {
     // Rooms, told apart without volumes drawn by hand; one room is no split, and says nothing
     // the whole does not.
     const RoomMap rooms(tracer, domain);
+    if (!rooms.note().empty()) std::fprintf(stderr, "note: %s\n", rooms.note().c_str());
     if (rooms.roomCount() > 1) {
       std::vector<int> labels;
       for (const EvalQuery& q : r.perQuery) labels.push_back(rooms.roomOf(q.point));

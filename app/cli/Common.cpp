@@ -128,8 +128,9 @@ void DomainOptions::add(CLI::App& cmd) {
   cmd.add_option("--domain-slope", reachable.maxSlopeDeg,
                  "reachable: steepest walkable surface, degrees from level (default 45)");
   cmd.add_option("--domain-cell", reachable.cellMeters,
-                 "reachable: grid cell edge, metres (default 0: at least 0.25 m, about 400000 "
-                 "cells)");
+                 "reachable: grid cell edge, metres (default 0: 0.25 m, coarser with a note "
+                 "where that makes more than 16 million cells; an edge given that makes more "
+                 "is refused)");
 }
 
 DomainSettings DomainOptions::build() const {

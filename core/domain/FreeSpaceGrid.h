@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "core/math/Vec3.h"
@@ -19,18 +20,48 @@ class FreeSpaceGrid {
   static constexpr int kAxes = 3;
 
   /// Cells of edge `cellMeters` (> 0) over domainBounds(tracer, domain), cell-centred from its
-  /// low corner (the last cell along an axis may overhang it). Free cells: the centre valid as
-  /// DomainPoints::valid tests it without lights (32 validity rays seeded by streamSeed(seed,
-  /// cell)). Throws ps::ParameterError("cellMeters") when the grid would exceed `maxCells`
-  /// cells, or ps::ParameterError when the domain has no volume. Cost: 32 validity rays per
-  /// cell and 3 segment rays per free cell, in parallel; deterministic.
+  /// low corner (the last cell along an axis may overhang it). Free cells: the centre inside the
+  /// domain's boxes and outside geometry, as DomainPoints::valid tests it without lights (32
+  /// validity rays seeded by streamSeed(seed, cell)), tested once per group of cells that hold
+  /// no surface between them:
+  ///  - a cell no triangle's plane crosses within the triangle's bounds is clear; the clear
+  ///    cells of a block of kBlock^3 cells joined through faces form a group;
+  ///  - a crossed cell takes the outcome of a face neighbour whose centre it reaches along a
+  ///    segment that crosses no surface (in rounds, from the clear cells outwards);
+  ///  - crossed cells left (inside solids thicker than a cell) are grouped within their block
+  ///    as the clear cells are, through such segments.
+  /// Each group takes the outcome of its first cell in grid order. On closed geometry that is
+  /// each cell's own outcome; on open geometry (a sheet, a mesh with holes) a group's cells may
+  /// see different shares of back faces, and all take the first one's.
+  /// Throws ps::ParameterError("cellMeters") when the grid would exceed `maxCells` cells, or
+  /// ps::ParameterError when the domain has no volume. Memory: 2 bytes per cell kept, 3 more
+  /// and 9 per crossed cell while building. Cost: a pass over each triangle's cells, 8 validity
+  /// rays per group (32 where those 8 disagree), a segment ray per pair of crossed neighbours whose
+  /// surfaces could block it, in parallel; deterministic.
   FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> domain, double cellMeters,
                 size_t maxCells, uint64_t seed);
 
-  /// The edge for `preferredMeters` (0: automatic) that keeps about `maxCells` cells over the
-  /// domain's bounding box: the largest of `minimumMeters` and that edge when automatic.
-  static double autoCellMeters(const Tracer& tracer, std::span<const Bounds3> domain,
-                               double preferredMeters, double minimumMeters, size_t maxCells);
+  /// Edge of a block, in cells, whose clear cells share one validity test.
+  static constexpr int kBlock = 8;
+
+  /// Cells of edge `meters` over the box `box`, counted as the grid lays them (each axis
+  /// ceil(extent / meters), at least 1).
+  static size_t cellsAt(const Bounds3& box, double meters);
+
+  /// The edge a grid over the domain is built with, and why it is coarser than the rule asks
+  /// when it is.
+  struct CellChoice {
+    double meters = 0;
+    /// Empty, or one line: the automatic edge is above `ruleMeters` because that edge would
+    /// make more than maxCells cells (figures included); the caller adds what it costs.
+    std::string note;
+  };
+  /// `preferredMeters` when above 0 (the constructor refuses it if it makes too many cells);
+  /// else `ruleMeters` when its grid holds at most `maxCells` cells, else the finest edge
+  /// whose grid (counted after the per-axis ceil) holds at most `maxCells`, with a note.
+  /// Never throws for an automatic edge.
+  static CellChoice chooseCell(const Tracer& tracer, std::span<const Bounds3> domain,
+                               double preferredMeters, double ruleMeters, size_t maxCells);
 
   size_t cellCount() const { return free_.size(); }
   double cellMeters() const { return cell_; }

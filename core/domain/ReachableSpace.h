@@ -25,9 +25,12 @@ struct ReachableSettings {
   double bandMeters = 3.0;
   /// Steepest walkable surface, degrees from level (a ramp or stair flight is at most 35 to 40).
   double maxSlopeDeg = 45;
-  /// Cell edge, metres; 0: the largest of 0.25 m and the edge giving about maxCells cells.
+  /// Cell edge, metres; 0: 0.25 m (a quarter of a doorway), or when that makes more than
+  /// maxCells cells the finest edge that does not (with a note(): coarser than the rule needs).
   double cellMeters = 0;
-  size_t maxCells = 400000;
+  /// Most cells of the grid: its memory, about 10 bytes per cell and 24 per reachable cell
+  /// (the full generated level, 200 x 60 x 14.3 m, is 11.1 million cells at 0.25 m).
+  size_t maxCells = 16000000;
   /// Rays per band cell of the enclosure test; a cell is enclosed when at most
   /// maxOpenFraction of them escape the scene (hit nothing).
   int enclosureRays = 32;
@@ -74,6 +77,9 @@ class ReachableSpace {
   double seconds() const { return seconds_; }  ///< wall time of the construction
   /// One line: the rule's outcome ("reachable domain: 107.2 of 316.4 m^3 free (interior; ...").
   std::string summary() const;
+  /// Empty, or one line when the automatic cell is coarser than 0.25 m because the domain would
+  /// need more than maxCells cells: the figures, and what the coarser cell may cost.
+  const std::string& note() const { return note_; }
 
  private:
   Bounds3 box_;
@@ -84,6 +90,7 @@ class ReachableSpace {
       kept_;  ///< per grid cell: the rule's free cells (reachable_ less those against walls)
   std::vector<Vec3> corners_;
   bool interior_ = false;
+  std::string note_;
   double freeVolume_ = 0, bandVolume_ = 0, enclosedVolume_ = 0, keptVolume_ = 0, seconds_ = 0;
 };
 

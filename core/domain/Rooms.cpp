@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 
 #include "core/common/Error.h"
@@ -33,10 +34,17 @@ RoomMap::RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const Ro
   if (s.maxCells < 1000)
     throw ParameterError("maxCells",
                          "expected at least 1000 cells, got " + std::to_string(s.maxCells));
-  const FreeSpaceGrid grid(
-      tracer, domain,
-      FreeSpaceGrid::autoCellMeters(tracer, domain, s.cellMeters, s.doorwayMeters / 4, s.maxCells),
-      4 * s.maxCells, s.seed);
+  const FreeSpaceGrid::CellChoice choice =
+      FreeSpaceGrid::chooseCell(tracer, domain, s.cellMeters, s.doorwayMeters / 4, s.maxCells);
+  if (!choice.note.empty()) {
+    char cost[160];
+    std::snprintf(cost, sizeof cost,
+                  "; a %.2f m doorway spans %.1f cells, under 4: openings that narrow may not "
+                  "close, and rooms they join are counted as one",
+                  s.doorwayMeters, s.doorwayMeters / choice.meters);
+    note_ = "rooms: " + choice.note + cost;
+  }
+  const FreeSpaceGrid grid(tracer, domain, choice.meters, s.maxCells, s.seed);
   box_ = grid.box();
   cell_ = grid.cellMeters();
   for (int a = 0; a < kAxes; ++a) n_[a] = grid.size(a);
@@ -89,36 +97,40 @@ RoomMap::RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const Ro
   // erode until rooms separate; here the levels stop at half of doorwayMeters, so that only
   // openings narrower than it separate rooms).
   const double cellVolume = cell_ * cell_ * cell_;
-  std::vector<std::vector<int32_t>> coreOf(size_t(levels) + 1);  // per level, per cell; -1
-  std::vector<std::vector<std::vector<size_t>>> cores(size_t(levels) + 1);
-  for (int k = 0; k <= levels; ++k) {
+  std::vector<std::vector<int32_t>> coreOf(size_t(levels) + 1);    // per level, per cell; -1
+  std::vector<std::vector<size_t>> coreFirst(size_t(levels) + 1);  // per level, per core
+  // Each level on its own (in parallel): label -2 marks a cell taken into the component being
+  // grown, -3 one of a component too small to be a core.
+  tbb::parallel_for(0, levels + 1, [&](int k) {
     std::vector<int32_t>& label = coreOf[size_t(k)];
     label.assign(cells, -1);
+    std::vector<size_t> members;
     auto inCore = [&](size_t c) { return freeCell(c) && (k == 0 || clearance[c] > float(k)); };
-    std::vector<char> seen(cells, 0);
     for (size_t c = 0; c < cells; ++c) {
-      if (!inCore(c) || seen[c]) continue;
-      std::vector<size_t> members = {c};
-      seen[c] = 1;
+      if (!inCore(c) || label[c] != -1) continue;
+      members.assign(1, c);
+      label[c] = -2;
       for (size_t m = 0; m < members.size(); ++m)
         forJoined(members[m], [&](size_t d) {
-          if (inCore(d) && !seen[d]) {
-            seen[d] = 1;
+          if (label[d] == -1 && inCore(d)) {
+            label[d] = -2;
             members.push_back(d);
           }
         });
-      if (double(members.size()) * cellVolume < s.minRoomCubicMeters) continue;
-      for (size_t m : members) label[m] = int32_t(cores[size_t(k)].size());
-      cores[size_t(k)].push_back(std::move(members));
+      const bool core = double(members.size()) * cellVolume >= s.minRoomCubicMeters;
+      for (size_t m : members) label[m] = core ? int32_t(coreFirst[size_t(k)].size()) : -3;
+      if (core) coreFirst[size_t(k)].push_back(c);
     }
-  }
+    for (int32_t& l : label)
+      if (l == -3) l = -1;
+  });
   // The rooms: a core that splits into two or more cores at a deeper level gives those
   // cores' rooms; one that does not (it shrinks as one, or vanishes) is a room itself.
   std::vector<std::vector<std::vector<int32_t>>> kids(size_t(levels) + 1);
   for (int k = 0; k < levels; ++k) {
-    kids[size_t(k)].resize(cores[size_t(k)].size());
-    for (size_t q = 0; q < cores[size_t(k) + 1].size(); ++q) {
-      const int32_t parent = coreOf[size_t(k)][cores[size_t(k) + 1][q].front()];
+    kids[size_t(k)].resize(coreFirst[size_t(k)].size());
+    for (size_t q = 0; q < coreFirst[size_t(k) + 1].size(); ++q) {
+      const int32_t parent = coreOf[size_t(k)][coreFirst[size_t(k) + 1][q]];
       kids[size_t(k)][size_t(parent)].push_back(int32_t(q));
     }
   }
@@ -135,21 +147,29 @@ RoomMap::RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const Ro
     if (out.size() < 2) return {{k, q}};
     return out;
   };
-  for (size_t q = 0; q < cores[0].size(); ++q) {
+  for (size_t q = 0; q < coreFirst[0].size(); ++q) {
     auto found = roomsOf(roomsOf, 0, int32_t(q));
     seeds.insert(seeds.end(), found.begin(), found.end());
   }
-  // Every free cell joins the room whose seed reaches it first (a breadth-first search from
-  // all seeds at once, in seed order: deterministic).
+  // Every free cell joins the room whose seed reaches it first: a breadth-first search from
+  // all seeds' cells at once, in grid order (deterministic). A cell lies in at most one seed's
+  // core (seeds are neither ancestors nor descendants of each other).
+  std::vector<std::vector<int32_t>> roomOfCore(size_t(levels) + 1);
+  for (int k = 0; k <= levels; ++k) roomOfCore[size_t(k)].assign(coreFirst[size_t(k)].size(), -1);
+  for (const auto& [k, q] : seeds) roomOfCore[size_t(k)][size_t(q)] = rooms_++;
   room_.assign(cells, -1);
   std::deque<size_t> frontier;
-  for (const auto& [k, q] : seeds) {
-    for (size_t c : cores[size_t(k)][size_t(q)]) {
-      room_[c] = rooms_;
-      frontier.push_back(c);
+  for (size_t c = 0; c < cells; ++c)
+    for (int k = 0; k <= levels; ++k) {
+      const int32_t q = coreOf[size_t(k)][c];
+      if (q >= 0 && roomOfCore[size_t(k)][size_t(q)] >= 0) {
+        room_[c] = roomOfCore[size_t(k)][size_t(q)];
+        frontier.push_back(c);
+        break;
+      }
     }
-    ++rooms_;
-  }
+  coreOf.clear();
+  coreOf.shrink_to_fit();
   while (!frontier.empty()) {
     const size_t c = frontier.front();
     frontier.pop_front();

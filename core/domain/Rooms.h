@@ -24,10 +24,13 @@ struct RoomSettings {
   double doorwayMeters = 1.2;
   /// A core smaller than this is no room (the space under a table, a niche), cubic metres.
   double minRoomCubicMeters = 2.0;
-  /// Grid cell edge in metres; 0: the largest of doorwayMeters / 4 and the edge giving about
-  /// maxCells cells over the domain's bounding box.
+  /// Grid cell edge in metres; 0: doorwayMeters / 4, or when that makes more than maxCells
+  /// cells the finest edge that does not (with a note(): doorways may not close).
   double cellMeters = 0;
-  size_t maxCells = 400000;
+  /// Most cells of the grid: its memory, about 16 + 4 (levels + 1) bytes per cell while
+  /// building (levels: doorwayMeters / 2 in cells) and 8 per cell of each level's largest
+  /// connected free space; 4 kept (each cell's room).
+  size_t maxCells = 16000000;
   uint64_t seed = 1;  ///< of the validity rays (DomainPoints::valid)
 };
 
@@ -36,8 +39,9 @@ class RoomMap {
  public:
   /// Segments the boxes' union (the scene bounds when there are none). Cells whose centre is
   /// inside geometry (DomainPoints::valid) or outside the boxes belong to no room. Throws
-  /// ps::ParameterError for settings out of range. Cost: about 32 validity rays per cell and
-  /// 3 segment rays per free cell, in parallel.
+  /// ps::ParameterError for settings out of range (an automatic cell never makes too many
+  /// cells). Cost: FreeSpaceGrid's rays, then per free cell a search of the ball of
+  /// doorwayMeters / 2 for the nearest wall, and a connected-component pass per level.
   RoomMap(const Tracer& tracer, std::span<const Bounds3> domain, const RoomSettings& settings = {});
 
   /// The room of the cell holding p (0 to roomCount() - 1), or -1 (outside the grid, in
@@ -49,6 +53,9 @@ class RoomMap {
   /// "room 1", "room 2", ... in room order.
   std::vector<std::string> roomNames() const;
   double cellMeters() const { return cell_; }
+  /// Empty, or one line when the automatic cell is coarser than doorwayMeters / 4 because the
+  /// domain would need more than maxCells cells: the figures, and what it may cost.
+  const std::string& note() const { return note_; }
 
  private:
   Bounds3 box_;
@@ -57,6 +64,7 @@ class RoomMap {
   std::vector<int32_t> room_;  ///< per cell; -1: none
   int rooms_ = 0;
   std::vector<double> volumes_;
+  std::string note_;
 };
 
 }  // namespace ps

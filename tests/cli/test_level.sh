@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The generated level (scripts/make_level.py): the same parameters give the same bytes; every box
 # is closed, outward-facing and apart from the others; the small level loads, places (greedy),
-# bakes and evaluates end to end; bad parameters, a scene with no room for a
-# probe and a budget the dense field cannot hold each say so clearly.
+# bakes and evaluates end to end on the default (reachable) domain at its rule's cell; bad
+# parameters, a scene with no room for a probe and a budget the dense field cannot hold each say
+# so clearly.
 # Usage: test_level.sh PROBESTUDIO REPO_ROOT
 set -euo pipefail
 cli="$1"; root="$2"
@@ -128,11 +129,15 @@ PY
 # speed is measured in benchmarks, not here).
 start=$SECONDS
 "$cli" place "$tmp/a.glb" --method greedy --budget 16 --field-depth 1 --field-spp 32 \
-  --probe-spp 32 --held-out 32 --accept "${sky[@]}" -o "$tmp/set.json"
+  --probe-spp 32 --held-out 32 --accept "${sky[@]}" -o "$tmp/set.json" | tee "$tmp/place.out"
 "$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128 --leak-refine --no-leak-cuts
 "$cli" eval "$tmp/v.psv" --queries 128 --reference-spp 256 --json >"$tmp/eval.json"
 took=$((SECONDS - start))
 echo "small level: place, bake and eval in $took s"
+# The default domain (no --domain): the reachable space at the rule's 0.25 m cell, no note.
+grep -Eq "^reachable domain: .*\(interior; .*\), 0\.25 m cells, " "$tmp/place.out" ||
+  { echo "FAIL: place's default domain is not the reachable space at 0.25 m"; exit 1; }
+if grep -q "coarser than" "$tmp/place.out"; then echo "FAIL: a coarser cell on the small level"; exit 1; fi
 python3 - "$tmp" <<'PY'
 import json, math, sys
 tmp = sys.argv[1]

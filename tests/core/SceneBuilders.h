@@ -71,4 +71,22 @@ inline Scene floorScene(Rgb albedo = {0, 0, 0}) {
   return s;
 }
 
+/// Two rooms of 5.95 x 3 x 6 m (x in [0, 5.95] and [6.05, 12], y in [0, 3], z in [0, 6])
+/// joined by a 1 m wide, 2.1 m high doorway (z in [2.5, 3.5]) in the 0.1 m wall between them;
+/// 0.2 m solid walls, floor and roof around them, every box closed and facing out.
+inline Scene twoRoomsWithADoor() {
+  Scene s;
+  const uint32_t m = addMaterial(s, {0.6, 0.6, 0.6});
+  addBox(s, {-0.2, -0.2, -0.2}, {12.2, 0, 6.2}, m, false);  // floor
+  addBox(s, {-0.2, 3, -0.2}, {12.2, 3.2, 6.2}, m, false);   // roof
+  addBox(s, {-0.2, 0, -0.2}, {0, 3, 6.2}, m, false);        // outer walls
+  addBox(s, {12, 0, -0.2}, {12.2, 3, 6.2}, m, false);
+  addBox(s, {0, 0, -0.2}, {12, 3, 0}, m, false);
+  addBox(s, {0, 0, 6}, {12, 3, 6.2}, m, false);
+  addBox(s, {5.95, 0, 0}, {6.05, 3, 2.5}, m, false);  // the wall between, its doorway
+  addBox(s, {5.95, 0, 3.5}, {6.05, 3, 6}, m, false);
+  addBox(s, {5.95, 2.1, 2.5}, {6.05, 3, 3.5}, m, false);
+  return s;
+}
+
 }  // namespace ps::testing

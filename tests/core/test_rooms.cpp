@@ -5,13 +5,16 @@
 #include <filesystem>
 #include <string>
 
+#include "SceneBuilders.h"
 #include "core/common/Error.h"
+#include "core/domain/FreeSpaceGrid.h"
 #include "core/domain/Rooms.h"
 #include "core/scene/Scene.h"
 #include "core/trace/Tracer.h"
 
 namespace fs = std::filesystem;
 using namespace ps;
+using namespace ps::testing;
 
 namespace {
 
@@ -60,6 +63,42 @@ TEST(Rooms, WiderOpeningsThanTheDoorwayJoinRooms) {
   s.doorwayMeters = 0.6;
   s.cellMeters = 0.15;
   EXPECT_EQ(RoomMap(tracer, {}, s).roomCount(), 1);
+}
+
+TEST(Rooms, ADomainTooLargeForTheRulesCellGetsACoarserOneAndStillFindsTheRooms) {
+  // twoRoomsWithADoor's bounds, 12.4 x 3.4 x 6.4 m, make 11088 cells of the rule's 0.3 m
+  // (doorway 1.2 m / 4): at most 3000 cells the automatic cell is coarser, not refused, and
+  // the 1 m doorway still parts the two rooms, each of its volume within half a cell over its
+  // walls, floor and ceiling.
+  const Scene scene = twoRoomsWithADoor();
+  const Tracer tracer(scene);
+  const RoomMap fine(tracer, {});
+  EXPECT_NEAR(fine.cellMeters(), 0.3, 1e-12);
+  EXPECT_TRUE(fine.note().empty()) << fine.note();
+  ASSERT_EQ(fine.roomCount(), 2);
+  RoomSettings s;
+  s.maxCells = 3000;
+  const RoomMap coarse(tracer, {}, s);
+  EXPECT_GT(coarse.cellMeters(), 0.3);
+  EXPECT_LE(FreeSpaceGrid::cellsAt(scene.bounds, coarse.cellMeters()), 3000u);
+  EXPECT_NE(coarse.note().find("coarser than the 0.300 m"), std::string::npos) << coarse.note();
+  EXPECT_NE(coarse.note().find("above maxCells 3000"), std::string::npos) << coarse.note();
+  ASSERT_EQ(coarse.roomCount(), 2) << coarse.note();
+  const double room = 5.95 * 3 * 6, surface = 2 * (5.95 * 3 + 5.95 * 6 + 3 * 6);
+  for (int r = 0; r < 2; ++r) {
+    EXPECT_NEAR(fine.roomVolumes()[size_t(r)], room, surface * fine.cellMeters() / 2);
+    EXPECT_NEAR(coarse.roomVolumes()[size_t(r)], room, surface * coarse.cellMeters() / 2);
+  }
+  EXPECT_NE(coarse.roomOf({3, 1.5, 3}), coarse.roomOf({9, 1.5, 3}));
+  EXPECT_EQ(coarse.roomOf({1, 1, 1}), coarse.roomOf({5, 2, 5}));
+  // An edge given that makes more cells is refused, naming it.
+  s.cellMeters = 0.3;
+  try {
+    RoomMap(tracer, {}, s);
+    FAIL() << "no throw";
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.parameter(), "cellMeters");
+  }
 }
 
 TEST(Rooms, RejectsBadSettingsNamingThem) {
