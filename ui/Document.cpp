@@ -20,7 +20,6 @@
 #include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
 #include "core/placement/Place.h"
-#include "core/placement/Uniform.h"
 #include "core/scene/SceneUnits.h"
 #include "core/trace/Tracer.h"
 #include "ui/LightingField.h"
@@ -159,7 +158,13 @@ void Document::openScene(const QString& path, double metresPerUnit) {
   replace(loaded.scene, loaded.tracer, std::move(set), path, QString());
   sceneHash_ = loaded.hash;
   unitHint_ = unitHintOf(path, *loaded.scene, metresPerUnit);
-  if (autoPropose_) proposeCandidates();
+  if (!autoPropose_) return;
+  try {
+    proposeCandidates();
+  } catch (const Error& e) {
+    // The scene is open: a proposal that cannot start is reported as a failed job.
+    emit jobFinished(QString::fromStdString(e.what()));
+  }
 }
 
 void Document::openProbeSet(const QString& path, bool keepScene) {
@@ -763,51 +768,17 @@ void captureQuickly(const Tracer& tracer, const LightingRig& rig, std::vector<Pr
 }
 }  // namespace
 
-void Document::proposeCandidates() {
-  if (!tracer_ || busy_) return;
-  const ProposalSettings settings = proposal_;
-  const LightingRig rig = set_.rig;
-  std::shared_ptr<const Tracer> tracer = tracer_;
-  const uint64_t sceneHash = sceneHash_;
-  startJob("propose", tr("Proposing probes…"), [=](JobResult& result, const auto& report) {
-    const Bounds3 b = tracer->scene().bounds;
-    const Vec3 e = b.extent();
-    const double floor = std::max(b.diagonal() * 0.05, 1e-6);
-    const double volume = std::max(e.x, floor) * std::max(e.y, floor) * std::max(e.z, floor);
-    double spacing = std::cbrt(volume / settings.targetProbeCount);
-    std::vector<Vec3> points;
-    // Interior walls and validity culling remove points: adjust the spacing so the count
-    // lands in roughly [30, 150].
-    for (int attempt = 0; attempt < 4; ++attempt) {
-      UniformSettings us;
-      us.spacingMeters = spacing;
-      points = placeUniform(*tracer, us, [&](double f) {
-        return report(tr("Placing probes…"), 0.4 * (attempt + f) / 4.0);
-      });
-      const double n = double(points.size());
-      if (n >= 30 && n <= 150) break;
-      const double ratio = std::cbrt(std::max(n, 1.0) / settings.targetProbeCount);
-      spacing *= std::clamp(ratio, 0.5, 2.0);
-    }
-    if (!pointsSpan3D(points)) {
-      // One flat layer (a room much wider than tall: dream-apartment), of which no volume can be
-      // made: the budget grid, which then keeps at least 2 points along each axis.
-      const UniformBudgetResult grid =
-          placeUniformBudget(*tracer, int(std::lround(settings.targetProbeCount)), {},
-                             [&](double f) { return report(tr("Placing probes…"), 0.4 * f); });
-      points = grid.points;
-      spacing = grid.spacingMeters;
-    }
-    result.spacingMeters = spacing;
-    for (const Vec3& p : points) {
-      Probe probe;
-      probe.position = p;
-      probe.method = "uniform";
-      result.probes.push_back(probe);
-    }
-    captureQuickly(*tracer, rig, result.probes, settings.samplesPerProbe, report, 0.4, result.error,
-                   sceneHash);
-  });
+bool Document::proposeCandidates() {
+  if (!tracer_ || busy_) return false;
+  PlacementRequest request;
+  request.method = "uniform";
+  request.samplesPerProbe = proposal_.samplesPerProbe;
+  request.domain = proposal_.domain;
+  request.replaceCandidates = true;
+  // The budget counts the probes the placement keeps (PlaceRequest::budget).
+  request.budget = int(keptProbes(set_, request.toPlaceRequest()).size()) +
+                   int(std::lround(proposal_.targetProbeCount));
+  return startPlacement(request, QStringLiteral("propose"));
 }
 
 PlaceRequest PlacementRequest::toPlaceRequest() const {
@@ -843,6 +814,10 @@ QString PlacementRequest::fieldLabel(const std::string& parameter) {
 }
 
 bool Document::runPlacement(const PlacementRequest& request) {
+  return startPlacement(request, QStringLiteral("place"));
+}
+
+bool Document::startPlacement(const PlacementRequest& request, const QString& kind) {
   if (!tracer_ || busy_) return false;
   // A problem of the request is the panel's field, named as the panel names it; nothing starts.
   PlaceRequest place;
@@ -857,7 +832,9 @@ bool Document::runPlacement(const PlacementRequest& request) {
   std::shared_ptr<const Tracer> tracer = tracer_;
   const uint64_t sceneHash = sceneHash_;
   const std::vector<JobPhase> phases = placementPhases(request.method, request.refineLeaks);
-  startJob("place", tr("Placing probes…"), [=](JobResult& result, const auto& report) {
+  const QString firstMessage =
+      kind == QLatin1String("propose") ? tr("Proposing probes…") : tr("Placing probes…");
+  startJob(kind, firstMessage, [=](JobResult& result, const auto& report) {
     result.placement = request;
     const PlaceResult placed =
         placeProbeSet(*tracer, set, place, [&](const std::string& stage) -> ProgressFn {
@@ -1080,19 +1057,9 @@ void Document::onJobDone() {
   std::shared_ptr<JobResult> r = watcher_->result();
   if (!r || r->generation != generation_) return;  // stale: the document moved on
   busy_ = false;
-  if (r->kind == QLatin1String("propose")) {
-    if (!r->probes.empty()) {
-      set_.placement.method = "uniform";
-      set_.placement.spacingMeters = r->spacingMeters;
-    }
-    const QString text = tr("Propose %1 candidates").arg(r->probes.size());
-    // The proposal is the editor's, not the artist's: a document that was clean stays clean
-    // (closing it asks nothing; the proposal is undoable like any edit).
-    const bool wasClean = undo_.isClean();
-    if (!r->probes.empty()) addProbes(std::move(r->probes), text);
-    if (wasClean) undo_.setClean();
-  } else if (r->kind == QLatin1String("place") && r->error != QLatin1String("cancelled") &&
-             (!r->probes.empty() || r->error.isEmpty())) {
+  const bool proposal = r->kind == QLatin1String("propose");
+  if ((proposal || r->kind == QLatin1String("place")) && r->error != QLatin1String("cancelled") &&
+      (!r->probes.empty() || r->error.isEmpty())) {
     set_.placement.method = r->placement.method;
     set_.placement.spacingMeters = r->spacingMeters;
     set_.placement.budget = r->placement.budget;
@@ -1104,14 +1071,22 @@ void Document::onJobDone() {
       p.id = allocateId();
       added.push_back(std::move(p));
     }
-    auto* macro = new QUndoCommand(!r->placement.undoText.isEmpty()
-                                       ? r->placement.undoText
-                                       : tr("Place %1 candidates (%2)")
-                                             .arg(added.size())
-                                             .arg(QString::fromStdString(r->placement.method)));
-    if (!replaced.empty()) new DeleteProbesCommand(this, replaced, macro);
-    if (!added.empty()) new AddProbesCommand(this, std::move(added), QString(), macro);
-    undo_.push(macro);
+    const QString text = proposal ? tr("Propose %1 candidates").arg(added.size())
+                         : !r->placement.undoText.isEmpty()
+                             ? r->placement.undoText
+                             : tr("Place %1 candidates (%2)")
+                                   .arg(added.size())
+                                   .arg(QString::fromStdString(r->placement.method));
+    // The proposal is the editor's, not the artist's: a document that was clean stays clean
+    // (closing it asks nothing; the proposal is undoable like any edit).
+    const bool keepClean = proposal && undo_.isClean();
+    if (!proposal || !added.empty() || !replaced.empty()) {
+      auto* macro = new QUndoCommand(text);
+      if (!replaced.empty()) new DeleteProbesCommand(this, replaced, macro);
+      if (!added.empty()) new AddProbesCommand(this, std::move(added), QString(), macro);
+      undo_.push(macro);
+    }
+    if (keepClean) undo_.setClean();
   } else if (r->kind == QLatin1String("bake") && r->volume) {
     volume_ = r->volume;
     volumePath_ = r->volumePath;

@@ -31,10 +31,15 @@ struct ProbeVolume;
 
 namespace ps::ui {
 
-/// Settings of the background candidate proposal made when a scene is opened without a set.
+/// Settings of the background candidate proposal made when a scene is opened without a set: a
+/// uniform placement through the same pipeline and domain as Run placement
+/// (Document::runPlacement), at a budget of about targetProbeCount new candidates.
 struct ProposalSettings {
-  double targetProbeCount = 80;  ///< spacing = cbrt(volume of bounds / target)
+  double targetProbeCount = 80;  ///< new candidates (uniform's budget beyond the kept probes)
   int samplesPerProbe = 64;      ///< quick SH capture
+  /// Where the candidates go without importance volumes: the placement panel's domain
+  /// (PlacementRequest::domain), so that the proposal lands where Run placement puts probes.
+  DomainRule domain = DomainRule::Reachable;
 };
 
 /// Live capture of edited probes: a probe moved (or added) is captured alone in the background,
@@ -227,8 +232,12 @@ class Document : public QObject {
   bool autoPropose() const { return autoPropose_; }
   void setAutoPropose(bool on) { autoPropose_ = on; }
   ProposalSettings& proposalSettings() { return proposal_; }
-  /// Starts uniform placement + quick capture; the result is pushed as one undo command.
-  void proposeCandidates();
+  /// Starts the proposal (ProposalSettings): runPlacement's job with method "uniform", the
+  /// budget the kept probes plus targetProbeCount, the unlocked candidates replaced, the
+  /// proposal's domain and quick capture. The result is one undo step ("Propose N candidates")
+  /// that leaves a clean document clean. Returns false (and does nothing) when busy or without
+  /// a tracer; throws ParameterError as runPlacement does.
+  bool proposeCandidates();
   bool isBusy() const { return busy_; }
   /// A job's work was started and the end of it has not been handled yet: true from its start
   /// until its finished signal reaches the document (its result applied, or dropped when the
@@ -339,6 +348,8 @@ class Document : public QObject {
   struct JobResult;
   using JobFn = std::function<void(JobResult&, const std::function<bool(QString, double)>&)>;
   void startJob(const QString& kind, const QString& firstMessage, JobFn work);
+  /// runPlacement's job under `kind` ("place" or "propose"; onJobDone applies both alike).
+  bool startPlacement(const PlacementRequest& request, const QString& kind);
   void onJobDone();
   void replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const Tracer> tracer,
                ProbeSet set, const QString& scenePath, const QString& setPath);

@@ -272,7 +272,13 @@ void MainWindow::createActions() {
   edit->addSeparator();
   a = edit->addAction(tr("Select a&ll"), table_, &QTableView::selectAll);
   a->setShortcut(QKeySequence::SelectAll);
-  a = edit->addAction(tr("Propose &candidates"), this, [this] { doc_->proposeCandidates(); });
+  a = edit->addAction(tr("Propose &candidates"), this, [this] {
+    try {
+      doc_->proposeCandidates();
+    } catch (const Error& e) {
+      showError(jobTitle(QStringLiteral("propose")), QString::fromStdString(e.what()));
+    }
+  });
 
   QMenu* probes = menuBar()->addMenu(tr("&Probes"));
   a = probes->addAction(tr("&Run placement"), this, [this] { placement_->run(); });

@@ -121,6 +121,11 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   domain_->setToolTip(
       tr("Where probes go without importance volumes (probestudio place --domain)"));
   form->addRow(tr("Domain"), domain_);
+  // The proposal made when a scene opens places in this domain too, as Run placement does.
+  connect(domain_, &QComboBox::currentIndexChanged, this, [this](int index) {
+    doc_->proposalSettings().domain = index == 1 ? DomainRule::Bounds : DomainRule::Reachable;
+  });
+  doc_->proposalSettings().domain = DomainRule::Reachable;
   run_ = new QPushButton(tr("Run placement"));
   run_->setToolTip(
       tr("Replaces the unlocked candidates; accepted, rejected and locked probes "
