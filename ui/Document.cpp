@@ -2,6 +2,9 @@
 
 #include <QDateTime>
 #include <QFileInfo>
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
 #include <QStandardPaths>
 #include <QtConcurrent/QtConcurrentRun>
 #include <algorithm>
@@ -80,6 +83,8 @@ struct Document::JobResult {
   PlacementRequest placement;
   std::shared_ptr<const ProbeVolume> volume;
   QString volumePath;
+  std::string volumeMetadata;  ///< bake: the volume file's metadata JSON
+  int rigGeneration = 0;       ///< bake: Document::rigGeneration_ of the lighting it baked with
   size_t bakedProbes = 0;
   QString error;      ///< failure ("cancelled" when cancelled); probes may still be usable
   QStringList notes;  ///< what the job did, one line each (placement methods' notes)
@@ -91,6 +96,13 @@ struct Document::JobResult {
 Document::Document(QObject* parent) : QObject(parent) {
   connect(&undo_, &QUndoStack::cleanChanged, this,
           [this](bool clean) { emit modifiedChanged(!clean); });
+  // Connected first, so that every other listener of these signals reads the volume's state as
+  // it is after the change.
+  for (auto signal : {&Document::probesReset, &Document::volumeChanged, &Document::rigChanged,
+                      &Document::sceneLightsChanged})
+    connect(this, signal, this, &Document::refreshVolumeState);
+  for (auto signal : {&Document::probeInserted, &Document::probeRemoved, &Document::probeChanged})
+    connect(this, signal, this, &Document::refreshVolumeState);
 }
 
 Document::~Document() {
@@ -127,11 +139,9 @@ void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const
   emit rigChanged();
   emit importanceVolumesChanged();
   if (sceneChanges) {
-    volume_.reset();
-    volumePath_.clear();
     evaluations_.clear();
     emit evaluationsChanged();
-    emit volumeChanged();
+    setVolume(nullptr, QString(), std::string(), rigGeneration_);
     emit sceneChanged();
   }
   emit pathsChanged();
@@ -196,43 +206,121 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
 }
 
 void Document::pickUpVolumeBeside(const QString& setPath) {
-  volume_.reset();
-  volumePath_.clear();
   const QString path = volumePathFor(setPath);
   if (QFileInfo::exists(path)) {
     try {
       VolumeFile f = loadVolume(toPath(path));
-      volume_ = std::make_shared<const ProbeVolume>(std::move(f.volume));
-      volumePath_ = path;
+      setVolume(std::make_shared<const ProbeVolume>(std::move(f.volume)), path, f.metadataJson,
+                rigGeneration_);
+      return;
     } catch (const Error&) {
       // An unreadable volume beside the set is as good as none: a bake writes a new one.
     }
   }
-  // The volume is current when it holds every accepted probe where the set has it (a bake adds
-  // leak refinement's probes, never moves the accepted ones); the evaluation then measures it.
-  bool current = volume_ != nullptr;
-  // In metres the volume holds the set's floats exactly; in another unit the file's floats were
-  // scaled there and back, which rounds in the last bit or two.
-  const float slack = set_.metresPerUnit == 1.0 ? 0.f : 1e-6f;
-  auto near = [slack](float a, double b) {
-    return std::abs(a - float(b)) <= slack * (1.f + std::abs(a));
-  };
-  if (current) {
+  setVolume(nullptr, QString(), std::string(), rigGeneration_);
+}
+
+void Document::setVolume(std::shared_ptr<const ProbeVolume> volume, const QString& path,
+                         const std::string& metadataJson, int rigGeneration) {
+  volume_ = std::move(volume);
+  volumePath_ = volume_ ? path : QString();
+  volumeRigGeneration_ = rigGeneration;
+  volumeProbes_.clear();
+  volumeIds_.clear();
+  volumeExtra_ = 0;
+  if (volume_) {
+    const QJsonObject meta =
+        QJsonDocument::fromJson(QByteArray::fromStdString(metadataJson)).object();
+    const QJsonArray ids = meta.value(QLatin1String("probe_ids")).toArray();
     const std::vector<float>& pos = volume_->positions;
+    const size_t n = pos.size() / 3;
+    const bool haveIds = size_t(ids.size()) == n;
+    for (size_t i = 0; i < n; ++i) {
+      const uint64_t id = haveIds ? uint64_t(ids[qsizetype(i)].toInteger()) : 0;
+      if (haveIds && id == 0) continue;  // leak refinement's: not in the set
+      if (id != 0) volumeIds_[id] = volumeProbes_.size();
+      volumeProbes_.emplace_back(id, Vec3(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]));
+    }
+    if (!haveIds)
+      volumeExtra_ = size_t(std::max(0, meta.value(QLatin1String("leak_probes_added")).toInt()));
+  }
+  emit volumeChanged();
+}
+
+void Document::refreshVolumeState() {
+  VolumeState state = VolumeState::None;
+  QString reason;
+  if (volume_) {
+    state = VolumeState::Stale;
+    // In metres the volume holds the set's floats exactly; in another unit the file's floats
+    // were scaled there and back, which rounds in the last bit or two.
+    const double slack = set_.metresPerUnit == 1.0 ? 0.0 : 1e-6;
+    auto near = [slack](Vec3 a, Vec3 b) {
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(float(a[k]) - float(b[k])) > slack * (1 + std::abs(a[k]))) return false;
+      return true;
+    };
+    size_t accepted = 0;
+    for (const Probe& p : set_.probes) accepted += p.state == ProbeState::Accepted ? 1 : 0;
+    const size_t inVolume = volumeProbes_.size() - std::min(volumeExtra_, volumeProbes_.size());
+    // The first difference found, named by its probe.
     for (const Probe& p : set_.probes) {
+      if (!reason.isEmpty()) break;
       if (p.state != ProbeState::Accepted) continue;
-      bool found = false;
-      for (size_t i = 0; i + 2 < pos.size() && !found; i += 3)
-        found = near(pos[i], p.position.x) && near(pos[i + 1], p.position.y) &&
-                near(pos[i + 2], p.position.z);
-      if (!found) {
-        current = false;
-        break;
+      if (!volumeIds_.empty()) {
+        const auto it = volumeIds_.find(p.id);
+        if (it == volumeIds_.end())
+          reason = tr("probe %1 is accepted and not in it").arg(p.id);
+        else if (!near(volumeProbes_[it->second].second, p.position))
+          reason = tr("probe %1 moved").arg(p.id);
+      } else if (std::none_of(volumeProbes_.begin(), volumeProbes_.end(),
+                              [&](const auto& v) { return near(v.second, p.position); })) {
+        reason = tr("probe %1 is not in it where the set has it").arg(p.id);
       }
     }
+    if (reason.isEmpty() && accepted != inVolume) {
+      for (const auto& [id, position] : volumeProbes_) {
+        const Probe* now = id != 0 ? probe(id) : nullptr;
+        if (id != 0 && (!now || now->state != ProbeState::Accepted)) {
+          reason = now ? tr("probe %1 is no longer accepted").arg(id)
+                       : tr("probe %1 was deleted").arg(id);
+          break;
+        }
+      }
+      if (reason.isEmpty()) reason = tr("the probes differ");
+    }
+    if (!reason.isEmpty())
+      reason = tr("%1 probes in it, %2 accepted: %3").arg(inVolume).arg(accepted).arg(reason);
+    else if (rigGeneration_ != volumeRigGeneration_)
+      reason = tr("the lighting changed since it was baked");
+    if (reason.isEmpty()) state = VolumeState::Baked;
   }
-  volumeChange_ = current ? changeCount_ : changeCount_ - 1;
-  emit volumeChanged();
+  if (state == volumeState_ && reason == volumeStaleReason_) return;
+  volumeState_ = state;
+  volumeStaleReason_ = reason;
+  emit volumeStateChanged();
+}
+
+QString Document::volumeStatusText() const {
+  const QString name = QFileInfo(volumePath_).fileName();
+  switch (volumeState_) {
+    case VolumeState::Baked:
+      return tr("%1: baked, %2 probes").arg(name).arg(volume_->positions.size() / 3);
+    case VolumeState::Stale:
+      return tr("%1: stale (%2)").arg(name, volumeStaleReason_);
+    case VolumeState::None:
+      break;
+  }
+  return tr("not baked yet");
+}
+
+QString Document::evaluationSource(bool leakCuts) const {
+  if (volumeIsCurrent()) return tr("baked volume %1").arg(QFileInfo(volumePath_).fileName());
+  QString source =
+      leakCuts ? tr("preview (accepted probes, leak cuts)") : tr("preview (accepted probes)");
+  if (volumeState_ == VolumeState::Stale)
+    source += tr("; %1 is stale: %2").arg(QFileInfo(volumePath_).fileName(), volumeStaleReason_);
+  return source;
 }
 
 std::string Document::staleCapturesText() const {
@@ -441,12 +529,9 @@ void Document::setProbePositionRaw(uint64_t id, Vec3 p, const std::optional<ShRg
 void Document::setProbeShLive(uint64_t id, const ShRgb& sh) {
   const int row = indexOf(id);
   if (row < 0) return;
-  // A bake captures its probes itself: a better preview capture leaves it as current as it was.
-  const bool current = volumeIsCurrent();
   set_.probes[size_t(row)].sh = sh;
   set_.probes[size_t(row)].captureSceneHash = sceneHash_;
   ++changeCount_;
-  if (current) volumeChange_ = changeCount_;
   emit probeChanged(row);
 }
 
@@ -901,6 +986,7 @@ bool Document::bake(const BakeRequest& request) {
     set.scenePath = std::filesystem::absolute(toPath(scenePath_)).lexically_normal().string();
   const QString path = volumePathFor(setPath_);
   std::shared_ptr<const Tracer> tracer = tracer_;
+  const int rigGeneration = rigGeneration_;
   startJob("bake", tr("Baking…"), [=](JobResult& result, const auto& report) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = request.samplesPerProbe;
@@ -927,6 +1013,8 @@ bool Document::bake(const BakeRequest& request) {
                           .arg(baked.fit->points)
                           .arg(baked.fit->seconds, 0, 'f', 2);
     result.volumePath = path;
+    result.volumeMetadata = baked.file.metadataJson;
+    result.rigGeneration = rigGeneration;
     result.volume = std::make_shared<const ProbeVolume>(std::move(baked.file.volume));
   });
   return true;
@@ -956,10 +1044,9 @@ bool Document::recapture(int samplesPerProbe) {
 bool Document::evaluate(const EvalRequest& request) {
   if (!tracer_ || busy_) return false;
   std::shared_ptr<const ProbeVolume> volume;
-  QString source;
-  if (volume_ && volumeChange_ == changeCount_) {
+  const QString source = evaluationSource(request.leakCuts);
+  if (volumeIsCurrent()) {
     volume = volume_;
-    source = tr("baked volume");
   } else {
     std::vector<Vec3> positions;
     std::vector<ShRgb> sh;
@@ -971,8 +1058,6 @@ bool Document::evaluate(const EvalRequest& request) {
     if (positions.size() < 4)
       throw ParameterError("evaluate: bake, or accept at least 4 captured probes, first");
     volume = std::make_shared<const ProbeVolume>(volumeFromProbes(positions, sh));  // throws
-    source = request.leakCuts ? tr("preview (accepted probes, leak cuts)")
-                              : tr("preview (accepted probes)");
   }
   const bool cutPreview = request.leakCuts && volume != volume_;
   const LightingRig rig = set_.rig;
@@ -1046,10 +1131,8 @@ bool Document::evaluate(const EvalRequest& request) {
 
 void Document::openVolume(const QString& path) {
   VolumeFile f = loadVolume(toPath(path));  // throws; nothing changed yet
-  volume_ = std::make_shared<const ProbeVolume>(std::move(f.volume));
-  volumePath_ = path;
-  volumeChange_ = changeCount_;
-  emit volumeChanged();
+  setVolume(std::make_shared<const ProbeVolume>(std::move(f.volume)), path, f.metadataJson,
+            rigGeneration_);
 }
 
 void Document::onJobDone() {
@@ -1088,10 +1171,7 @@ void Document::onJobDone() {
     }
     if (keepClean) undo_.setClean();
   } else if (r->kind == QLatin1String("bake") && r->volume) {
-    volume_ = r->volume;
-    volumePath_ = r->volumePath;
-    volumeChange_ = changeCount_;
-    emit volumeChanged();
+    setVolume(r->volume, r->volumePath, r->volumeMetadata, r->rigGeneration);
   } else if (r->kind == QLatin1String("recapture") && !r->probes.empty()) {
     std::vector<std::pair<uint64_t, ShRgb>> sh;
     for (size_t i = 0; i < r->probes.size(); ++i) {

@@ -15,6 +15,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -279,8 +280,24 @@ class Document : public QObject {
   /// The last volume baked (or loaded) for this document; null when none.
   std::shared_ptr<const ProbeVolume> volume() const { return volume_; }
   QString volumePath() const { return volumePath_; }
-  /// The volume was baked from the probes as they are (no edit since the bake or the load).
-  bool volumeIsCurrent() const { return volume_ && volumeChange_ == changeCount_; }
+  /// What volume() is to the probe set. Baked: its probes from the set (the volume file's
+  /// "probe_ids"; by position for a file without them) are exactly the accepted probes, each
+  /// where the set has it, and the lighting did not change since it was baked or loaded (leak
+  /// refinement's probes, id 0, are the volume's own). Stale: it no longer matches. Updated at
+  /// every change of the probes, the lighting or the volume (volumeStateChanged).
+  enum class VolumeState { None, Baked, Stale };
+  VolumeState volumeState() const { return volumeState_; }
+  bool volumeIsCurrent() const { return volumeState_ == VolumeState::Baked; }
+  /// Why the volume is stale, one line naming a probe that differs ("73 probes in the volume,
+  /// 72 accepted: probe 12 is no longer accepted"); empty unless stale.
+  QString volumeStaleReason() const { return volumeStaleReason_; }
+  /// The volume named with its state, one line: "X.psv: baked, 73 probes", "X.psv: stale
+  /// (reason)", or "not baked yet".
+  QString volumeStatusText() const;
+  /// What evaluate() measures now, named with its state: "baked volume X.psv", or
+  /// "preview (accepted probes[, leak cuts])" followed by "; X.psv is stale: reason" when a
+  /// stale volume is left aside.
+  QString evaluationSource(bool leakCuts) const;
   /// Loads a volume file for the preview and the overlays. Throws ps::Error.
   void openVolume(const QString& path);
 
@@ -335,6 +352,8 @@ class Document : public QObject {
   void importanceVolumesChanged();
   /// volume() changed (baked, loaded, or dropped with the scene).
   void volumeChanged();
+  /// volumeState() or volumeStaleReason() changed.
+  void volumeStateChanged();
   void evaluationsChanged();
   /// A live capture landed: the probe's SH now holds `samples` rays taken at its position, in
   /// `seconds` since the edit that asked for it.
@@ -353,9 +372,16 @@ class Document : public QObject {
   void onJobDone();
   void replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const Tracer> tracer,
                ProbeSet set, const QString& scenePath, const QString& setPath);
-  /// Takes the volume file beside a probe set just opened (volumePathFor) as volume(), current
-  /// when it holds every accepted probe at its position; drops any other volume.
+  /// Takes the volume file beside a probe set just opened (volumePathFor) as volume() (Baked or
+  /// Stale, volumeState); drops any other volume.
   void pickUpVolumeBeside(const QString& setPath);
+  /// Makes `volume` (saved at `path`, with the volume file's metadata JSON) volume(), baked under
+  /// the lighting of `rigGeneration`, and emits volumeChanged. Null drops the volume.
+  void setVolume(std::shared_ptr<const ProbeVolume> volume, const QString& path,
+                 const std::string& metadataJson, int rigGeneration);
+  /// Compares the volume with the probe set (volumeState) and emits volumeStateChanged when the
+  /// state or its reason changed. O(probes).
+  void refreshVolumeState();
   struct LiveTask;
   struct LiveResult;
   /// Starts the next live capture (quick ones before final ones) unless one runs.
@@ -390,7 +416,15 @@ class Document : public QObject {
   QStringList jobNotes_;
   std::shared_ptr<const ProbeVolume> volume_;
   QString volumePath_;
-  quint64 volumeChange_ = 0;  ///< changeCount() when the volume was baked
+  /// The set's probes in the volume, in its order: id (0 when the file has no "probe_ids") and
+  /// position; volumeIds_ maps an id to its index. volumeExtra_: the volume's own probes (leak
+  /// refinement's) in a file without ids, which then match no accepted probe.
+  std::vector<std::pair<uint64_t, Vec3>> volumeProbes_;
+  std::unordered_map<uint64_t, size_t> volumeIds_;
+  size_t volumeExtra_ = 0;
+  int volumeRigGeneration_ = 0;  ///< rigGeneration_ of the volume's lighting
+  VolumeState volumeState_ = VolumeState::None;
+  QString volumeStaleReason_;
   std::vector<EvaluationPoint> evaluations_;
   QFutureWatcher<std::shared_ptr<JobResult>>* watcher_ = nullptr;
   LiveCaptureSettings live_;

@@ -119,6 +119,9 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   overlayReason_ = new QLabel;
   overlayReason_->setObjectName("overlayReason");
   overlayReason_->setStyleSheet("color: #b35c00");
+  volumeState_ = new QLabel;
+  volumeState_->setObjectName("volumeStateStatus");
+  volumeState_->setStyleSheet("color: #b35c00");
   jobLabel_ = new QLabel;
   jobLabel_->setObjectName("jobLabel");
   progress_ = new QProgressBar;
@@ -133,6 +136,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   statusBar()->addWidget(probesLabel_);
   statusBar()->addWidget(cutsLabel_);
   statusBar()->addWidget(overlayReason_);
+  statusBar()->addWidget(volumeState_);
   statusBar()->addPermanentWidget(jobLabel_);
   statusBar()->addPermanentWidget(progress_);
   statusBar()->addPermanentWidget(cancelJob_);
@@ -163,6 +167,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
     connect(doc_, signal, this, &MainWindow::updateOverlayReason);
   for (auto signal : {&Document::probeInserted, &Document::probeRemoved, &Document::probeChanged})
     connect(doc_, signal, this, &MainWindow::updateOverlayReason);
+  connect(doc_, &Document::volumeStateChanged, this, &MainWindow::updateVolumeState);
   connect(doc_, &Document::modifiedChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateStatus);
@@ -763,6 +768,13 @@ void MainWindow::updateStatus() {
                             .arg(counts[int(ProbeState::Accepted)])
                             .arg(counts[int(ProbeState::Candidate)])
                             .arg(counts[int(ProbeState::Rejected)]));
+}
+
+void MainWindow::updateVolumeState() {
+  const bool stale = doc_->volumeState() == Document::VolumeState::Stale;
+  volumeState_->setText(stale ? tr("Volume %1; bake again (Ctrl+B)").arg(doc_->volumeStatusText())
+                              : QString());
+  volumeState_->setToolTip(volumeState_->text());
 }
 
 void MainWindow::updateOverlayReason() {

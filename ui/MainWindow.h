@@ -117,6 +117,8 @@ class MainWindow : public QMainWindow {
   void updateCutsLabel();
   /// The status bar's reason why a shown overlay is empty (Viewport::emptyOverlayReason).
   void updateOverlayReason();
+  /// The status bar's volume label: shown while the volume is stale.
+  void updateVolumeState();
   std::vector<uint64_t> selectedIds() const;
   void onTableSelectionChanged();
   void onProbeClicked(std::optional<quint64> id, Qt::KeyboardModifiers mods);
@@ -136,6 +138,7 @@ class MainWindow : public QMainWindow {
   QLabel* probesLabel_;
   QLabel* cutsLabel_;      ///< what the preview's leak cuts did (Viewport::previewCuts)
   QLabel* overlayReason_;  ///< why a shown overlay is empty, with the fixing action
+  QLabel* volumeState_;    ///< a stale volume, named with why (Document::volumeStatusText)
   QLabel* jobLabel_;
   QProgressBar* progress_;
   InspectorPanel* inspector_;

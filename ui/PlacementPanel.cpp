@@ -193,6 +193,7 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   bake_ = new QPushButton(tr("Bake accepted probes"));
   bakeForm->addRow(bake_);
   volume_ = new QLabel;
+  volume_->setObjectName("volumeState");
   volume_->setWordWrap(true);
   bakeForm->addRow(volume_);
   layout->addWidget(bakeBox);
@@ -231,6 +232,7 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   connect(volumes_, &QTableWidget::itemSelectionChanged, this, &PlacementPanel::updateState);
   connect(doc_, &Document::importanceVolumesChanged, this, &PlacementPanel::refreshVolumes);
   connect(doc_, &Document::volumeChanged, this, &PlacementPanel::updateState);
+  connect(doc_, &Document::volumeStateChanged, this, &PlacementPanel::updateState);
   connect(doc_, &Document::sceneChanged, this, &PlacementPanel::updateState);
   connect(doc_, &Document::pathsChanged, this, &PlacementPanel::updateState);
   refreshVolumes();
@@ -406,8 +408,10 @@ void PlacementPanel::updateState() {
   cancel_->setEnabled(busy);
   removeVolume_->setEnabled(volumes_->currentRow() >= 0 && volumes_->rowCount() > 0);
   progress_->setVisible(busy);
-  volume_->setText(doc_->volume() ? tr("Volume: %1").arg(QFileInfo(doc_->volumePath()).fileName())
-                                  : tr("Not baked yet"));
+  const bool stale = doc_->volumeState() == Document::VolumeState::Stale;
+  volume_->setText(tr("Volume: %1").arg(doc_->volumeStatusText()) +
+                   (stale ? tr(". Bake again (Ctrl+B).") : QString()));
+  volume_->setStyleSheet(stale ? QStringLiteral("color: #b35c00") : QString());
 }
 
 }  // namespace ps::ui

@@ -72,6 +72,8 @@ class PlacementPanel : public QWidget {
   QCheckBox* leakCutsBox() const { return leakCuts_; }
   QCheckBox* fitBox() const { return fit_; }
   QPushButton* cancelButton() const { return cancel_; }
+  /// The volume named with its state (Document::volumeStatusText).
+  QLabel* volumeLabel() const { return volume_; }
   /// One row per importance volume: name, weight, min x/y/z, max x/y/z (metres), editable.
   QTableWidget* volumeTable() const { return volumes_; }
 
