@@ -871,10 +871,7 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   r.method = method;
   r.budget = budget;
   // The panel shows every field; a method is given those it reads (PlacementMethod::parameters).
-  const PlacementMethod& m = findPlacementMethod(method);
-  auto takes = [&](std::string_view name) {
-    return std::find(m.parameters.begin(), m.parameters.end(), name) != m.parameters.end();
-  };
+  auto takes = [&](std::string_view name) { return methodReads(method, name); };
   if (budget <= 0 && takes("spacingMeters")) r.parameters.set("spacingMeters", spacingMeters);
   if (takes("aggressiveness")) r.parameters.set("aggressiveness", aggressiveness);
   if (takes("swapPasses")) r.parameters.set("swapPasses", swapPasses);
@@ -886,6 +883,11 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   r.newState = acceptNew ? ProbeState::Accepted : ProbeState::Candidate;
   r.domain.rule = domain;
   return r;
+}
+
+bool PlacementRequest::methodReads(const std::string& method, std::string_view parameter) {
+  const PlacementMethod& m = findPlacementMethod(method);
+  return std::find(m.parameters.begin(), m.parameters.end(), parameter) != m.parameters.end();
 }
 
 QString PlacementRequest::fieldLabel(const std::string& parameter) {

@@ -15,6 +15,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -54,12 +55,14 @@ struct LiveCaptureSettings {
   int samplesPerChunk = 32;  ///< rays per independent capture; cancellation between chunks
 };
 
-/// The placement panel's settings. toPlaceRequest() turns them into the core's request
+/// The placement panel's settings, which it starts with: greedy at 64 probes, as
+/// `scripts/run --headless` places. toPlaceRequest() turns them into the core's request
 /// (core/placement/Place.h), the one the command line builds from its flags.
 struct PlacementRequest {
-  std::string method = "uniform";
+  static constexpr int kDefaultBudget = 64;
+  std::string method = "greedy";
   double spacingMeters = 1.0;     ///< grid methods, used when budget == 0
-  int budget = 0;                 ///< > 0: the probe count (PlaceRequest::budget)
+  int budget = kDefaultBudget;    ///< > 0: the probe count (PlaceRequest::budget); 0: none
   int samplesPerProbe = 64;       ///< quick capture of the new probes, so they show their light
   bool replaceCandidates = true;  ///< false: keep the unlocked candidates too, only add
   double aggressiveness = 1.0;    ///< chajdas: merging strength (without a budget)
@@ -77,6 +80,9 @@ struct PlacementRequest {
   /// kept (and the candidates unless replaceCandidates). Throws ps::ParameterError("method")
   /// for an unknown method.
   PlaceRequest toPlaceRequest() const;
+  /// True when `method` (one of placementMethods()) reads this parameter
+  /// (PlacementMethod::parameters). Throws ps::ParameterError("method") for an unknown method.
+  static bool methodReads(const std::string& method, std::string_view parameter);
   /// The panel's name of a core parameter (ParameterError::parameter()).
   static QString fieldLabel(const std::string& parameter);
 };

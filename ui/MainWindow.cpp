@@ -142,6 +142,8 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   statusBar()->addPermanentWidget(cancelJob_);
 
   createActions();
+  confineKeyShortcutsToViewport();
+  viewport_->setFocus();  // the keys' shortcuts act from the start
 
   connect(table_->selectionModel(), &QItemSelectionModel::selectionChanged, this,
           &MainWindow::onTableSelectionChanged);
@@ -213,10 +215,13 @@ void MainWindow::createActions() {
   a = file->addAction(tr("&Save probe set"), this, [this] { save(); });
   a->setShortcut(QKeySequence::Save);
   a = file->addAction(tr("Save probe set &as…"), this, [this] { saveAs(); });
-  a->setShortcut(QKeySequence::SaveAs);
+  a->setObjectName("saveAsAction");
+  // Spelled out: QKeySequence::SaveAs and ::Quit are empty on some platforms (offscreen, X11
+  // without a desktop's theme).
+  a->setShortcut(QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_S));
   file->addSeparator();
   a = file->addAction(tr("&Quit"), this, &QWidget::close);
-  a->setShortcut(QKeySequence::Quit);
+  a->setShortcut(QKeySequence(Qt::CTRL | Qt::Key_Q));
 
   QMenu* edit = menuBar()->addMenu(tr("&Edit"));
   a = doc_->undoStack()->createUndoAction(this, tr("&Undo"));
@@ -446,6 +451,22 @@ void MainWindow::createActions() {
   tools->setObjectName("editToolBar");
   tools->addAction(addTool);
   tools->addAction(volumeTool);
+}
+
+void MainWindow::confineKeyShortcutsToViewport() {
+  for (QAction* a : findChildren<QAction*>()) {
+    bool typed = false;  // a key that types text in a field (Shift allowed: "R" is Shift+R)
+    for (const QKeySequence& k : a->shortcuts()) {
+      if (k.count() != 1) continue;
+      const QKeyCombination c = k[0];
+      const Qt::KeyboardModifiers mods =
+          c.keyboardModifiers() & ~(Qt::ShiftModifier | Qt::KeypadModifier);
+      typed = typed || (mods == Qt::NoModifier && c.key() != Qt::Key_Escape);
+    }
+    if (!typed) continue;
+    a->setShortcutContext(Qt::WidgetShortcut);
+    viewport_->addAction(a);
+  }
 }
 
 QStringList MainWindow::recentFiles() const {

@@ -106,6 +106,10 @@ class MainWindow : public QMainWindow {
 
  private:
   void createActions();
+  /// Shortcuts of keys without Ctrl, Alt or Meta (A, R, Shift+L, Delete, ], ...; Esc excepted)
+  /// act only while the viewport has the focus: typed into a field, a table or a list they
+  /// are text, never an edit of the probes.
+  void confineKeyShortcutsToViewport();
   /// The left docks' and the right docks' default share of the window's width: the viewport
   /// keeps about 60 % of it.
   static constexpr double kLeftDockShare = 0.2, kRightDockShare = 0.16;

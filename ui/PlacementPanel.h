@@ -83,7 +83,11 @@ class PlacementPanel : public QWidget {
 
  private:
   void updateState();
+  /// The budget's range for the method (greedy: at least kMinGreedyBudget, never "none"; a
+  /// budget of none becomes PlacementRequest::kDefaultBudget) and the fields it reads enabled.
+  void updateMethodFields();
   void refreshVolumes();
+  static constexpr int kMinGreedyBudget = 4;
   void onVolumeEdited(QTableWidgetItem* item);
 
   Document* doc_;
