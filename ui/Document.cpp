@@ -185,6 +185,7 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
     set.scenePath = scenePath_.toStdString();
     replace(scene_, tracer_, std::move(set), scenePath_, path);
     pickUpVolumeBeside(path);
+    emit probeSetOpened();
     return;
   }
   if (set.scenePath.empty())
@@ -195,6 +196,7 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
       std::filesystem::equivalent(toPath(scenePath), toPath(scenePath_), ec)) {
     replace(scene_, tracer_, std::move(set), scenePath_, path);
     pickUpVolumeBeside(path);
+    emit probeSetOpened();
     return;
   }
   const double unit = set.metresPerUnit;
@@ -203,6 +205,7 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
   sceneHash_ = loaded.hash;
   unitHint_ = unitHintOf(scenePath, *loaded.scene, unit);
   pickUpVolumeBeside(path);
+  emit probeSetOpened();
 }
 
 void Document::pickUpVolumeBeside(const QString& setPath) {
@@ -475,6 +478,7 @@ void Document::recover(const QString& recoveryPath, const QString& originalSetPa
   undo_.resetClean();  // the recovered edits are not saved anywhere but the recovery file
   ++changeCount_;
   emit modifiedChanged(true);
+  emit probeSetOpened();
 }
 
 void Document::insertProbeRaw(int row, const Probe& p) {

@@ -360,6 +360,9 @@ class Document : public QObject {
   void volumeChanged();
   /// volumeState() or volumeStaleReason() changed.
   void volumeStateChanged();
+  /// A probe set was opened (openProbeSet) or recovered (recover): its placement settings
+  /// (ProbeSet::placement, the method, budget and spacing that placed it) are there to show.
+  void probeSetOpened();
   void evaluationsChanged();
   /// A live capture landed: the probe's SH now holds `samples` rays taken at its position, in
   /// `seconds` since the edit that asked for it.

@@ -216,6 +216,8 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   connect(method_, &QComboBox::currentTextChanged, this, &PlacementPanel::updateMethodFields);
   connect(budget_, &QSpinBox::valueChanged, this, &PlacementPanel::updateMethodFields);
   updateMethodFields();
+  // A reopened set places again as it was placed.
+  connect(doc_, &Document::probeSetOpened, this, &PlacementPanel::restorePlacement);
 
   connect(run_, &QPushButton::clicked, this, [this] { run(); });
   connect(bake_, &QPushButton::clicked, this, [this] { bake(); });
@@ -406,6 +408,15 @@ void PlacementPanel::onVolumeEdited(QTableWidgetItem* item) {
   } catch (const Error& e) {
     refuse(QString::fromStdString(e.what()));
   }
+}
+
+void PlacementPanel::restorePlacement() {
+  const PlacementSettings& placed = doc_->probeSet().placement;
+  const QString method = QString::fromStdString(placed.method);
+  if (method_->findText(method) < 0) return;  // not a method of the panel ("manual", ...)
+  method_->setCurrentText(method);            // greedy: the budget's minimum is 4
+  if (placed.spacingMeters > 0) spacing_->setValue(placed.spacingMeters);
+  if (placed.budget >= budget_->minimum()) budget_->setValue(placed.budget);
 }
 
 void PlacementPanel::updateMethodFields() {

@@ -86,6 +86,9 @@ class PlacementPanel : public QWidget {
   /// The budget's range for the method (greedy: at least kMinGreedyBudget, never "none"; a
   /// budget of none becomes PlacementRequest::kDefaultBudget) and the fields it reads enabled.
   void updateMethodFields();
+  /// Shows the opened set's placement settings (method, budget, spacing) when the panel offers
+  /// its method; greedy keeps the panel's budget when the set has none.
+  void restorePlacement();
   void refreshVolumes();
   static constexpr int kMinGreedyBudget = 4;
   void onVolumeEdited(QTableWidgetItem* item);

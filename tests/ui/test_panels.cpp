@@ -855,6 +855,44 @@ class TestPanels : public QObject {
     for (uint64_t id : ids) QCOMPARE(doc->probe(id)->state, ProbeState::Rejected);
   }
 
+  void placementMethodAndBudgetComeBackOnReopen() {
+    // The set records the method, budget and spacing that placed it (its "placement"); opening
+    // it shows them in the panel, so that Run placement places as it was placed.
+    QTemporaryDir dir;
+    Window win;
+    QVERIFY(win.w.openScene(kScene));
+    PlacementPanel* panel = win.w.placementPanel();
+    panel->methodBox()->setCurrentText(QStringLiteral("uniform"));
+    panel->budgetBox()->setValue(30);
+    panel->captureSamplesBox()->setValue(4);
+    QVERIFY(panel->run());
+    QCOMPARE(waitForJob(win.doc), QString());
+    const QString uniformSet = dir.filePath("uniform.probes.json");
+    QVERIFY(win.w.saveAs(uniformSet));
+    // A set placed by greedy at 48 (as `probestudio place` writes it).
+    ProbeSet greedySet = win.doc->probeSet();
+    greedySet.placement = {"greedy", 0.75, 48};
+    const QString greedyPath = dir.filePath("greedy.probes.json");
+    saveProbeSet(greedySet, greedyPath.toStdString());
+
+    panel->methodBox()->setCurrentText(QStringLiteral("chajdas"));
+    panel->budgetBox()->setValue(0);
+    QVERIFY(win.w.openProbeSet(uniformSet));
+    QCOMPARE(panel->methodBox()->currentText(), QStringLiteral("uniform"));
+    QCOMPARE(panel->budgetBox()->value(), 30);
+    QCOMPARE(panel->placementRequest().budget, 30);
+    QVERIFY(win.w.openProbeSet(greedyPath));
+    QCOMPARE(panel->methodBox()->currentText(), QStringLiteral("greedy"));
+    QCOMPARE(panel->budgetBox()->value(), 48);
+    QCOMPARE(panel->spacingBox()->value(), 0.75);
+    // A greedy set without a budget (placed to an error target) keeps the panel's budget.
+    greedySet.placement = {"greedy", 0.75, 0};
+    saveProbeSet(greedySet, greedyPath.toStdString());
+    panel->budgetBox()->setValue(20);
+    QVERIFY(win.w.openProbeSet(greedyPath));
+    QCOMPARE(panel->budgetBox()->value(), 20);
+  }
+
   void fileShortcutsAreBound() {
     // The documented file shortcuts are bound on every platform, Save as to Ctrl+Shift+S.
     Window win;
