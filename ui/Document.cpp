@@ -2,6 +2,9 @@
 
 #include <QDateTime>
 #include <QFileInfo>
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
 #include <QStandardPaths>
 #include <QtConcurrent/QtConcurrentRun>
 #include <algorithm>
@@ -20,7 +23,6 @@
 #include "core/io/SceneHash.h"
 #include "core/io/VolumeFile.h"
 #include "core/placement/Place.h"
-#include "core/placement/Uniform.h"
 #include "core/scene/SceneUnits.h"
 #include "core/trace/Tracer.h"
 #include "ui/LightingField.h"
@@ -81,6 +83,8 @@ struct Document::JobResult {
   PlacementRequest placement;
   std::shared_ptr<const ProbeVolume> volume;
   QString volumePath;
+  std::string volumeMetadata;  ///< bake: the volume file's metadata JSON
+  int rigGeneration = 0;       ///< bake: Document::rigGeneration_ of the lighting it baked with
   size_t bakedProbes = 0;
   QString error;      ///< failure ("cancelled" when cancelled); probes may still be usable
   QStringList notes;  ///< what the job did, one line each (placement methods' notes)
@@ -92,6 +96,13 @@ struct Document::JobResult {
 Document::Document(QObject* parent) : QObject(parent) {
   connect(&undo_, &QUndoStack::cleanChanged, this,
           [this](bool clean) { emit modifiedChanged(!clean); });
+  // Connected first, so that every other listener of these signals reads the volume's state as
+  // it is after the change.
+  for (auto signal : {&Document::probesReset, &Document::volumeChanged, &Document::rigChanged,
+                      &Document::sceneLightsChanged})
+    connect(this, signal, this, &Document::refreshVolumeState);
+  for (auto signal : {&Document::probeInserted, &Document::probeRemoved, &Document::probeChanged})
+    connect(this, signal, this, &Document::refreshVolumeState);
 }
 
 Document::~Document() {
@@ -128,11 +139,9 @@ void Document::replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const
   emit rigChanged();
   emit importanceVolumesChanged();
   if (sceneChanges) {
-    volume_.reset();
-    volumePath_.clear();
     evaluations_.clear();
     emit evaluationsChanged();
-    emit volumeChanged();
+    setVolume(nullptr, QString(), std::string(), rigGeneration_);
     emit sceneChanged();
   }
   emit pathsChanged();
@@ -159,7 +168,13 @@ void Document::openScene(const QString& path, double metresPerUnit) {
   replace(loaded.scene, loaded.tracer, std::move(set), path, QString());
   sceneHash_ = loaded.hash;
   unitHint_ = unitHintOf(path, *loaded.scene, metresPerUnit);
-  if (autoPropose_) proposeCandidates();
+  if (!autoPropose_) return;
+  try {
+    proposeCandidates();
+  } catch (const Error& e) {
+    // The scene is open: a proposal that cannot start is reported as a failed job.
+    emit jobFinished(QString::fromStdString(e.what()));
+  }
 }
 
 void Document::openProbeSet(const QString& path, bool keepScene) {
@@ -170,6 +185,7 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
     set.scenePath = scenePath_.toStdString();
     replace(scene_, tracer_, std::move(set), scenePath_, path);
     pickUpVolumeBeside(path);
+    emit probeSetOpened();
     return;
   }
   if (set.scenePath.empty())
@@ -180,6 +196,7 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
       std::filesystem::equivalent(toPath(scenePath), toPath(scenePath_), ec)) {
     replace(scene_, tracer_, std::move(set), scenePath_, path);
     pickUpVolumeBeside(path);
+    emit probeSetOpened();
     return;
   }
   const double unit = set.metresPerUnit;
@@ -188,46 +205,125 @@ void Document::openProbeSet(const QString& path, bool keepScene) {
   sceneHash_ = loaded.hash;
   unitHint_ = unitHintOf(scenePath, *loaded.scene, unit);
   pickUpVolumeBeside(path);
+  emit probeSetOpened();
 }
 
 void Document::pickUpVolumeBeside(const QString& setPath) {
-  volume_.reset();
-  volumePath_.clear();
   const QString path = volumePathFor(setPath);
   if (QFileInfo::exists(path)) {
     try {
       VolumeFile f = loadVolume(toPath(path));
-      volume_ = std::make_shared<const ProbeVolume>(std::move(f.volume));
-      volumePath_ = path;
+      setVolume(std::make_shared<const ProbeVolume>(std::move(f.volume)), path, f.metadataJson,
+                rigGeneration_);
+      return;
     } catch (const Error&) {
       // An unreadable volume beside the set is as good as none: a bake writes a new one.
     }
   }
-  // The volume is current when it holds every accepted probe where the set has it (a bake adds
-  // leak refinement's probes, never moves the accepted ones); the evaluation then measures it.
-  bool current = volume_ != nullptr;
-  // In metres the volume holds the set's floats exactly; in another unit the file's floats were
-  // scaled there and back, which rounds in the last bit or two.
-  const float slack = set_.metresPerUnit == 1.0 ? 0.f : 1e-6f;
-  auto near = [slack](float a, double b) {
-    return std::abs(a - float(b)) <= slack * (1.f + std::abs(a));
-  };
-  if (current) {
+  setVolume(nullptr, QString(), std::string(), rigGeneration_);
+}
+
+void Document::setVolume(std::shared_ptr<const ProbeVolume> volume, const QString& path,
+                         const std::string& metadataJson, int rigGeneration) {
+  volume_ = std::move(volume);
+  volumePath_ = volume_ ? path : QString();
+  volumeRigGeneration_ = rigGeneration;
+  volumeProbes_.clear();
+  volumeIds_.clear();
+  volumeExtra_ = 0;
+  if (volume_) {
+    const QJsonObject meta =
+        QJsonDocument::fromJson(QByteArray::fromStdString(metadataJson)).object();
+    const QJsonArray ids = meta.value(QLatin1String("probe_ids")).toArray();
     const std::vector<float>& pos = volume_->positions;
+    const size_t n = pos.size() / 3;
+    const bool haveIds = size_t(ids.size()) == n;
+    for (size_t i = 0; i < n; ++i) {
+      const uint64_t id = haveIds ? uint64_t(ids[qsizetype(i)].toInteger()) : 0;
+      if (haveIds && id == 0) continue;  // leak refinement's: not in the set
+      if (id != 0) volumeIds_[id] = volumeProbes_.size();
+      volumeProbes_.emplace_back(id, Vec3(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]));
+    }
+    if (!haveIds)
+      volumeExtra_ = size_t(std::max(0, meta.value(QLatin1String("leak_probes_added")).toInt()));
+  }
+  emit volumeChanged();
+}
+
+void Document::refreshVolumeState() {
+  VolumeState state = VolumeState::None;
+  QString reason;
+  if (volume_) {
+    state = VolumeState::Stale;
+    // In metres the volume holds the set's floats exactly; in another unit the file's floats
+    // were scaled there and back, which rounds in the last bit or two.
+    const double slack = set_.metresPerUnit == 1.0 ? 0.0 : 1e-6;
+    auto near = [slack](Vec3 a, Vec3 b) {
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(float(a[k]) - float(b[k])) > slack * (1 + std::abs(a[k]))) return false;
+      return true;
+    };
+    size_t accepted = 0;
+    for (const Probe& p : set_.probes) accepted += p.state == ProbeState::Accepted ? 1 : 0;
+    const size_t inVolume = volumeProbes_.size() - std::min(volumeExtra_, volumeProbes_.size());
+    // The first difference found, named by its probe.
     for (const Probe& p : set_.probes) {
+      if (!reason.isEmpty()) break;
       if (p.state != ProbeState::Accepted) continue;
-      bool found = false;
-      for (size_t i = 0; i + 2 < pos.size() && !found; i += 3)
-        found = near(pos[i], p.position.x) && near(pos[i + 1], p.position.y) &&
-                near(pos[i + 2], p.position.z);
-      if (!found) {
-        current = false;
-        break;
+      if (!volumeIds_.empty()) {
+        const auto it = volumeIds_.find(p.id);
+        if (it == volumeIds_.end())
+          reason = tr("probe %1 is accepted and not in it").arg(p.id);
+        else if (!near(volumeProbes_[it->second].second, p.position))
+          reason = tr("probe %1 moved").arg(p.id);
+      } else if (std::none_of(volumeProbes_.begin(), volumeProbes_.end(),
+                              [&](const auto& v) { return near(v.second, p.position); })) {
+        reason = tr("probe %1 is not in it where the set has it").arg(p.id);
       }
     }
+    if (reason.isEmpty() && accepted != inVolume) {
+      for (const auto& [id, position] : volumeProbes_) {
+        const Probe* now = id != 0 ? probe(id) : nullptr;
+        if (id != 0 && (!now || now->state != ProbeState::Accepted)) {
+          reason = now ? tr("probe %1 is no longer accepted").arg(id)
+                       : tr("probe %1 was deleted").arg(id);
+          break;
+        }
+      }
+      if (reason.isEmpty()) reason = tr("the probes differ");
+    }
+    if (!reason.isEmpty())
+      reason = tr("%1 probes in it, %2 accepted: %3").arg(inVolume).arg(accepted).arg(reason);
+    else if (rigGeneration_ != volumeRigGeneration_)
+      reason = tr("the lighting changed since it was baked");
+    if (reason.isEmpty()) state = VolumeState::Baked;
   }
-  volumeChange_ = current ? changeCount_ : changeCount_ - 1;
-  emit volumeChanged();
+  if (state == volumeState_ && reason == volumeStaleReason_) return;
+  volumeState_ = state;
+  volumeStaleReason_ = reason;
+  emit volumeStateChanged();
+}
+
+QString Document::volumeStatusText() const {
+  const QString name = QFileInfo(volumePath_).fileName();
+  switch (volumeState_) {
+    case VolumeState::Baked:
+      return tr("%1: baked, %2 probes").arg(name).arg(volume_->positions.size() / 3);
+    case VolumeState::Stale:
+      return tr("%1: stale (%2)").arg(name, volumeStaleReason_);
+    case VolumeState::None:
+      break;
+  }
+  return tr("not baked yet");
+}
+
+QString Document::evaluationSource(bool leakCuts) const {
+  if (volumeIsCurrent()) return tr("baked volume %1").arg(QFileInfo(volumePath_).fileName());
+  QString source =
+      leakCuts ? tr("preview (accepted probes, leak cuts)") : tr("preview (accepted probes)");
+  if (volumeState_ == VolumeState::Stale)
+    source += tr("; %1 is stale: %2").arg(QFileInfo(volumePath_).fileName(), volumeStaleReason_);
+  return source;
 }
 
 std::string Document::staleCapturesText() const {
@@ -382,6 +478,7 @@ void Document::recover(const QString& recoveryPath, const QString& originalSetPa
   undo_.resetClean();  // the recovered edits are not saved anywhere but the recovery file
   ++changeCount_;
   emit modifiedChanged(true);
+  emit probeSetOpened();
 }
 
 void Document::insertProbeRaw(int row, const Probe& p) {
@@ -436,12 +533,9 @@ void Document::setProbePositionRaw(uint64_t id, Vec3 p, const std::optional<ShRg
 void Document::setProbeShLive(uint64_t id, const ShRgb& sh) {
   const int row = indexOf(id);
   if (row < 0) return;
-  // A bake captures its probes itself: a better preview capture leaves it as current as it was.
-  const bool current = volumeIsCurrent();
   set_.probes[size_t(row)].sh = sh;
   set_.probes[size_t(row)].captureSceneHash = sceneHash_;
   ++changeCount_;
-  if (current) volumeChange_ = changeCount_;
   emit probeChanged(row);
 }
 
@@ -763,51 +857,17 @@ void captureQuickly(const Tracer& tracer, const LightingRig& rig, std::vector<Pr
 }
 }  // namespace
 
-void Document::proposeCandidates() {
-  if (!tracer_ || busy_) return;
-  const ProposalSettings settings = proposal_;
-  const LightingRig rig = set_.rig;
-  std::shared_ptr<const Tracer> tracer = tracer_;
-  const uint64_t sceneHash = sceneHash_;
-  startJob("propose", tr("Proposing probes…"), [=](JobResult& result, const auto& report) {
-    const Bounds3 b = tracer->scene().bounds;
-    const Vec3 e = b.extent();
-    const double floor = std::max(b.diagonal() * 0.05, 1e-6);
-    const double volume = std::max(e.x, floor) * std::max(e.y, floor) * std::max(e.z, floor);
-    double spacing = std::cbrt(volume / settings.targetProbeCount);
-    std::vector<Vec3> points;
-    // Interior walls and validity culling remove points: adjust the spacing so the count
-    // lands in roughly [30, 150].
-    for (int attempt = 0; attempt < 4; ++attempt) {
-      UniformSettings us;
-      us.spacingMeters = spacing;
-      points = placeUniform(*tracer, us, [&](double f) {
-        return report(tr("Placing probes…"), 0.4 * (attempt + f) / 4.0);
-      });
-      const double n = double(points.size());
-      if (n >= 30 && n <= 150) break;
-      const double ratio = std::cbrt(std::max(n, 1.0) / settings.targetProbeCount);
-      spacing *= std::clamp(ratio, 0.5, 2.0);
-    }
-    if (!pointsSpan3D(points)) {
-      // One flat layer (a room much wider than tall: dream-apartment), of which no volume can be
-      // made: the budget grid, which then keeps at least 2 points along each axis.
-      const UniformBudgetResult grid =
-          placeUniformBudget(*tracer, int(std::lround(settings.targetProbeCount)), {},
-                             [&](double f) { return report(tr("Placing probes…"), 0.4 * f); });
-      points = grid.points;
-      spacing = grid.spacingMeters;
-    }
-    result.spacingMeters = spacing;
-    for (const Vec3& p : points) {
-      Probe probe;
-      probe.position = p;
-      probe.method = "uniform";
-      result.probes.push_back(probe);
-    }
-    captureQuickly(*tracer, rig, result.probes, settings.samplesPerProbe, report, 0.4, result.error,
-                   sceneHash);
-  });
+bool Document::proposeCandidates() {
+  if (!tracer_ || busy_) return false;
+  PlacementRequest request;
+  request.method = "uniform";
+  request.samplesPerProbe = proposal_.samplesPerProbe;
+  request.domain = proposal_.domain;
+  request.replaceCandidates = true;
+  // The budget counts the probes the placement keeps (PlaceRequest::budget).
+  request.budget = int(keptProbes(set_, request.toPlaceRequest()).size()) +
+                   int(std::lround(proposal_.targetProbeCount));
+  return startPlacement(request, QStringLiteral("propose"));
 }
 
 PlaceRequest PlacementRequest::toPlaceRequest() const {
@@ -815,10 +875,7 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   r.method = method;
   r.budget = budget;
   // The panel shows every field; a method is given those it reads (PlacementMethod::parameters).
-  const PlacementMethod& m = findPlacementMethod(method);
-  auto takes = [&](std::string_view name) {
-    return std::find(m.parameters.begin(), m.parameters.end(), name) != m.parameters.end();
-  };
+  auto takes = [&](std::string_view name) { return methodReads(method, name); };
   if (budget <= 0 && takes("spacingMeters")) r.parameters.set("spacingMeters", spacingMeters);
   if (takes("aggressiveness")) r.parameters.set("aggressiveness", aggressiveness);
   if (takes("swapPasses")) r.parameters.set("swapPasses", swapPasses);
@@ -832,6 +889,11 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   return r;
 }
 
+bool PlacementRequest::methodReads(const std::string& method, std::string_view parameter) {
+  const PlacementMethod& m = findPlacementMethod(method);
+  return std::find(m.parameters.begin(), m.parameters.end(), parameter) != m.parameters.end();
+}
+
 QString PlacementRequest::fieldLabel(const std::string& parameter) {
   if (parameter == "method") return QObject::tr("Method");
   if (parameter == "budget") return QObject::tr("Budget");
@@ -843,6 +905,10 @@ QString PlacementRequest::fieldLabel(const std::string& parameter) {
 }
 
 bool Document::runPlacement(const PlacementRequest& request) {
+  return startPlacement(request, QStringLiteral("place"));
+}
+
+bool Document::startPlacement(const PlacementRequest& request, const QString& kind) {
   if (!tracer_ || busy_) return false;
   // A problem of the request is the panel's field, named as the panel names it; nothing starts.
   PlaceRequest place;
@@ -857,7 +923,9 @@ bool Document::runPlacement(const PlacementRequest& request) {
   std::shared_ptr<const Tracer> tracer = tracer_;
   const uint64_t sceneHash = sceneHash_;
   const std::vector<JobPhase> phases = placementPhases(request.method, request.refineLeaks);
-  startJob("place", tr("Placing probes…"), [=](JobResult& result, const auto& report) {
+  const QString firstMessage =
+      kind == QLatin1String("propose") ? tr("Proposing probes…") : tr("Placing probes…");
+  startJob(kind, firstMessage, [=](JobResult& result, const auto& report) {
     result.placement = request;
     const PlaceResult placed =
         placeProbeSet(*tracer, set, place, [&](const std::string& stage) -> ProgressFn {
@@ -924,6 +992,7 @@ bool Document::bake(const BakeRequest& request) {
     set.scenePath = std::filesystem::absolute(toPath(scenePath_)).lexically_normal().string();
   const QString path = volumePathFor(setPath_);
   std::shared_ptr<const Tracer> tracer = tracer_;
+  const int rigGeneration = rigGeneration_;
   startJob("bake", tr("Baking…"), [=](JobResult& result, const auto& report) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = request.samplesPerProbe;
@@ -950,6 +1019,8 @@ bool Document::bake(const BakeRequest& request) {
                           .arg(baked.fit->points)
                           .arg(baked.fit->seconds, 0, 'f', 2);
     result.volumePath = path;
+    result.volumeMetadata = baked.file.metadataJson;
+    result.rigGeneration = rigGeneration;
     result.volume = std::make_shared<const ProbeVolume>(std::move(baked.file.volume));
   });
   return true;
@@ -979,10 +1050,9 @@ bool Document::recapture(int samplesPerProbe) {
 bool Document::evaluate(const EvalRequest& request) {
   if (!tracer_ || busy_) return false;
   std::shared_ptr<const ProbeVolume> volume;
-  QString source;
-  if (volume_ && volumeChange_ == changeCount_) {
+  const QString source = evaluationSource(request.leakCuts);
+  if (volumeIsCurrent()) {
     volume = volume_;
-    source = tr("baked volume");
   } else {
     std::vector<Vec3> positions;
     std::vector<ShRgb> sh;
@@ -994,8 +1064,6 @@ bool Document::evaluate(const EvalRequest& request) {
     if (positions.size() < 4)
       throw ParameterError("evaluate: bake, or accept at least 4 captured probes, first");
     volume = std::make_shared<const ProbeVolume>(volumeFromProbes(positions, sh));  // throws
-    source = request.leakCuts ? tr("preview (accepted probes, leak cuts)")
-                              : tr("preview (accepted probes)");
   }
   const bool cutPreview = request.leakCuts && volume != volume_;
   const LightingRig rig = set_.rig;
@@ -1069,10 +1137,8 @@ bool Document::evaluate(const EvalRequest& request) {
 
 void Document::openVolume(const QString& path) {
   VolumeFile f = loadVolume(toPath(path));  // throws; nothing changed yet
-  volume_ = std::make_shared<const ProbeVolume>(std::move(f.volume));
-  volumePath_ = path;
-  volumeChange_ = changeCount_;
-  emit volumeChanged();
+  setVolume(std::make_shared<const ProbeVolume>(std::move(f.volume)), path, f.metadataJson,
+            rigGeneration_);
 }
 
 void Document::onJobDone() {
@@ -1080,19 +1146,9 @@ void Document::onJobDone() {
   std::shared_ptr<JobResult> r = watcher_->result();
   if (!r || r->generation != generation_) return;  // stale: the document moved on
   busy_ = false;
-  if (r->kind == QLatin1String("propose")) {
-    if (!r->probes.empty()) {
-      set_.placement.method = "uniform";
-      set_.placement.spacingMeters = r->spacingMeters;
-    }
-    const QString text = tr("Propose %1 candidates").arg(r->probes.size());
-    // The proposal is the editor's, not the artist's: a document that was clean stays clean
-    // (closing it asks nothing; the proposal is undoable like any edit).
-    const bool wasClean = undo_.isClean();
-    if (!r->probes.empty()) addProbes(std::move(r->probes), text);
-    if (wasClean) undo_.setClean();
-  } else if (r->kind == QLatin1String("place") && r->error != QLatin1String("cancelled") &&
-             (!r->probes.empty() || r->error.isEmpty())) {
+  const bool proposal = r->kind == QLatin1String("propose");
+  if ((proposal || r->kind == QLatin1String("place")) && r->error != QLatin1String("cancelled") &&
+      (!r->probes.empty() || r->error.isEmpty())) {
     set_.placement.method = r->placement.method;
     set_.placement.spacingMeters = r->spacingMeters;
     set_.placement.budget = r->placement.budget;
@@ -1104,19 +1160,24 @@ void Document::onJobDone() {
       p.id = allocateId();
       added.push_back(std::move(p));
     }
-    auto* macro = new QUndoCommand(!r->placement.undoText.isEmpty()
-                                       ? r->placement.undoText
-                                       : tr("Place %1 candidates (%2)")
-                                             .arg(added.size())
-                                             .arg(QString::fromStdString(r->placement.method)));
-    if (!replaced.empty()) new DeleteProbesCommand(this, replaced, macro);
-    if (!added.empty()) new AddProbesCommand(this, std::move(added), QString(), macro);
-    undo_.push(macro);
+    const QString text = proposal ? tr("Propose %1 candidates").arg(added.size())
+                         : !r->placement.undoText.isEmpty()
+                             ? r->placement.undoText
+                             : tr("Place %1 candidates (%2)")
+                                   .arg(added.size())
+                                   .arg(QString::fromStdString(r->placement.method));
+    // The proposal is the editor's, not the artist's: a document that was clean stays clean
+    // (closing it asks nothing; the proposal is undoable like any edit).
+    const bool keepClean = proposal && undo_.isClean();
+    if (!proposal || !added.empty() || !replaced.empty()) {
+      auto* macro = new QUndoCommand(text);
+      if (!replaced.empty()) new DeleteProbesCommand(this, replaced, macro);
+      if (!added.empty()) new AddProbesCommand(this, std::move(added), QString(), macro);
+      undo_.push(macro);
+    }
+    if (keepClean) undo_.setClean();
   } else if (r->kind == QLatin1String("bake") && r->volume) {
-    volume_ = r->volume;
-    volumePath_ = r->volumePath;
-    volumeChange_ = changeCount_;
-    emit volumeChanged();
+    setVolume(r->volume, r->volumePath, r->volumeMetadata, r->rigGeneration);
   } else if (r->kind == QLatin1String("recapture") && !r->probes.empty()) {
     std::vector<std::pair<uint64_t, ShRgb>> sh;
     for (size_t i = 0; i < r->probes.size(); ++i) {

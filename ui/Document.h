@@ -15,6 +15,8 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -31,10 +33,15 @@ struct ProbeVolume;
 
 namespace ps::ui {
 
-/// Settings of the background candidate proposal made when a scene is opened without a set.
+/// Settings of the background candidate proposal made when a scene is opened without a set: a
+/// uniform placement through the same pipeline and domain as Run placement
+/// (Document::runPlacement), at a budget of about targetProbeCount new candidates.
 struct ProposalSettings {
-  double targetProbeCount = 80;  ///< spacing = cbrt(volume of bounds / target)
+  double targetProbeCount = 80;  ///< new candidates (uniform's budget beyond the kept probes)
   int samplesPerProbe = 64;      ///< quick SH capture
+  /// Where the candidates go without importance volumes: the placement panel's domain
+  /// (PlacementRequest::domain), so that the proposal lands where Run placement puts probes.
+  DomainRule domain = DomainRule::Reachable;
 };
 
 /// Live capture of edited probes: a probe moved (or added) is captured alone in the background,
@@ -48,12 +55,14 @@ struct LiveCaptureSettings {
   int samplesPerChunk = 32;  ///< rays per independent capture; cancellation between chunks
 };
 
-/// The placement panel's settings. toPlaceRequest() turns them into the core's request
+/// The placement panel's settings, which it starts with: greedy at 64 probes, as
+/// `scripts/run --headless` places. toPlaceRequest() turns them into the core's request
 /// (core/placement/Place.h), the one the command line builds from its flags.
 struct PlacementRequest {
-  std::string method = "uniform";
+  static constexpr int kDefaultBudget = 64;
+  std::string method = "greedy";
   double spacingMeters = 1.0;     ///< grid methods, used when budget == 0
-  int budget = 0;                 ///< > 0: the probe count (PlaceRequest::budget)
+  int budget = kDefaultBudget;    ///< > 0: the probe count (PlaceRequest::budget); 0: none
   int samplesPerProbe = 64;       ///< quick capture of the new probes, so they show their light
   bool replaceCandidates = true;  ///< false: keep the unlocked candidates too, only add
   double aggressiveness = 1.0;    ///< chajdas: merging strength (without a budget)
@@ -71,6 +80,9 @@ struct PlacementRequest {
   /// kept (and the candidates unless replaceCandidates). Throws ps::ParameterError("method")
   /// for an unknown method.
   PlaceRequest toPlaceRequest() const;
+  /// True when `method` (one of placementMethods()) reads this parameter
+  /// (PlacementMethod::parameters). Throws ps::ParameterError("method") for an unknown method.
+  static bool methodReads(const std::string& method, std::string_view parameter);
   /// The panel's name of a core parameter (ParameterError::parameter()).
   static QString fieldLabel(const std::string& parameter);
 };
@@ -227,8 +239,12 @@ class Document : public QObject {
   bool autoPropose() const { return autoPropose_; }
   void setAutoPropose(bool on) { autoPropose_ = on; }
   ProposalSettings& proposalSettings() { return proposal_; }
-  /// Starts uniform placement + quick capture; the result is pushed as one undo command.
-  void proposeCandidates();
+  /// Starts the proposal (ProposalSettings): runPlacement's job with method "uniform", the
+  /// budget the kept probes plus targetProbeCount, the unlocked candidates replaced, the
+  /// proposal's domain and quick capture. The result is one undo step ("Propose N candidates")
+  /// that leaves a clean document clean. Returns false (and does nothing) when busy or without
+  /// a tracer; throws ParameterError as runPlacement does.
+  bool proposeCandidates();
   bool isBusy() const { return busy_; }
   /// A job's work was started and the end of it has not been handled yet: true from its start
   /// until its finished signal reaches the document (its result applied, or dropped when the
@@ -270,8 +286,24 @@ class Document : public QObject {
   /// The last volume baked (or loaded) for this document; null when none.
   std::shared_ptr<const ProbeVolume> volume() const { return volume_; }
   QString volumePath() const { return volumePath_; }
-  /// The volume was baked from the probes as they are (no edit since the bake or the load).
-  bool volumeIsCurrent() const { return volume_ && volumeChange_ == changeCount_; }
+  /// What volume() is to the probe set. Baked: its probes from the set (the volume file's
+  /// "probe_ids"; by position for a file without them) are exactly the accepted probes, each
+  /// where the set has it, and the lighting did not change since it was baked or loaded (leak
+  /// refinement's probes, id 0, are the volume's own). Stale: it no longer matches. Updated at
+  /// every change of the probes, the lighting or the volume (volumeStateChanged).
+  enum class VolumeState { None, Baked, Stale };
+  VolumeState volumeState() const { return volumeState_; }
+  bool volumeIsCurrent() const { return volumeState_ == VolumeState::Baked; }
+  /// Why the volume is stale, one line naming a probe that differs ("73 probes in the volume,
+  /// 72 accepted: probe 12 is no longer accepted"); empty unless stale.
+  QString volumeStaleReason() const { return volumeStaleReason_; }
+  /// The volume named with its state, one line: "X.psv: baked, 73 probes", "X.psv: stale
+  /// (reason)", or "not baked yet".
+  QString volumeStatusText() const;
+  /// What evaluate() measures now, named with its state: "baked volume X.psv", or
+  /// "preview (accepted probes[, leak cuts])" followed by "; X.psv is stale: reason" when a
+  /// stale volume is left aside.
+  QString evaluationSource(bool leakCuts) const;
   /// Loads a volume file for the preview and the overlays. Throws ps::Error.
   void openVolume(const QString& path);
 
@@ -326,6 +358,11 @@ class Document : public QObject {
   void importanceVolumesChanged();
   /// volume() changed (baked, loaded, or dropped with the scene).
   void volumeChanged();
+  /// volumeState() or volumeStaleReason() changed.
+  void volumeStateChanged();
+  /// A probe set was opened (openProbeSet) or recovered (recover): its placement settings
+  /// (ProbeSet::placement, the method, budget and spacing that placed it) are there to show.
+  void probeSetOpened();
   void evaluationsChanged();
   /// A live capture landed: the probe's SH now holds `samples` rays taken at its position, in
   /// `seconds` since the edit that asked for it.
@@ -339,12 +376,21 @@ class Document : public QObject {
   struct JobResult;
   using JobFn = std::function<void(JobResult&, const std::function<bool(QString, double)>&)>;
   void startJob(const QString& kind, const QString& firstMessage, JobFn work);
+  /// runPlacement's job under `kind` ("place" or "propose"; onJobDone applies both alike).
+  bool startPlacement(const PlacementRequest& request, const QString& kind);
   void onJobDone();
   void replace(std::shared_ptr<const Scene> scene, std::shared_ptr<const Tracer> tracer,
                ProbeSet set, const QString& scenePath, const QString& setPath);
-  /// Takes the volume file beside a probe set just opened (volumePathFor) as volume(), current
-  /// when it holds every accepted probe at its position; drops any other volume.
+  /// Takes the volume file beside a probe set just opened (volumePathFor) as volume() (Baked or
+  /// Stale, volumeState); drops any other volume.
   void pickUpVolumeBeside(const QString& setPath);
+  /// Makes `volume` (saved at `path`, with the volume file's metadata JSON) volume(), baked under
+  /// the lighting of `rigGeneration`, and emits volumeChanged. Null drops the volume.
+  void setVolume(std::shared_ptr<const ProbeVolume> volume, const QString& path,
+                 const std::string& metadataJson, int rigGeneration);
+  /// Compares the volume with the probe set (volumeState) and emits volumeStateChanged when the
+  /// state or its reason changed. O(probes).
+  void refreshVolumeState();
   struct LiveTask;
   struct LiveResult;
   /// Starts the next live capture (quick ones before final ones) unless one runs.
@@ -379,7 +425,15 @@ class Document : public QObject {
   QStringList jobNotes_;
   std::shared_ptr<const ProbeVolume> volume_;
   QString volumePath_;
-  quint64 volumeChange_ = 0;  ///< changeCount() when the volume was baked
+  /// The set's probes in the volume, in its order: id (0 when the file has no "probe_ids") and
+  /// position; volumeIds_ maps an id to its index. volumeExtra_: the volume's own probes (leak
+  /// refinement's) in a file without ids, which then match no accepted probe.
+  std::vector<std::pair<uint64_t, Vec3>> volumeProbes_;
+  std::unordered_map<uint64_t, size_t> volumeIds_;
+  size_t volumeExtra_ = 0;
+  int volumeRigGeneration_ = 0;  ///< rigGeneration_ of the volume's lighting
+  VolumeState volumeState_ = VolumeState::None;
+  QString volumeStaleReason_;
   std::vector<EvaluationPoint> evaluations_;
   QFutureWatcher<std::shared_ptr<JobResult>>* watcher_ = nullptr;
   LiveCaptureSettings live_;

@@ -39,6 +39,10 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
       tr("Error of the baked volume (or the accepted probes' preview) against a "
          "path-traced reference at random points"));
   layout->addWidget(run_);
+  evaluated_ = new QLabel;
+  evaluated_->setObjectName("evaluatedVolume");
+  evaluated_->setWordWrap(true);
+  layout->addWidget(evaluated_);
 
   chart_ = new QChart;
   chart_->setTitle(tr("Irradiance error against probe count"));
@@ -149,8 +153,18 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   connect(doc_, &Document::jobFinished, this, updateState);
   connect(doc_, &Document::jobProgress, this, updateState);
   connect(doc_, &Document::sceneChanged, this, updateState);
+  connect(doc_, &Document::volumeStateChanged, this, &EvaluationPanel::refreshEvaluated);
   updateState();
   refresh();
+  refreshEvaluated();
+}
+
+void EvaluationPanel::refreshEvaluated() {
+  const bool stale = doc_->volumeState() == Document::VolumeState::Stale;
+  evaluated_->setText(
+      tr("Evaluates: %1").arg(doc_->evaluationSource(leakCuts_)) +
+      (stale ? tr(". Bake again (Ctrl+B) to evaluate the volume itself.") : QString()));
+  evaluated_->setStyleSheet(stale ? QStringLiteral("color: #b35c00") : QString());
 }
 
 bool EvaluationPanel::addProbesWhereErrorIsWorst() {

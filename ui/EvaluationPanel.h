@@ -18,6 +18,7 @@ class QLineSeries;
 class QScatterSeries;
 class QValueAxis;
 class QLogValueAxis;
+class QLabel;
 class QSpinBox;
 class QPushButton;
 class QTableWidget;
@@ -35,7 +36,10 @@ class EvaluationPanel : public QWidget {
   /// Starts an evaluation; false (after emitting failed) when it could not start.
   bool evaluate();
   /// Whether the preview is evaluated with leak cuts (the viewport's View > Leak cuts).
-  void setLeakCuts(bool on) { leakCuts_ = on; }
+  void setLeakCuts(bool on) {
+    leakCuts_ = on;
+    refreshEvaluated();
+  }
 
   QChart* chart() const { return chart_; }
   /// The plotted series: relative RMS error (%) and 95th percentile (%) against probe count.
@@ -44,6 +48,9 @@ class EvaluationPanel : public QWidget {
   /// The RMS error in stops (EvalStops::rms) against probe count, on the right-hand axis.
   QScatterSeries* stopsSeries() const { return stops_; }
   QSpinBox* queriesBox() const { return queries_; }
+  /// What Evaluate measures now, named with its state (Document::evaluationSource): the baked
+  /// volume, or the preview with a stale volume named stale.
+  QLabel* evaluatedLabel() const { return evaluated_; }
   QSpinBox* referenceSamplesBox() const { return refSpp_; }
   QTableWidget* table() const { return table_; }
   /// The last evaluation's queries, worst first: error (stops), reference and volume (W/m²),
@@ -78,6 +85,7 @@ class EvaluationPanel : public QWidget {
  private:
   void refresh();
   void refreshWorst();
+  void refreshEvaluated();
 
   Document* doc_;
   QChart* chart_;
@@ -87,6 +95,7 @@ class EvaluationPanel : public QWidget {
   QValueAxis *xAxis_, *yAxis_, *stopsAxis_;
   QSpinBox *queries_, *refSpp_;
   QPushButton* run_;
+  QLabel* evaluated_;
   QTableWidget* table_;
   QTableWidget* worst_;
   QPushButton* addProbe_;

@@ -119,6 +119,9 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   overlayReason_ = new QLabel;
   overlayReason_->setObjectName("overlayReason");
   overlayReason_->setStyleSheet("color: #b35c00");
+  volumeState_ = new QLabel;
+  volumeState_->setObjectName("volumeStateStatus");
+  volumeState_->setStyleSheet("color: #b35c00");
   jobLabel_ = new QLabel;
   jobLabel_->setObjectName("jobLabel");
   progress_ = new QProgressBar;
@@ -133,11 +136,14 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   statusBar()->addWidget(probesLabel_);
   statusBar()->addWidget(cutsLabel_);
   statusBar()->addWidget(overlayReason_);
+  statusBar()->addWidget(volumeState_);
   statusBar()->addPermanentWidget(jobLabel_);
   statusBar()->addPermanentWidget(progress_);
   statusBar()->addPermanentWidget(cancelJob_);
 
   createActions();
+  confineKeyShortcutsToViewport();
+  viewport_->setFocus();  // the keys' shortcuts act from the start
 
   connect(table_->selectionModel(), &QItemSelectionModel::selectionChanged, this,
           &MainWindow::onTableSelectionChanged);
@@ -163,6 +169,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
     connect(doc_, signal, this, &MainWindow::updateOverlayReason);
   for (auto signal : {&Document::probeInserted, &Document::probeRemoved, &Document::probeChanged})
     connect(doc_, signal, this, &MainWindow::updateOverlayReason);
+  connect(doc_, &Document::volumeStateChanged, this, &MainWindow::updateVolumeState);
   connect(doc_, &Document::modifiedChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateTitle);
   connect(doc_, &Document::pathsChanged, this, &MainWindow::updateStatus);
@@ -208,10 +215,13 @@ void MainWindow::createActions() {
   a = file->addAction(tr("&Save probe set"), this, [this] { save(); });
   a->setShortcut(QKeySequence::Save);
   a = file->addAction(tr("Save probe set &as…"), this, [this] { saveAs(); });
-  a->setShortcut(QKeySequence::SaveAs);
+  a->setObjectName("saveAsAction");
+  // Spelled out: QKeySequence::SaveAs and ::Quit are empty on some platforms (offscreen, X11
+  // without a desktop's theme).
+  a->setShortcut(QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_S));
   file->addSeparator();
   a = file->addAction(tr("&Quit"), this, &QWidget::close);
-  a->setShortcut(QKeySequence::Quit);
+  a->setShortcut(QKeySequence(Qt::CTRL | Qt::Key_Q));
 
   QMenu* edit = menuBar()->addMenu(tr("&Edit"));
   a = doc_->undoStack()->createUndoAction(this, tr("&Undo"));
@@ -272,7 +282,13 @@ void MainWindow::createActions() {
   edit->addSeparator();
   a = edit->addAction(tr("Select a&ll"), table_, &QTableView::selectAll);
   a->setShortcut(QKeySequence::SelectAll);
-  a = edit->addAction(tr("Propose &candidates"), this, [this] { doc_->proposeCandidates(); });
+  a = edit->addAction(tr("Propose &candidates"), this, [this] {
+    try {
+      doc_->proposeCandidates();
+    } catch (const Error& e) {
+      showError(jobTitle(QStringLiteral("propose")), QString::fromStdString(e.what()));
+    }
+  });
 
   QMenu* probes = menuBar()->addMenu(tr("&Probes"));
   a = probes->addAction(tr("&Run placement"), this, [this] { placement_->run(); });
@@ -435,6 +451,22 @@ void MainWindow::createActions() {
   tools->setObjectName("editToolBar");
   tools->addAction(addTool);
   tools->addAction(volumeTool);
+}
+
+void MainWindow::confineKeyShortcutsToViewport() {
+  for (QAction* a : findChildren<QAction*>()) {
+    bool typed = false;  // a key that types text in a field (Shift allowed: "R" is Shift+R)
+    for (const QKeySequence& k : a->shortcuts()) {
+      if (k.count() != 1) continue;
+      const QKeyCombination c = k[0];
+      const Qt::KeyboardModifiers mods =
+          c.keyboardModifiers() & ~(Qt::ShiftModifier | Qt::KeypadModifier);
+      typed = typed || (mods == Qt::NoModifier && c.key() != Qt::Key_Escape);
+    }
+    if (!typed) continue;
+    a->setShortcutContext(Qt::WidgetShortcut);
+    viewport_->addAction(a);
+  }
 }
 
 QStringList MainWindow::recentFiles() const {
@@ -757,6 +789,13 @@ void MainWindow::updateStatus() {
                             .arg(counts[int(ProbeState::Accepted)])
                             .arg(counts[int(ProbeState::Candidate)])
                             .arg(counts[int(ProbeState::Rejected)]));
+}
+
+void MainWindow::updateVolumeState() {
+  const bool stale = doc_->volumeState() == Document::VolumeState::Stale;
+  volumeState_->setText(stale ? tr("Volume %1; bake again (Ctrl+B)").arg(doc_->volumeStatusText())
+                              : QString());
+  volumeState_->setToolTip(volumeState_->text());
 }
 
 void MainWindow::updateOverlayReason() {

@@ -106,6 +106,10 @@ class MainWindow : public QMainWindow {
 
  private:
   void createActions();
+  /// Shortcuts of keys without Ctrl, Alt or Meta (A, R, Shift+L, Delete, ], ...; Esc excepted)
+  /// act only while the viewport has the focus: typed into a field, a table or a list they
+  /// are text, never an edit of the probes.
+  void confineKeyShortcutsToViewport();
   /// The left docks' and the right docks' default share of the window's width: the viewport
   /// keeps about 60 % of it.
   static constexpr double kLeftDockShare = 0.2, kRightDockShare = 0.16;
@@ -117,6 +121,8 @@ class MainWindow : public QMainWindow {
   void updateCutsLabel();
   /// The status bar's reason why a shown overlay is empty (Viewport::emptyOverlayReason).
   void updateOverlayReason();
+  /// The status bar's volume label: shown while the volume is stale.
+  void updateVolumeState();
   std::vector<uint64_t> selectedIds() const;
   void onTableSelectionChanged();
   void onProbeClicked(std::optional<quint64> id, Qt::KeyboardModifiers mods);
@@ -136,6 +142,7 @@ class MainWindow : public QMainWindow {
   QLabel* probesLabel_;
   QLabel* cutsLabel_;      ///< what the preview's leak cuts did (Viewport::previewCuts)
   QLabel* overlayReason_;  ///< why a shown overlay is empty, with the fixing action
+  QLabel* volumeState_;    ///< a stale volume, named with why (Document::volumeStatusText)
   QLabel* jobLabel_;
   QProgressBar* progress_;
   InspectorPanel* inspector_;

@@ -30,6 +30,7 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   auto* placeBox = new QGroupBox(tr("Placement"));
   auto* form = new QFormLayout(placeBox);
   form->setRowWrapPolicy(QFormLayout::WrapLongRows);  // narrow docks: fields under labels
+  const PlacementRequest defaults;                    // the panel's first values
   method_ = new QComboBox;
   // The core's placement methods (core/placement/Place.h), the same as `probestudio place`.
   const std::map<std::string, QString> help = {
@@ -48,32 +49,32 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
     const auto h = help.find(name);
     if (h != help.end()) method_->setItemData(method_->count() - 1, h->second, Qt::ToolTipRole);
   }
-  method_->setCurrentText(QStringLiteral("uniform"));
+  method_->setCurrentText(QString::fromStdString(defaults.method));
   spacing_ = new QDoubleSpinBox;
   spacing_->setRange(0.01, 1000);
   spacing_->setDecimals(2);
-  spacing_->setValue(1.0);
+  spacing_->setValue(defaults.spacingMeters);
   spacing_->setSuffix(QStringLiteral(" m"));
   budget_ = new QSpinBox;
   budget_->setRange(0, 1000000);
-  budget_->setSpecialValueText(tr("none (use spacing)"));
+  budget_->setValue(defaults.budget);
   captureSpp_ = new QSpinBox;
   captureSpp_->setRange(1, 1 << 16);
-  captureSpp_->setValue(64);
+  captureSpp_->setValue(defaults.samplesPerProbe);
   form->addRow(tr("Method"), method_);
   form->addRow(tr("Spacing"), spacing_);
   form->addRow(tr("Budget"), budget_);
   aggressiveness_ = new QDoubleSpinBox;
   aggressiveness_->setRange(0.05, 20);
   aggressiveness_->setSingleStep(0.25);
-  aggressiveness_->setValue(1.0);
+  aggressiveness_->setValue(defaults.aggressiveness);
   aggressiveness_->setToolTip(
       tr("chajdas without a budget: how readily clusters of similar lighting merge (higher: "
          "fewer probes)"));
   form->addRow(tr("Aggressiveness"), aggressiveness_);
   swapPasses_ = new QSpinBox;
   swapPasses_->setRange(0, 64);
-  swapPasses_->setValue(kGreedySwapPasses);
+  swapPasses_->setValue(defaults.swapPasses);
   swapPasses_->setSpecialValueText(tr("none"));
   swapPasses_->setToolTip(
       tr("greedy: after the additions, passes that move each probe to where it lowers the error "
@@ -93,18 +94,17 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   objective_->setItemData(0, perceptualTip, Qt::ToolTipRole);
   objective_->addItem(QStringLiteral("energy"));
   objective_->setItemData(1, energyTip, Qt::ToolTipRole);
-  objective_->setCurrentText(
-      QString::fromLatin1(greedyObjectiveName(GreedyMethodSettings{}.objective)));
+  objective_->setCurrentText(QString::fromStdString(defaults.objective));
   objective_->setToolTip(tr("greedy: the error it lowers.\nperceptual: %1.\nenergy: %2.")
                              .arg(perceptualTip, energyTip));
   form->addRow(tr("Objective"), objective_);
   form->addRow(tr("Preview samples"), captureSpp_);
   replace_ = new QCheckBox(tr("Replace unlocked candidates"));
-  replace_->setChecked(true);
+  replace_->setChecked(defaults.replaceCandidates);
   replace_->setToolTip(tr("Off: keep the current candidates and only add new ones"));
   form->addRow(replace_);
   placeLeakRefine_ = new QCheckBox(tr("Add probes against leaks"));
-  placeLeakRefine_->setChecked(false);
+  placeLeakRefine_->setChecked(defaults.refineLeaks);
   placeLeakRefine_->setToolTip(
       tr("After the method, add candidates (method \"leak\") on both sides of the walls that "
          "tetrahedron edges cross (Sukys 3.2.2), beyond the budget. Off by default: the baked "
@@ -118,9 +118,15 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
                        Qt::ToolTipRole);
   domain_->addItem(tr("bounds"));
   domain_->setItemData(1, tr("The scene's bounding box"), Qt::ToolTipRole);
+  domain_->setCurrentIndex(defaults.domain == DomainRule::Bounds ? 1 : 0);
   domain_->setToolTip(
       tr("Where probes go without importance volumes (probestudio place --domain)"));
   form->addRow(tr("Domain"), domain_);
+  // The proposal made when a scene opens places in this domain too, as Run placement does.
+  connect(domain_, &QComboBox::currentIndexChanged, this, [this](int index) {
+    doc_->proposalSettings().domain = index == 1 ? DomainRule::Bounds : DomainRule::Reachable;
+  });
+  doc_->proposalSettings().domain = defaults.domain;
   run_ = new QPushButton(tr("Run placement"));
   run_->setToolTip(
       tr("Replaces the unlocked candidates; accepted, rejected and locked probes "
@@ -188,6 +194,7 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   bake_ = new QPushButton(tr("Bake accepted probes"));
   bakeForm->addRow(bake_);
   volume_ = new QLabel;
+  volume_->setObjectName("volumeState");
   volume_->setWordWrap(true);
   bakeForm->addRow(volume_);
   layout->addWidget(bakeBox);
@@ -203,6 +210,14 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   status_->setWordWrap(true);
   layout->addWidget(status_);
   layout->addStretch(1);
+
+  // Each method's fields; greedy always has a budget (it needs one, and the panel offers no
+  // error target).
+  connect(method_, &QComboBox::currentTextChanged, this, &PlacementPanel::updateMethodFields);
+  connect(budget_, &QSpinBox::valueChanged, this, &PlacementPanel::updateMethodFields);
+  updateMethodFields();
+  // A reopened set places again as it was placed.
+  connect(doc_, &Document::probeSetOpened, this, &PlacementPanel::restorePlacement);
 
   connect(run_, &QPushButton::clicked, this, [this] { run(); });
   connect(bake_, &QPushButton::clicked, this, [this] { bake(); });
@@ -226,6 +241,7 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   connect(volumes_, &QTableWidget::itemSelectionChanged, this, &PlacementPanel::updateState);
   connect(doc_, &Document::importanceVolumesChanged, this, &PlacementPanel::refreshVolumes);
   connect(doc_, &Document::volumeChanged, this, &PlacementPanel::updateState);
+  connect(doc_, &Document::volumeStateChanged, this, &PlacementPanel::updateState);
   connect(doc_, &Document::sceneChanged, this, &PlacementPanel::updateState);
   connect(doc_, &Document::pathsChanged, this, &PlacementPanel::updateState);
   refreshVolumes();
@@ -394,6 +410,38 @@ void PlacementPanel::onVolumeEdited(QTableWidgetItem* item) {
   }
 }
 
+void PlacementPanel::restorePlacement() {
+  const PlacementSettings& placed = doc_->probeSet().placement;
+  const QString method = QString::fromStdString(placed.method);
+  if (method_->findText(method) < 0) return;  // not a method of the panel ("manual", ...)
+  method_->setCurrentText(method);            // greedy: the budget's minimum is 4
+  if (placed.spacingMeters > 0) spacing_->setValue(placed.spacingMeters);
+  if (placed.budget >= budget_->minimum()) budget_->setValue(placed.budget);
+}
+
+void PlacementPanel::updateMethodFields() {
+  const std::string method = method_->currentText().toStdString();
+  const bool greedy = method == "greedy";
+  if (greedy && budget_->minimum() != kMinGreedyBudget) {
+    const bool none = budget_->value() < kMinGreedyBudget;
+    budget_->setSpecialValueText(QString());  // shown at the minimum: not "none" for 4
+    budget_->setMinimum(kMinGreedyBudget);
+    if (none) budget_->setValue(PlacementRequest::kDefaultBudget);
+  } else if (!greedy && budget_->minimum() != 0) {
+    budget_->setMinimum(0);
+    budget_->setSpecialValueText(tr("none (use spacing)"));
+  }
+  budget_->setToolTip(greedy ? tr("greedy: the probe count it places, the kept probes included")
+                             : tr("The probe count; none: the spacing decides"));
+  // The fields the method reads (PlacementMethod::parameters); the spacing only without a
+  // budget.
+  auto takes = [&](std::string_view name) { return PlacementRequest::methodReads(method, name); };
+  spacing_->setEnabled(takes("spacingMeters") && budget_->value() == 0);
+  aggressiveness_->setEnabled(takes("aggressiveness"));
+  swapPasses_->setEnabled(takes("swapPasses"));
+  objective_->setEnabled(takes("objective"));
+}
+
 void PlacementPanel::updateState() {
   const bool busy = doc_->isBusy();
   run_->setEnabled(!busy && doc_->hasScene());
@@ -401,8 +449,10 @@ void PlacementPanel::updateState() {
   cancel_->setEnabled(busy);
   removeVolume_->setEnabled(volumes_->currentRow() >= 0 && volumes_->rowCount() > 0);
   progress_->setVisible(busy);
-  volume_->setText(doc_->volume() ? tr("Volume: %1").arg(QFileInfo(doc_->volumePath()).fileName())
-                                  : tr("Not baked yet"));
+  const bool stale = doc_->volumeState() == Document::VolumeState::Stale;
+  volume_->setText(tr("Volume: %1").arg(doc_->volumeStatusText()) +
+                   (stale ? tr(". Bake again (Ctrl+B).") : QString()));
+  volume_->setStyleSheet(stale ? QStringLiteral("color: #b35c00") : QString());
 }
 
 }  // namespace ps::ui

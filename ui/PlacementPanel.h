@@ -72,6 +72,8 @@ class PlacementPanel : public QWidget {
   QCheckBox* leakCutsBox() const { return leakCuts_; }
   QCheckBox* fitBox() const { return fit_; }
   QPushButton* cancelButton() const { return cancel_; }
+  /// The volume named with its state (Document::volumeStatusText).
+  QLabel* volumeLabel() const { return volume_; }
   /// One row per importance volume: name, weight, min x/y/z, max x/y/z (metres), editable.
   QTableWidget* volumeTable() const { return volumes_; }
 
@@ -81,7 +83,14 @@ class PlacementPanel : public QWidget {
 
  private:
   void updateState();
+  /// The budget's range for the method (greedy: at least kMinGreedyBudget, never "none"; a
+  /// budget of none becomes PlacementRequest::kDefaultBudget) and the fields it reads enabled.
+  void updateMethodFields();
+  /// Shows the opened set's placement settings (method, budget, spacing) when the panel offers
+  /// its method; greedy keeps the panel's budget when the set has none.
+  void restorePlacement();
   void refreshVolumes();
+  static constexpr int kMinGreedyBudget = 4;
   void onVolumeEdited(QTableWidgetItem* item);
 
   Document* doc_;

@@ -206,6 +206,73 @@ class TestArtistLoop : public QObject {
     QVERIFY(w2.lastError().isEmpty());
   }
 
+  void aStaleVolumeIsNamedStaleFromTheMomentItNoLongerMatches() {
+    QTemporaryDir dir;
+    const QString scene = copyScene(dir, false);
+    QVERIFY(!scene.isEmpty());
+    const QString set = dir.filePath("two-rooms.probes.json");
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    Document* doc = w.document();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openPath(scene));
+    doc->addProbes(acceptedProbes(), "Add");
+    QVERIFY(doc->recapture(16));  // the preview evaluation needs captured probes
+    QCOMPARE(waitForJob(doc), QString());
+    QVERIFY(w.saveAs(set));
+    w.placementPanel()->bakeSamplesBox()->setValue(16);
+    QVERIFY(w.placementPanel()->bake());
+    QCOMPARE(waitForJob(doc), QString());
+    const QLabel* panel = w.placementPanel()->volumeLabel();
+    const QLabel* status = w.findChild<QLabel*>("volumeStateStatus");
+    const QLabel* evaluated = w.evaluationPanel()->evaluatedLabel();
+    QVERIFY(status);
+    QCOMPARE(doc->volumeState(), Document::VolumeState::Baked);
+    QVERIFY2(panel->text().contains("two-rooms.psv: baked, 6 probes"), qPrintable(panel->text()));
+    QVERIFY2(status->text().isEmpty(), qPrintable(status->text()));
+    QVERIFY2(evaluated->text().contains("baked volume two-rooms.psv"),
+             qPrintable(evaluated->text()));
+
+    // Rejecting an accepted probe makes the volume stale at once, named with the probe, in the
+    // placement panel, the status bar and the evaluation panel.
+    const uint64_t rejected = doc->probes().back().id;
+    doc->setStates({rejected}, ProbeState::Rejected);
+    QCOMPARE(doc->volumeState(), Document::VolumeState::Stale);
+    const QString why =
+        QStringLiteral("6 probes in it, 5 accepted: probe %1 is no longer accepted").arg(rejected);
+    for (const QLabel* label : {panel, status, evaluated})
+      QVERIFY2(label->text().contains("stale") && label->text().contains(why),
+               qPrintable(label->text()));
+    QVERIFY2(evaluated->text().startsWith("Evaluates: preview (accepted probes"),
+             qPrintable(evaluated->text()));
+    // Undone, the set matches the volume again.
+    doc->undoStack()->undo();
+    QCOMPARE(doc->volumeState(), Document::VolumeState::Baked);
+    QVERIFY(status->text().isEmpty());
+    doc->undoStack()->redo();
+    QCOMPARE(doc->volumeState(), Document::VolumeState::Stale);
+
+    // Saved and reopened: the volume beside the set, a superset of the accepted probes, is
+    // stale from the open, and Evaluate measures the accepted probes and names it stale.
+    QVERIFY(w.save());
+    QVERIFY(w.openPath(set));
+    QVERIFY(doc->volume() != nullptr);
+    QCOMPARE(doc->volumeState(), Document::VolumeState::Stale);
+    QVERIFY2(panel->text().contains(why), qPrintable(panel->text()));
+    QVERIFY2(status->text().contains(why), qPrintable(status->text()));
+    EvaluationPanel* evaluation = w.evaluationPanel();
+    evaluation->queriesBox()->setValue(16);
+    evaluation->referenceSamplesBox()->setValue(16);
+    QVERIFY(evaluation->evaluate());
+    QCOMPARE(waitForJob(doc), QString());
+    const EvaluationPoint& e = doc->evaluations().back();
+    QCOMPARE(e.probes, size_t(5));
+    QVERIFY2(e.source.contains("two-rooms.psv is stale: " + why), qPrintable(e.source));
+    const QTableWidget* table = evaluation->table();
+    QCOMPARE(table->item(table->rowCount() - 1, 6)->text(), e.source);
+  }
+
   void capturesMadeInTheEditorAreNotStaleOnReopen() {
     QTemporaryDir dir;
     MainWindow w;
