@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
 
@@ -156,7 +157,7 @@ TEST(RuntimeReader, VisibilityAwareWeightsAgreeWithTheCore) {
   const int n = 100000;
 #endif
   double worst = 0;
-  size_t changed = 0, fallbacks = 0;
+  size_t changed = 0, fallbacks = 0, ties = 0;
   int32_t hint = -1;
   for (int i = 0; i < n; ++i) {
     Vec3 p;
@@ -175,7 +176,18 @@ TEST(RuntimeReader, VisibilityAwareWeightsAgreeWithTheCore) {
         ps_runtime::visibleWeights(rv, b, p.x, p.y, p.z, withNormal ? nb : nullptr);
     float sb[27];
     ps_runtime::interpolate(rv, wb, sb);
-    ASSERT_EQ(wa.tet, wb.tet);
+    if (wa.tet != wb.tet) {
+      // A point on a face (or, clamped, an edge) that two tetrahedra share, to float rounding,
+      // lies in either, and the two builds may round differently (an FMA build of one finds
+      // the other tetrahedron): each must hold it on a face of its own, a weight near 0.
+      ++ties;
+      ASSERT_LE(*std::min_element(a.weights.begin(), a.weights.end()), 1e-4f)
+          << "core tet " << wa.tet << ", reader tet " << wb.tet;
+      ASSERT_LE(*std::min_element(std::begin(b.weights), std::end(b.weights)), 1e-4f)
+          << "core tet " << wa.tet << ", reader tet " << wb.tet;
+      hint = i % 3 == 0 ? -1 : a.tet;
+      continue;
+    }
     for (int k = 0; k < 4; ++k) {
       ASSERT_EQ(wa.probes[k], wb.probes[k]);
       worst = std::max(worst, std::abs(wa.weights[k] - wb.weights[k]));
@@ -190,9 +202,12 @@ TEST(RuntimeReader, VisibilityAwareWeightsAgreeWithTheCore) {
     fallbacks += wa.fallback != VisibleFallback::None;
     hint = i % 3 == 0 ? -1 : a.tet;
   }
-  std::printf("%d queries: largest weight difference %.3g; visibility moved %zu, fallbacks %zu\n",
-              n, worst, changed, fallbacks);
+  std::printf(
+      "%d queries: largest weight difference %.3g; visibility moved %zu, fallbacks %zu; %zu on a "
+      "face the two locate to different sides of\n",
+      n, worst, changed, fallbacks, ties);
   EXPECT_LE(worst, 1e-5);
+  EXPECT_LE(ties, size_t(n / 1000));   // rounding ties only, not a walk that differs
   EXPECT_GT(changed, size_t(n / 20));  // the maps were exercised
 }
 
