@@ -11,12 +11,6 @@ std::vector<Light> allLights(const Scene& scene, const LightingRig& rig) {
   return all;
 }
 
-LightingRig scaledRig(LightingRig rig, double factor) {
-  for (Light& l : rig.lights)
-    if (l.type != LightType::Directional) l.position = l.position * factor;
-  return rig;
-}
-
 std::shared_ptr<const EnvironmentMap> environmentOf(const LightingRig& rig) {
   if (rig.envMap || rig.envMapPath.empty()) return rig.envMap;
   // Rigs read from a probe set carry only the path; evaluation builds a path tracer per ray,
