@@ -249,10 +249,13 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
       }
       double seen = 0;
       for (int c = 0; c < 4; ++c) seen += barycentric[size_t(c)] * factors[size_t(c)];
-      fragile = combineVisibleWeights(barycentric, factors, weights) != VisibleFallback::None ||
-                seen < kFragileVisibleWeight;
+      const bool fellBack =
+          combineVisibleWeights(barycentric, factors, weights) != VisibleFallback::None;
+      fragile = fellBack || seen < kFragileVisibleWeight;
+      // A fallback's weights do not depend on the barycentric ones; otherwise S = seen > 0, and
+      // a tiny S gives a bound as large as the point's result is ill-conditioned.
       const double maxFactor = *std::max_element(factors.begin(), factors.end());
-      amplification = fragile ? 1 : 5 * maxFactor / seen;
+      amplification = fellBack ? 1 : 5 * maxFactor / seen;
     }
     IrrVec interp{};
     for (int c = 0; c < 4; ++c) {
