@@ -66,6 +66,11 @@ Bounds3 domainBounds(const Tracer& tracer, std::span<const Bounds3> domain);
 /// bounds when there are none).
 double lightClearanceMeters(const Tracer& tracer, std::span<const Bounds3> domain, double relative);
 
+/// DomainPoints' validity test: a point is outside geometry when at most
+/// kDomainInvalidBackfaceFraction of its kDomainValidityRays rays first meet a back face.
+inline constexpr int kDomainValidityRays = 32;
+inline constexpr double kDomainInvalidBackfaceFraction = 0.25;
+
 class DomainPoints {
  public:
   /// `domain`: the boxes (empty: the scene bounds). `clearanceRelative`: the fraction of the
@@ -82,8 +87,8 @@ class DomainPoints {
   /// A point uniform over the boxes' union, outside geometry (at most `invalidBackfaceFraction`
   /// of `validityRays` rays hit back faces) and outside the light clearance; nothing after
   /// 1000 draws that all failed. Consumes `rng` the same way for the same draws.
-  std::optional<Vec3> draw(uint64_t& rng, int validityRays = 32,
-                           double invalidBackfaceFraction = 0.25) const;
+  std::optional<Vec3> draw(uint64_t& rng, int validityRays = kDomainValidityRays,
+                           double invalidBackfaceFraction = kDomainInvalidBackfaceFraction) const;
 
   /// One try of draw(): a point uniform over the boxes' union (or over the reachable cells in
   /// it), or nothing where a point drawn in a box overlapping others, or in a cell outside the
@@ -98,8 +103,8 @@ class DomainPoints {
   /// True when p is in one of the boxes (and the reachable space, when set), keeps the light
   /// clearance and is outside geometry (as draw() tests it, with the validity rays seeded by
   /// `seed`).
-  bool valid(Vec3 p, uint64_t seed, int validityRays = 32,
-             double invalidBackfaceFraction = 0.25) const;
+  bool valid(Vec3 p, uint64_t seed, int validityRays = kDomainValidityRays,
+             double invalidBackfaceFraction = kDomainInvalidBackfaceFraction) const;
 
   /// True when p keeps the clearance from every point and spot light.
   bool clearOfLights(Vec3 p) const;

@@ -17,11 +17,7 @@ namespace ps {
 
 namespace {
 
-/// DomainPoints::valid's defaults: a point is outside geometry when at most this share of its
-/// validity rays first meet a back face.
-constexpr int kValidityRays = 32;
-constexpr double kInvalidBackfaceFraction = 0.25;
-/// The validity rays traced first (the same directions as the first of kValidityRays).
+/// The validity rays traced first (the same directions as the first of kDomainValidityRays).
 constexpr int kFirstRays = 8;
 /// Rounds in which crossed cells take their state from a neighbour (a surface is seldom more
 /// than two cells from a clear cell at the grid's sizes).
@@ -118,12 +114,12 @@ FreeSpaceGrid::FreeSpaceGrid(const Tracer& tracer, std::span<const Bounds3> doma
     return std::any_of(boxes.begin(), boxes.end(), [&](const Bounds3& b) { return b.contains(p); });
   };
   // The first kFirstRays of the validity rays decide when they agree (all back faces, or
-  // none: what closed geometry gives), else all kValidityRays.
+  // none: what closed geometry gives), else all kDomainValidityRays.
   auto outsideGeometry = [&](size_t c) {
     const double first = backfaceFraction(tracer, centre(c), kFirstRays, streamSeed(seed, c));
     if (first == 0 || first == 1) return first == 0;
-    return backfaceFraction(tracer, centre(c), kValidityRays, streamSeed(seed, c)) <=
-           kInvalidBackfaceFraction;
+    return backfaceFraction(tracer, centre(c), kDomainValidityRays, streamSeed(seed, c)) <=
+           kDomainInvalidBackfaceFraction;
   };
   // Geometric state per cell: 0 unknown, 1 outside geometry, 2 inside.
   std::vector<char> state(cells, 0);
