@@ -796,8 +796,8 @@ struct JobPhase {
 };
 
 /// The stages a method reports, in order, with rough shares of its time (a guide for the
-/// progress bar, not a measurement: the dense field dominates greedy and chajdas). Leak
-/// refinement follows when asked for.
+/// progress bar, not a measurement: the dense field dominates greedy and chajdas), after the
+/// covering. Leak refinement follows when asked for.
 std::vector<JobPhase> placementPhases(const std::string& method, bool refineLeaks) {
   std::vector<JobPhase> phases;
   if (method == "greedy")
@@ -810,6 +810,9 @@ std::vector<JobPhase> placementPhases(const std::string& method, bool refineLeak
     phases = {{"ascent", 1.0}};
   else
     phases = {{"place", 1.0}};
+  // The covering (core/placement/Coverage.h) runs first, in a few seconds at most.
+  for (JobPhase& p : phases) p.share *= 0.95;
+  phases.insert(phases.begin(), {"coverage", 0.05});
   if (refineLeaks) {
     for (JobPhase& p : phases) p.share *= 0.85;
     phases.push_back({"leaks", 0.15});
@@ -884,6 +887,7 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   r.keepAccepted = true;
   r.keepCandidates = !replaceCandidates;
   r.refineLeaks = refineLeaks;
+  r.cover = cover;
   r.newState = acceptNew ? ProbeState::Accepted : ProbeState::Candidate;
   r.domain.rule = domain;
   return r;
@@ -960,6 +964,9 @@ bool Document::addProbesWhereErrorIsWorst(int count, PlacementRequest settings) 
   settings.method = "greedy";
   settings.replaceCandidates = false;
   settings.refineLeaks = false;
+  // Exactly `count` more where the error is worst: the artist's set stays as it is, covered or
+  // not (a covering around it would spend the count elsewhere).
+  settings.cover = false;
   settings.acceptNew = true;
   const size_t kept = keptProbes(set_, settings.toPlaceRequest()).size();
   settings.budget = int(kept) + count;

@@ -71,6 +71,7 @@ struct PlacementRequest {
   /// (GreedyMethodSettings::objective).
   std::string objective = greedyObjectiveName(GreedyMethodSettings{}.objective);
   bool refineLeaks = false;                   ///< PlaceRequest::refineLeaks
+  bool cover = true;                          ///< PlaceRequest::cover
   DomainRule domain = DomainRule::Reachable;  ///< PlaceRequest::domain's rule
   /// The new probes are accepted (PlaceRequest::newState) instead of candidates.
   bool acceptNew = false;

@@ -192,6 +192,10 @@ void registerPlace(CLI::App& app) {
                 "they do not lower the error at equal probe count)");
   cmd->add_flag("--no-leak-refine", o->noLeakRefine,
                 "No leak refinement: the default, the set holds the budget's probes");
+  cmd->add_flag_function(
+      "--no-coverage", [o](int64_t) { o->request.cover = false; },
+      "Place with the method alone: no probes first for every room and the domain's hull (the "
+      "notes then count the rooms left without a probe)");
   cmd->add_flag("--accept", o->accept, "Mark the proposals accepted instead of candidates");
   cmd->add_option("--seed", o->request.seed, "Random seed");
   cmd->add_option("-o,--output", o->out, "Probe set to write (.json)")->required();
@@ -235,8 +239,9 @@ void registerPlace(CLI::App& app) {
           tracer, set, request, [](const std::string& stage) { return terminalProgress(stage); });
       for (const std::string& note : placed.notes) std::printf("%s\n", note.c_str());
       saveProbeSet(placed.set, o->out);
-      std::printf("placed %zu probes (method %s, %zu kept) in %.2f s -> %s\n", placed.placed,
-                  request.method.c_str(), placed.kept, secondsSince(t0), o->out.c_str());
+      std::printf("placed %zu probes (method %s, %zu covering, %zu kept) in %.2f s -> %s\n",
+                  placed.placed, request.method.c_str(), placed.covered, placed.kept,
+                  secondsSince(t0), o->out.c_str());
       if (request.refineLeaks) std::printf("leak refinement added %zu probes\n", placed.leakAdded);
     } catch (const ParameterError& e) {
       throw asFlagError(e, request.method);

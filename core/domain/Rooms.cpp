@@ -203,6 +203,12 @@ int RoomMap::roomOf(Vec3 p) const {
   return room_[(size_t(z) * size_t(n_[1]) + size_t(y)) * size_t(n_[0]) + size_t(x)];
 }
 
+Vec3 RoomMap::cellCentre(size_t c) const {
+  const size_t nx = size_t(n_[0]), ny = size_t(n_[1]);
+  return box_.lo +
+         Vec3{double(c % nx) + 0.5, double(c / nx % ny) + 0.5, double(c / (nx * ny)) + 0.5} * cell_;
+}
+
 std::vector<std::string> RoomMap::roomNames() const {
   std::vector<std::string> names;
   for (int r = 0; r < rooms_; ++r) names.push_back("room " + std::to_string(r + 1));

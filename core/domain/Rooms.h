@@ -53,6 +53,10 @@ class RoomMap {
   /// "room 1", "room 2", ... in room order.
   std::vector<std::string> roomNames() const;
   double cellMeters() const { return cell_; }
+  /// The grid's cells, x fastest: cellCount() of them, cell c's room (as roomOf()) and centre.
+  size_t cellCount() const { return room_.size(); }
+  int roomOfCell(size_t c) const { return room_[c]; }
+  Vec3 cellCentre(size_t c) const;
   /// Empty, or one line when the automatic cell is coarser than doorwayMeters / 4 because the
   /// domain would need more than maxCells cells: the figures, and what it may cost.
   const std::string& note() const { return note_; }

@@ -353,19 +353,19 @@ class GreedyPlacer : public Placer {
       };
     GreedySettings settings = gs;
     settings.captureProbeValues = nullptr;
-    const RegionalGreedyResult g =
-        placeRegionalGreedy(field, kept, settings, regions, captureFor, c.stage("greedy"));
+    const RegionalGreedyResult g = placeRegionalGreedy(field, kept, settings, regions, captureFor,
+                                                       c.stage("greedy"), c.rooms.get());
     size_t fewest = std::numeric_limits<size_t>::max(), most = 0;
     for (const GreedyRegion& region : g.regions) {
       fewest = std::min(fewest, region.probes);
       most = std::max(most, region.probes);
     }
     out.notes.push_back(formatNote(
-        "greedy: %d regions of the dense field, %zu to %zu new probes each (shared by the "
+        "greedy: %d regions of the dense field%s, %zu to %zu new probes each (shared by the "
         "error they measured); error %.4f at %zu held-out points with %zu probes, each point "
         "interpolated from its region's probes; %zu trials, %zu swap moves",
-        regions, fewest, most, g.fieldError, gs.heldOut.size(), g.positions.size() + kept.size(),
-        g.trials, g.swaps));
+        regions, c.rooms ? " made of whole rooms" : "", fewest, most, g.fieldError,
+        gs.heldOut.size(), g.positions.size() + kept.size(), g.trials, g.swaps));
     if (g.unresolvedShare > 0.5) out.notes.push_back(unresolvedWarning(g.unresolvedShare, fs));
     for (const GreedyRegion& region : g.regions)
       if (!region.refused.empty())

@@ -10,6 +10,7 @@
 
 #include "core/common/Progress.h"
 #include "core/io/ProbeSet.h"
+#include "core/placement/Coverage.h"
 #include "core/placement/PlacementMethod.h"
 #include "core/trace/Tracer.h"
 
@@ -34,6 +35,13 @@ struct PlaceRequest {
   /// visibility maps it does not lower the error at equal probe count (docs/leaks.md), and the
   /// budget is then the volume's probe count.
   bool refineLeaks = false;
+  /// Coverage first (core/placement/Coverage.h): probes that give every room of the domain
+  /// probes of its own and put the domain inside the probes' hull, placed around the kept
+  /// probes before the method and kept by it (method "coverage"). With a budget, the method
+  /// places the rest; a budget below the covering is refused with its size. Off: the method
+  /// alone, and the result's notes say how many rooms hold no probe.
+  bool cover = true;
+  CoverageSettings coverage;
   ProbeState newState = ProbeState::Candidate;  ///< of the new probes
   /// The domain of interest where the set has no importance volume (DomainPoints.h).
   DomainSettings domain;
@@ -45,9 +53,12 @@ struct PlaceResult {
   ProbeSet set;
   std::vector<std::string> notes;  ///< what the method and the refinement did, one line each
   size_t kept = 0;                 ///< probes placed around
-  size_t placed = 0;               ///< new probes of the method
-  size_t nearRejected = 0;         ///< the method's probes dropped beside a rejected one
-  size_t leakAdded = 0;            ///< probes added by leak refinement
+  size_t covered = 0;              ///< new probes of the covering (PlaceRequest::cover)
+  /// Kept plus covering probes: the smallest budget that covers the scene (0 without cover).
+  size_t minimumBudget = 0;
+  size_t placed = 0;        ///< new probes of the method
+  size_t nearRejected = 0;  ///< the method's probes dropped beside a rejected one
+  size_t leakAdded = 0;     ///< probes added by leak refinement
 };
 
 /// The probes of `set` that `request` keeps and places around (PlaceRequest::keepAccepted).

@@ -166,28 +166,45 @@ PlaceOutcome placeUniformGrid(const PlaceContext& c, double spacingMeters) {
   UniformSettings us;
   us.seed = c.seed;
   if (c.domain && c.domain->rule == DomainRule::Reachable) us.domain = c.domain;
-  std::vector<Vec3> points;
   PlaceOutcome out;
+  auto placed = [&](const std::vector<Vec3>& points, double spacing) {
+    std::vector<PlacedProbe> probes;
+    for (const Vec3& p : points) probes.push_back({p, 0.0});
+    return awayFromKept(c, std::move(probes), spacing);
+  };
   if (c.budget != 0) {
-    const int budget = c.budget - int(c.kept.size());
-    UniformBudgetResult b = placeUniformBudget(c.tracer, budget, us, c.stage("place"));
-    points = std::move(b.points);
-    us.spacingMeters = b.spacingMeters;
-    // Methods are compared at equal probe counts: say when the grid is not one (a box whose
+    // The grid's points beside kept probes are dropped (the kept probe stands for them), so the
+    // grid searched for is as much larger as that drops: up to 6 searches, each aiming at the
+    // budget plus what the last one lost, or between the last aim short of it and the last
+    // beyond it (grids jump in count, so the count is not monotone in the aim).
+    const int want = c.budget - int(c.kept.size());
+    int target = want, below = 0, above = 0;
+    for (int attempt = 0; attempt < 6; ++attempt) {
+      const UniformBudgetResult b = placeUniformBudget(c.tracer, target, us, c.stage("place"));
+      std::vector<PlacedProbe> probes = placed(b.points, b.spacingMeters);
+      const int missing = want - int(probes.size());
+      if (attempt == 0 || std::abs(missing) < std::abs(want - int(out.probes.size()))) {
+        out.probes = std::move(probes);
+        out.spacingMeters = b.spacingMeters;
+      }
+      if (c.kept.empty() || 10 * std::abs(missing) <= c.budget) break;
+      (missing > 0 ? below : above) = target;
+      const int next = below > 0 && above > 0 ? (below + above) / 2 : target + missing;
+      if (next == target || next < 4 || next > kMaxPlaceBudget) break;
+      target = next;
+    }
+    // Methods are compared at equal probe counts: say when the set is not one (a box whose
     // grids of the budget are far from cubic may get no grid within 10 %).
-    if (std::abs(double(points.size()) - budget) > 0.1 * budget)
-      out.notes.push_back(
-          formatNote("uniform: no grid of the search has %d valid points within 10 %%; "
-                     "the closest has %zu",
-                     budget, points.size()));
+    const size_t total = c.kept.size() + out.probes.size();
+    if (std::abs(double(total) - c.budget) > 0.1 * c.budget)
+      out.notes.push_back(formatNote(
+          "uniform: no grid of the search gives %d probes within 10 %%%s; the closest gives %zu",
+          c.budget, c.kept.empty() ? "" : " (kept and covering probes included)", total));
   } else {
     us.spacingMeters = spacingMeters != 0 ? spacingMeters : c.defaultSpacingMeters();
-    points = placeUniform(c.tracer, us, c.stage("place"));
+    out.probes = placed(placeUniform(c.tracer, us, c.stage("place")), us.spacingMeters);
+    out.spacingMeters = us.spacingMeters;
   }
-  out.spacingMeters = us.spacingMeters;
-  std::vector<PlacedProbe> probes;
-  for (const Vec3& p : points) probes.push_back({p, 0.0});
-  out.probes = awayFromKept(c, std::move(probes), us.spacingMeters);
   return out;
 }
 

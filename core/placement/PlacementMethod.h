@@ -21,6 +21,7 @@
 
 #include "core/common/Progress.h"
 #include "core/domain/DomainPoints.h"
+#include "core/domain/Rooms.h"
 #include "core/io/ProbeSet.h"
 #include "core/math/Vec3.h"
 #include "core/placement/DenseField.h"
@@ -28,6 +29,10 @@
 #include "core/trace/Tracer.h"
 
 namespace ps {
+
+/// The largest budget `place` takes: uniform's search places a whole grid per step, and a budget
+/// in the millions would run for hours.
+inline constexpr int kMaxPlaceBudget = 1000000;
 
 /// A method's named numeric parameters (pbrt-v4's ParameterDictionary, reduced to numbers:
 /// counts, lengths in metres, shares, and switches as 0 or 1). Names are the core's own, in
@@ -79,6 +84,9 @@ struct PlaceContext {
   /// The domain of interest (DomainPoints.h) the method's fields, grids and held-out points
   /// keep to; null: the importance volumes' boxes under the `bounds` rule.
   std::shared_ptr<const Domain> domain;
+  /// The domain's rooms (core/domain/Rooms.h) when the covering found them, else null: regional
+  /// greedy then makes its regions of whole rooms.
+  std::shared_ptr<const RoomMap> rooms;
 
   ProgressFn stage(const std::string& name) const { return progress ? progress(name) : nullptr; }
   /// *domain, or the importance volumes' boxes under the `bounds` rule when it is null.

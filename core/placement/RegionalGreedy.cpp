@@ -155,7 +155,7 @@ int regionalGreedyRegions(size_t newProbes) {
 RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<const KeptProbe> kept,
                                          const GreedySettings& settings, int regionCount,
                                          const RegionCaptureFactory& captureFor,
-                                         const ProgressFn& progress) {
+                                         const ProgressFn& progress, const RoomMap* rooms) {
   checkGreedySettings(settings, kept.size());
   if (settings.budget == 0) throw ParameterError("budget", "regional greedy needs a probe budget");
   PS_CHECK_GE(regionCount, 2);
@@ -171,6 +171,33 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
   std::vector<std::vector<size_t>> leaves;
   splitSamples(field, std::move(all), regionCount, nodes, leaves);
   PS_CHECK_EQ(leaves.size(), R);
+  // With rooms, each room goes whole to the region holding most of its samples, so that the
+  // regions' borders run along walls: a point is then interpolated from the probes of its own
+  // room's region, as the volume's visibility will read it. Points in no room keep the k-d
+  // region.
+  std::vector<int> roomRegion;
+  if (rooms != nullptr) {
+    std::vector<std::vector<size_t>> count(size_t(rooms->roomCount()), std::vector<size_t>(R, 0));
+    for (size_t r = 0; r < R; ++r)
+      for (size_t i : leaves[r]) {
+        const int room = rooms->roomOf(field.samples[i].position);
+        if (room >= 0) ++count[size_t(room)][r];
+      }
+    for (const std::vector<size_t>& c : count) {
+      const auto most = std::max_element(c.begin(), c.end());
+      roomRegion.push_back(*most > 0 ? int(most - c.begin()) : -1);
+    }
+  }
+  auto regionAt = [&](Vec3 p) {
+    const int room = rooms != nullptr ? rooms->roomOf(p) : -1;
+    return room >= 0 && roomRegion[size_t(room)] >= 0 ? size_t(roomRegion[size_t(room)])
+                                                      : regionOf(nodes, p);
+  };
+  if (rooms != nullptr) {
+    for (std::vector<size_t>& leaf : leaves) leaf.clear();
+    for (size_t i = 0; i < field.samples.size(); ++i)
+      leaves[regionAt(field.samples[i].position)].push_back(i);
+  }
   std::vector<RegionInput> in(R);
   const double avoidSq = settings.avoidRadius * settings.avoidRadius;
   for (size_t r = 0; r < R; ++r) {
@@ -190,11 +217,11 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
     if (settings.heldOut.empty()) g.shareWeight = double(leaves[r].size());
   }
   for (const HeldOutSample& h : settings.heldOut) {
-    RegionInput& g = in[regionOf(nodes, h.position)];
+    RegionInput& g = in[regionAt(h.position)];
     g.heldOut.push_back(h);
     g.shareWeight += h.weight;
   }
-  for (const KeptProbe& k : kept) in[regionOf(nodes, k.position)].kept.push_back(k);
+  for (const KeptProbe& k : kept) in[regionAt(k.position)].kept.push_back(k);
   double totalWeight = 0;
   for (const RegionInput& g : in) totalWeight += g.shareWeight;
   size_t freeTotal = 0;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/common/Progress.h"
+#include "core/domain/Rooms.h"
 #include "core/math/Vec3.h"
 #include "core/placement/DenseField.h"
 #include "core/placement/Greedy.h"
@@ -74,7 +75,10 @@ struct RegionalGreedyResult {
 /// 1. Split: the field's samples are cut at the median of the longest axis of their bounding
 ///    box, recursively, region counts halved (a count R splits into R / 2 and R - R / 2 with the
 ///    samples in that ratio), each cut moved to the nearest change of coordinate so that a
-///    plane parts the regions; held-out points and kept probes go by the same planes.
+///    plane parts the regions; held-out points and kept probes go by the same planes. With
+///    `rooms`, every room then goes whole to the region holding most of its samples (its
+///    samples, held-out points and kept probes with it), so that regions are unions of rooms
+///    and their borders run along walls; what lies in no room keeps its k-d region.
 /// 2. Measure: each region runs greedy's additions (no swaps) on its own samples and held-out
 ///    points up to kRegionalOvershoot times its share of the new probes (by held-out weight, or
 ///    samples without held-out points; at least 8, at most its free samples), recording the
@@ -92,6 +96,7 @@ struct RegionalGreedyResult {
 RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<const KeptProbe> kept,
                                          const GreedySettings& settings, int regions,
                                          const RegionCaptureFactory& captureFor,
-                                         const ProgressFn& progress = {});
+                                         const ProgressFn& progress = {},
+                                         const RoomMap* rooms = nullptr);
 
 }  // namespace ps

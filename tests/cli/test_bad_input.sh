@@ -48,7 +48,7 @@ expect_error "$m/vol-bad-magic.psv: magic: not a ProbeStudio volume" "$cli" info
 expect_error "$m/vol-huge-probe-count.psv: header: counts" "$cli" query "$m/vol-huge-probe-count.psv" --at 0,0,0
 expect_error "--spp: 100000000 samples per probe is above the limit" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --spp 100000000
 expect_error "--fit-points, --fit-spp, --fit-regularization: give --fit too" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --fit-points 8
-"$cli" place "$root/resources/scenes/cornell.gltf" --method uniform --budget 8 --accept -o "$tmp/c8.json" >/dev/null
+"$cli" place "$root/resources/scenes/cornell.gltf" --method uniform --budget 16 --accept -o "$tmp/c8.json" >/dev/null
 expect_error "--fit-regularization: expected a positive number" "$cli" bake "$tmp/c8.json" -o "$tmp/v.psv" --fit --fit-regularization -1
 expect_error "--fit-points: expected 1 to 4096 points per probe, got 0" "$cli" bake "$m/ps-empty.json" -o "$tmp/v.psv" --fit --fit-points 0
 expect_error "--fit-points, --fit-spp, --fit-regularization: give --fit too" "$cli" bake "$tmp/c8.json" -o "$tmp/v.psv" --fit-regularization 0.01
@@ -72,7 +72,7 @@ expect_error "$tmp/flat.txt: need at least 4 points not all in one plane" "$cli"
 printf '0 0 0\n1 0 nan\n' >"$tmp/nan.txt"
 expect_error "$tmp/nan.txt: line 2" "$cli" tetra "$tmp/nan.txt" -o "$tmp/t.json"
 expect_error "--method: unknown method \"magic\"" "$cli" place "$root/resources/scenes/cornell.gltf" --method magic -o "$tmp/s.json"
-expect_error "budget: expected at least 4" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2 -o "$tmp/s.json"
+expect_error "probes that cover the scene" "$cli" place "$root/resources/scenes/cornell.gltf" --budget 2 -o "$tmp/s.json"
 expect_error "limit 50 million" "$cli" place "$root/resources/scenes/cornell.gltf" --spacing 0.0001 -o "$tmp/s.json"
 expect_error "--domain: expected reachable or bounds, got 'everywhere'" "$cli" place "$root/resources/scenes/cornell.gltf" --domain everywhere -o "$tmp/s.json"
 expect_error "--domain-band: expected a height in (0, 100] m" "$cli" eval "$tmp/trunc.psv" --domain-band -1

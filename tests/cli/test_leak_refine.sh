@@ -69,7 +69,7 @@ import json, sys
 tmp = sys.argv[1]
 plain = json.load(open(f"{tmp}/plain.json"))["probes"]
 refined = json.load(open(f"{tmp}/refined.json"))["probes"]
-assert all(p["method"] == "uniform" for p in plain), "no leak probes with --no-leak-refine"
+assert all(p["method"] in ("uniform", "coverage") for p in plain), "no leak probes with --no-leak-refine"
 leak = [p for p in refined if p["method"] == "leak"]
 assert len(leak) > 0 and len(refined) == len(plain) + len(leak), (len(plain), len(refined))
 assert all(p["score"] >= 1 for p in leak)

@@ -128,7 +128,7 @@ PY
 # Place (greedy), bake (leak refinement, no cuts) and eval of the small level (the time is printed;
 # speed is measured in benchmarks, not here).
 start=$SECONDS
-"$cli" place "$tmp/a.glb" --method greedy --budget 16 --field-depth 1 --field-spp 32 \
+"$cli" place "$tmp/a.glb" --method greedy --budget 32 --field-depth 1 --field-spp 32 \
   --probe-spp 32 --held-out 32 --accept "${sky[@]}" -o "$tmp/set.json" | tee "$tmp/place.out"
 "$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128 --leak-refine --no-leak-cuts
 "$cli" eval "$tmp/v.psv" --queries 128 --reference-spp 256 --json >"$tmp/eval.json"
@@ -142,8 +142,11 @@ python3 - "$tmp" <<'PY'
 import json, math, sys
 tmp = sys.argv[1]
 s = json.load(open(f"{tmp}/set.json"))
+# The covering (a probe in each room, the hull's corners), then greedy to the budget.
 greedy = [p for p in s["probes"] if p["method"] == "greedy"]
-assert len(greedy) == 16 and s["rig"]["sky_radiance"] == [0.2, 0.25, 0.35], (len(greedy), s["rig"])
+covering = [p for p in s["probes"] if p["method"] == "coverage"]
+assert len(covering) >= 8 and len(greedy) + len(covering) == len(s["probes"]) == 32, s["probes"]
+assert s["rig"]["sky_radiance"] == [0.2, 0.25, 0.35], s["rig"]
 for p in s["probes"]:  # in the building (a window's opening too), between floor and ceiling
     x, y, z = p["position"]
     assert 0 < x < 26 and 0.3 < y < 3.5 and 0 < z < 14, p
@@ -172,8 +175,9 @@ python3 - "$tmp/regional1.json" <<'PY'
 import json, sys
 s = json.load(open(sys.argv[1]))
 greedy = [p for p in s["probes"] if p["method"] == "greedy"]
-assert len(greedy) == 48 and len(s["probes"]) == 48, len(s["probes"])
-assert len({tuple(p["position"]) for p in greedy}) == 48, "a position twice"
+covering = [p for p in s["probes"] if p["method"] == "coverage"]
+assert len(greedy) + len(covering) == len(s["probes"]) == 48, len(s["probes"])
+assert len({tuple(p["position"]) for p in s["probes"]}) == 48, "a position twice"
 PY
 
 fail=0
@@ -212,8 +216,9 @@ for method in uniform greedy; do
 done
 test ! -e "$tmp/x.json" || { echo "FAIL: a refused place wrote its output"; fail=1; }
 
-# A greedy budget beyond the dense field's samples is refused before any trial, naming them.
-expect_error "--budget: expected at most 169 probes: the dense field has 169 samples to place new probes on" \
+# A greedy budget beyond the dense field's samples (beside the 16 covering probes) is refused before any
+# trial, naming them.
+expect_error "--budget: expected at most 185 probes: the dense field has 169 samples to place new probes on" \
   "$cli" place "$tmp/a.glb" --method greedy --budget 400 --field-depth 0 --field-spp 16 \
   --held-out 0 --probe-spp 16 --swap-passes 0 --no-leak-refine "${sky[@]}" -o "$tmp/over.json"
 test ! -e "$tmp/over.json" || { echo "FAIL: a refused budget wrote its output"; fail=1; }

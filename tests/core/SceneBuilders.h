@@ -89,4 +89,27 @@ inline Scene twoRoomsWithADoor() {
   return s;
 }
 
+/// `rooms` rooms of 3.88 x 3 x 6 m in a row along x (room k: x in [4k + 0.06, 4k + 3.94] with
+/// walls 0.12 m thick between them), each joined to the next by a 1 m wide, 2.1 m high doorway
+/// at z in [2.5, 3.5]; 0.2 m solid walls, floor and roof around them, every box closed and facing
+/// out.
+inline Scene roomsInARow(int rooms) {
+  Scene s;
+  const uint32_t m = addMaterial(s, {0.6, 0.6, 0.6});
+  const double w = 4.0 * rooms;
+  addBox(s, {-0.2, -0.2, -0.2}, {w + 0.2, 0, 6.2}, m, false);  // floor
+  addBox(s, {-0.2, 3, -0.2}, {w + 0.2, 3.2, 6.2}, m, false);   // roof
+  addBox(s, {-0.2, 0, -0.2}, {0, 3, 6.2}, m, false);           // outer walls
+  addBox(s, {w, 0, -0.2}, {w + 0.2, 3, 6.2}, m, false);
+  addBox(s, {0, 0, -0.2}, {w, 3, 0}, m, false);
+  addBox(s, {0, 0, 6}, {w, 3, 6.2}, m, false);
+  for (int k = 1; k < rooms; ++k) {  // the walls between, their doorways
+    const double x = 4.0 * k;
+    addBox(s, {x - 0.06, 0, 0}, {x + 0.06, 3, 2.5}, m, false);
+    addBox(s, {x - 0.06, 0, 3.5}, {x + 0.06, 3, 6}, m, false);
+    addBox(s, {x - 0.06, 2.1, 2.5}, {x + 0.06, 3, 3.5}, m, false);
+  }
+  return s;
+}
+
 }  // namespace ps::testing

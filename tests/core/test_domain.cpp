@@ -294,7 +294,7 @@ TEST(Domain, EvalQueriesAndGreedyProbesLieInIt) {
   ProbeSet set;
   PlaceRequest r;
   r.method = "greedy";
-  r.budget = 8;
+  r.budget = 24;
   r.refineLeaks = false;
   r.parameters.set("fieldSamplesPerProbe", 16);
   r.parameters.set("fieldDepth", 1);
@@ -302,11 +302,11 @@ TEST(Domain, EvalQueriesAndGreedyProbesLieInIt) {
   r.parameters.set("candidateSamplesPerProbe", 16);
   r.parameters.set("swapPasses", 0);
   const PlaceResult placed = placeProbeSet(tracer, set, r);
-  ASSERT_EQ(placed.set.probes.size(), 8u);
+  ASSERT_EQ(placed.set.probes.size(), 24u);
   for (const Probe& p : placed.set.probes)
     EXPECT_TRUE(domain.reachable->contains(p.position)) << p.position;
   PlaceRequest u;
-  u.budget = 16;
+  u.budget = 24;
   u.refineLeaks = false;
   for (const Probe& p : placeProbeSet(tracer, set, u).set.probes)
     EXPECT_TRUE(domain.reachable->contains(p.position)) << p.position;

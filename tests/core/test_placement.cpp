@@ -1262,12 +1262,15 @@ TEST(PlacePipeline, KeepsLockedAndAcceptedProbesRejectsStayAndLeakProbesAreMarke
   EXPECT_EQ(ids[1], acceptedId);
   EXPECT_EQ(ids[2], rejectedId);
   EXPECT_EQ(std::count(ids.begin(), ids.end(), candidateId), 0);  // replaced
-  EXPECT_EQ(placed.set.probes.size(), 3 + placed.placed);
+  // The covering's probes, then the method's; both new, both away from the rejected spot.
+  EXPECT_GT(placed.covered, 0u);
+  EXPECT_EQ(placed.set.probes.size(), 3 + placed.covered + placed.placed);
   for (size_t i = 3; i < placed.set.probes.size(); ++i) {
-    EXPECT_EQ(placed.set.probes[i].method, "uniform");
+    const bool covering = i < 3 + placed.covered;
+    EXPECT_EQ(placed.set.probes[i].method, covering ? "coverage" : "uniform");
     EXPECT_EQ(placed.set.probes[i].state, ProbeState::Candidate);
     EXPECT_GE(length(placed.set.probes[i].position - rejected.position),
-              0.5 * placed.set.placement.spacingMeters);
+              covering ? 0.5 : 0.5 * placed.set.placement.spacingMeters);
   }
   // Keeping the candidates as well, and refining leaks: two-rooms' wall gets "leak" probes.
   r.keepCandidates = true;

@@ -1,6 +1,7 @@
 // Regional greedy (core/placement/RegionalGreedy.h) on synthetic dense fields: the budget placed
 // exactly, the same probes run after run, and the budget shared by the error of each region.
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <vector>
@@ -9,6 +10,8 @@
 #include "core/placement/GreedyMethod.h"
 #include "core/placement/PlacementMethod.h"
 #include "core/placement/RegionalGreedy.h"
+#include "core/trace/Tracer.h"
+#include "tests/core/SceneBuilders.h"
 
 namespace ps {
 namespace {
@@ -94,6 +97,53 @@ TEST(RegionalGreedy, RegionsGetProbesByTheirError) {
   EXPECT_LT(uniform.weightedErrSq, 1e-12 * lit.weightedErrSq + 1e-20);
   // The measuring pass saw past the lit region's final count, so its share was the error's.
   EXPECT_GT(lit.measuredProbes, 24u);
+}
+
+TEST(RegionalGreedy, RegionsAreWholeRoomsTheSameOnOneThreadAndOnMany) {
+  // Four rooms in a row (x in [4k, 4k + 4], walls at x = 4, 8, 12): three k-d regions would cut
+  // through a room; with the rooms, every region is a union of whole rooms.
+  const Scene scene = testing::roomsInARow(4);
+  const Tracer tracer(scene);
+  const RoomMap rooms(tracer, {});
+  ASSERT_EQ(rooms.roomCount(), 4);
+  DenseField f;
+  f.baseSpacingMeters = 0.5;
+  for (double x = 0.25; x < 16; x += 0.5)
+    for (double y = 0.25; y < 3; y += 0.5)
+      for (double z = 0.25; z < 6; z += 0.5) {
+        FieldSample smp;
+        smp.position = {x, y, z};
+        smp.cellSize = 0.5;
+        if (rooms.roomOf(smp.position) < 0) continue;                           // in a wall
+        const Vec3 d = Vec3(2 + 4 * std::floor(x / 4), 2.5, 3) - smp.position;  // a lamp a room
+        const double dc = 1 + 10 / (1 + dot(d, d));
+        smp.sh.c[0] = Rgb(dc, dc, dc);
+        f.domain.extend(smp.position);
+        f.samples.push_back(smp);
+      }
+  GreedySettings s;
+  s.budget = 60;
+  s.swapPasses = 1;
+  s.swapNeighbours = 8;
+  RegionalGreedyResult one;
+  tbb::task_arena(1).execute([&] { one = placeRegionalGreedy(f, {}, s, 3, {}, {}, &rooms); });
+  const RegionalGreedyResult many = placeRegionalGreedy(f, {}, s, 3, {}, {}, &rooms);
+  EXPECT_EQ(one.sampleIndex, many.sampleIndex);
+  EXPECT_EQ(one.fieldError, many.fieldError);
+  ASSERT_EQ(many.positions.size(), 60u);
+  ASSERT_EQ(many.regions.size(), 3u);
+  // Each room's samples all lie in one region's box, and the boxes do not share a room.
+  for (int room = 0; room < 4; ++room) {
+    int holding = 0;
+    for (const GreedyRegion& r : many.regions)
+      holding += r.samples > 0 && r.box.lo.x < 4 * room + 2 && r.box.hi.x > 4 * room + 2;
+    EXPECT_EQ(holding, 1) << "room " << room;
+  }
+  for (const GreedyRegion& r : many.regions) {
+    ASSERT_GT(r.samples, 0u);
+    EXPECT_LT(std::abs(r.box.lo.x - 4 * std::round(r.box.lo.x / 4)), 0.3) << r.box.lo.x;
+    EXPECT_LT(std::abs(r.box.hi.x - 4 * std::round(r.box.hi.x / 4)), 0.3) << r.box.hi.x;
+  }
 }
 
 TEST(RegionalGreedy, RefusesTooSmallABudget) {

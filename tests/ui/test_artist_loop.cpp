@@ -343,8 +343,8 @@ class TestArtistLoop : public QObject {
     QVERIFY(QTest::qWaitForWindowExposed(&w));
     Document* doc = w.document();
     doc->addProbes(acceptedProbes(), "Add");
-    // One placement with its phases (grid, leak refinement, capture): the fraction the bar
-    // shows never goes back, and the label names the step.
+    // One placement with its phases (covering, grid, leak refinement, capture): the fraction the
+    // bar shows never goes back, and the label names the step.
     std::vector<double> fractions;
     QStringList labels;
     connect(doc, &Document::jobProgress, this, [&](const QString& what, double f) {
@@ -363,7 +363,7 @@ class TestArtistLoop : public QObject {
                                                                 .arg(fractions[i - 1])
                                                                 .arg(fractions[i])
                                                                 .arg(labels.join(" | "))));
-    QVERIFY2(labels.join(" ").contains("step 2 of 3"), qPrintable(labels.join(" | ")));
+    QVERIFY2(labels.join(" ").contains("step 3 of 4"), qPrintable(labels.join(" | ")));
     // Two more jobs: still only the main window.
     for (int i = 0; i < 2; ++i) {
       QVERIFY(doc->recapture(8));

@@ -64,11 +64,14 @@ std::optional<ShRgb> volumeAt(Viewport* vp, Vec3 p) {
 /// space, as both are). With `lowest`, among the probes of the lowest layer only (within 5 cm of
 /// the lowest captured probe's height): those light the floor, which a view from above shows.
 std::pair<uint64_t, Vec3> brightIntoDark(const std::vector<Probe>& probes, bool lowest = false) {
+  // The covering's probes are left where they are: they hold the hull's corners, and moving
+  // one reshapes the tetrahedra of the whole room.
+  auto movable = [](const Probe& p) { return p.sh && p.method != "coverage"; };
   double floorY = 1e300;
   for (const Probe& p : probes)
-    if (p.sh) floorY = std::min(floorY, p.position.y);
+    if (movable(p)) floorY = std::min(floorY, p.position.y);
   auto counts = [&](size_t i) {
-    return probes[i].sh && (!lowest || probes[i].position.y <= floorY + 0.05);
+    return movable(probes[i]) && (!lowest || probes[i].position.y <= floorY + 0.05);
   };
   size_t bright = 0, dark = 0;
   while (bright < probes.size() && !counts(bright)) ++bright;
@@ -81,7 +84,7 @@ std::pair<uint64_t, Vec3> brightIntoDark(const std::vector<Probe>& probes, bool 
   }
   size_t nearest = probes.size();
   for (size_t i = 0; i < probes.size(); ++i)
-    if (i != dark && i != bright && (!lowest || counts(i)) &&
+    if (i != dark && i != bright && counts(i) &&
         (nearest == probes.size() || length(probes[i].position - probes[dark].position) <
                                          length(probes[nearest].position - probes[dark].position)))
       nearest = i;
