@@ -2,9 +2,10 @@
 // process. The capture's rays (probe, bounce and shadow rays) are recorded once through
 // Tracer::setRayLog from a one-thread capture; BM_BareEmbreeRays then traces exactly those rays
 // with rtcIntersect1 / rtcOccluded1 on an Embree scene built here with the same settings, and
-// BM_CaptureRaysPerSecond runs the capture itself (1 and 2 threads), counting the same rays.
-// After the runs the ratios are printed: capture / bare (goal >= 1.0) and 2 threads / 1
-// (goal >= 1.9).
+// BM_CaptureRaysPerSecond runs the capture itself (1 and 2 threads in packets, and 1 thread a ray
+// at a time, CaptureSettings::tracePackets), counting the same rays. After the runs the ratios
+// are printed: capture / bare (goal >= 1.0), 2 threads / 1 (goal >= 1.9) and packets / single
+// rays. With --benchmark_repetitions the ratios are of the medians.
 //
 // BM_LevelTimeToError: the wall time of an adaptive capture to a 5 % relative error per probe
 // (CaptureSettings::targetRelativeError) at 64 probes (placeUniformBudget) of the generated
@@ -181,7 +182,8 @@ void BM_CaptureRaysPerSecond(benchmark::State& state, const std::string& name) {
     state.SkipWithError(("scene not found: " + name).c_str());
     return;
   }
-  const CaptureSettings cs = settings(int(state.range(0)));
+  CaptureSettings cs = settings(int(state.range(0)));
+  cs.tracePackets = state.range(1) != 0;
   for (auto _ : state) benchmark::DoNotOptimize(captureProbes(*f->tracer, f->rig, f->points, cs));
   // Deterministic sampling: every run traces exactly the recorded rays.
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(f->rays.size()));
@@ -337,6 +339,12 @@ class RateReporter : public benchmark::ConsoleReporter {
       std::string name = run.benchmark_name();  // without the "/min_time:..." part
       const size_t cut = name.find("/min_time:");
       if (cut != std::string::npos) name.erase(cut, name.find('/', cut + 1) - cut);
+      // Repetitions: the median stands for the runs (it is reported after them).
+      if (run.run_type == Run::RT_Aggregate) {
+        const std::string median = "_median";
+        if (!name.ends_with(median)) continue;
+        name.erase(name.size() - median.size());
+      }
       if (it != run.counters.end()) rates()[name] = it->second.value;
       seconds()[name] = run.GetAdjustedRealTime() / benchmark::GetTimeUnitMultiplier(run.time_unit);
     }
@@ -356,8 +364,9 @@ int main(int argc, char** argv) {
         ->UseRealTime();
     benchmark::RegisterBenchmark(("BM_CaptureRaysPerSecond/" + name).c_str(),
                                  BM_CaptureRaysPerSecond, name)
-        ->Arg(1)
-        ->Arg(2)
+        ->Args({1, 1})
+        ->Args({2, 1})
+        ->Args({1, 0})
         ->Unit(benchmark::kMillisecond)
         ->MinTime(1.0)
         ->UseRealTime();
@@ -382,11 +391,13 @@ int main(int argc, char** argv) {
   for (const char* s : scenes) {
     const std::string name = s;
     const double bare = rates()["BM_BareEmbreeRays/" + name + "/real_time"];
-    const double one = rates()["BM_CaptureRaysPerSecond/" + name + "/1/real_time"];
-    const double two = rates()["BM_CaptureRaysPerSecond/" + name + "/2/real_time"];
+    const double one = rates()["BM_CaptureRaysPerSecond/" + name + "/1/1/real_time"];
+    const double two = rates()["BM_CaptureRaysPerSecond/" + name + "/2/1/real_time"];
+    const double single = rates()["BM_CaptureRaysPerSecond/" + name + "/1/0/real_time"];
     if (bare > 0 && one > 0)
       std::printf("  %-16s capture 1 thread / bare Embree 1 thread: %.3f", s, one / bare);
     if (one > 0 && two > 0) std::printf("   capture 2 threads / 1 thread: %.3f", two / one);
+    if (one > 0 && single > 0) std::printf("   packets / single rays: %.3f", one / single);
     if (bare > 0 || one > 0) std::printf("\n");
   }
   const double ta = seconds()["BM_TimeToError/two-rooms/adaptive/real_time"];
