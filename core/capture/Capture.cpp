@@ -11,6 +11,8 @@
 // lights (sun, point, spot), cosine-weighted bounces, Russian roulette by throughput after
 // kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces and the
 // constant sky are reached by sampled rays only (no NEE for them), so nothing is counted twice.
+// A vertex takes NEE from the delta lights LightSampler chooses (all of them when few, else one
+// from a light tree, weighted by one over its probability: unbiased either way).
 // The environment map is reached by the probe's own rays in full and, at surface vertices, by
 // NEE (importance-sampled by texel power) and by the bounce ray, each weighted by the power
 // heuristic (Veach 1997, sec. 9.2) so that together they count it once. Albedo and emission are the
@@ -23,6 +25,8 @@
 // Ramamoorthi-Hanrahan convolution, so it is exactly the variance of the irradiance the probe
 // reports); the probe stops when the largest, relative to its brightest axis, is at most the
 // target. The decision uses only the probe's own samples: deterministic for any thread count.
+// Every sample draws from its own stream, derived from (seed, probe, sample), so a batch of paths
+// traced bounce by bounce in Embree stream calls gives the same paths as one ray at a time.
 // The same rays feed the luminance and hue histograms and the visibility map (Capture.h gives
 // the layouts; DDGI, Majercik et al. 2019, sec. 4, for the map).
 // A single-sided surface seen from behind ends the path with zero radiance (the inside of a
