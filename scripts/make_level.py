@@ -2,7 +2,7 @@
 """Writes a generated game level: a multi-storey office building as one glTF 2.0 file.
 
 Usage: scripts/make_level.py [--preset full|small] [--width M] [--depth M] [--floors N]
-                             [--seed N] -o LEVEL.glb|LEVEL.gltf
+                             [--seed N] [--lamps-per-room N] -o LEVEL.glb|LEVEL.gltf
 
 Python 3 standard library only. The output is a function of the parameters alone: the same
 parameters and seed give the same bytes on any machine (the random stream is this script's own
@@ -23,8 +23,9 @@ The building (metres, +Y up; x along the width, z along the depth):
   * furniture in every room: tables and desks with legs and chairs, shelves, cabinets, sofas,
     beds, rugs; kept clear of the doors and of each other;
   * light: a sun (a KHR_lights_punctual directional light, 6 W/m^2) entering the +z and +x
-    facades' windows, point lights (W/sr, with a range) in corridors and in some rooms, and a sky
-    that glTF cannot carry: give it as the rig option printed at the end (`--env R,G,B`).
+    facades' windows, point lights (W/sr, with a range) in corridors and in some rooms (or N in
+    every room with --lamps-per-room N, the many-light benchmark), and a sky that glTF cannot
+    carry: give it as the rig option printed at the end (`--env R,G,B`).
 
 Every wall, slab, step and piece of furniture is a closed axis-aligned box, single-sided, faces
 counter-clockwise seen from outside with outward flat normals, so a point inside any of them
@@ -150,6 +151,7 @@ class Level:
         self.lights = []  # (name, KHR light dict, translation in m or None)
         self.rooms = 0
         self.stairwells = 0
+        self.lamps_per_room = None  # None: a lamp in some rooms; N: N lamps in every room
 
     def box(self, group, material, lo, hi):
         key = (group, material)
@@ -303,11 +305,13 @@ def split_rooms(x0, x1, rng):
 # ----------------------------------------------------------------------------- storeys
 
 
-def build(width, depth, floors, seed):
-    """The level for the parameters in mm (width, depth) and storeys."""
+def build(width, depth, floors, seed, lamps_per_room=None):
+    """The level for the parameters in mm (width, depth) and storeys; `lamps_per_room` None for
+    lamps in some rooms, else that many lamps in every room."""
     rng = Stream(seed)
     plan = Plan(width, depth, floors)
     level = Level()
+    level.lamps_per_room = lamps_per_room
     stair_holes = []
     for s0, s1 in plan.stairs:
         b = plan.bands[0]
@@ -457,10 +461,19 @@ def room(level, plan, g, rng, band, slot, door, slots, k, yf):
         keep_out.append((x0 - 100, x0 + 1300, a0 - 300, a1 + 300))
     windowed = band["outer"] or x0 == plan.x0 or x1 == plan.x1
     furnish(level, g, rng, (x0, x1, z0, z1), keep_out, yf)
-    if rng.chance(0.02 if windowed else 0.08):
-        level.point_light("%s/room-light-%d-%d" % (g, x0, z0),
-                          ((x0 + x1) // 2, yf + 2800, (z0 + z1) // 2), 10.0, (1.0, 0.85, 0.65),
-                          12.0)
+    # The draw is made either way, so that --lamps-per-room changes the lights and nothing else.
+    lamp = rng.chance(0.02 if windowed else 0.08)
+    n = level.lamps_per_room
+    if n is None:
+        if lamp:
+            level.point_light("%s/room-light-%d-%d" % (g, x0, z0),
+                              ((x0 + x1) // 2, yf + 2800, (z0 + z1) // 2), 10.0,
+                              (1.0, 0.85, 0.65), 12.0)
+        return
+    for i in range(n):  # evenly along the room's width
+        x = x0 + (x1 - x0) * (2 * i + 1) // (2 * n)
+        level.point_light("%s/room-light-%d-%d-%d" % (g, x0, z0, i), (x, yf + 2800, (z0 + z1) // 2),
+                          10.0, (1.0, 0.85, 0.65), 12.0)
 
 
 def overlaps(a, b, gap):
@@ -714,6 +727,9 @@ def parse(argv):
     p.add_argument("--depth", type=float, help="building size along z in metres (12.8 to 400)")
     p.add_argument("--floors", type=int, help="storeys (1 to 20)")
     p.add_argument("--seed", type=int, default=1, help="random seed, 0 or more (default 1)")
+    p.add_argument("--lamps-per-room", type=int, metavar="N",
+                   help="N lamps in every room (0 to 16) instead of one in some rooms; the "
+                        "building is the same (the many-light benchmark)")
     p.add_argument("-o", "--output", required=True, help="level to write: .glb or .gltf (+ .bin)")
     a = p.parse_args(argv)
     width, depth, floors = PRESETS[a.preset]
@@ -725,6 +741,8 @@ def parse(argv):
         if not (lo <= value <= hi):  # also refuses nan
             raise ParameterError("--%s: expected %g to %g%s, got %g" % (
                 flag, lo, hi, "" if flag == "floors" else " m", value))
+    if a.lamps_per_room is not None and not (0 <= a.lamps_per_room <= 16):
+        raise ParameterError("--lamps-per-room: expected 0 to 16, got %d" % a.lamps_per_room)
     if a.seed < 0 or a.seed >= 1 << 63:
         raise ParameterError("--seed: expected 0 to 2^63 - 1, got %d" % a.seed)
     if not (a.output.endswith(".glb") or a.output.endswith(".gltf")):
@@ -732,16 +750,17 @@ def parse(argv):
     folder = os.path.dirname(a.output) or "."
     if not os.path.isdir(folder):
         raise ParameterError("--output: the folder \"%s\" does not exist" % folder)
-    return int(round(width * 1000)), int(round(depth * 1000)), floors, a.seed, a.output
+    return (int(round(width * 1000)), int(round(depth * 1000)), floors, a.seed, a.lamps_per_room,
+            a.output)
 
 
 def main(argv):
     try:
-        width, depth, floors, seed, out = parse(argv)
+        width, depth, floors, seed, lamps, out = parse(argv)
     except ParameterError as e:
         sys.stderr.write("make_level.py: error: %s\n" % e)
         return 1
-    level, plan = build(width, depth, floors, seed)
+    level, plan = build(width, depth, floors, seed, lamps)
     size = write(level, out)
     print("wrote %s: %g x %g m, %g m high, %d storeys, %d rooms, %d stairwells, %d triangles, "
           "%d point lights and a sun, %d bytes" % (

@@ -11,6 +11,8 @@
 // lights (sun, point, spot), cosine-weighted bounces, Russian roulette by throughput after
 // kRussianRouletteStartBounce bounces and a hard cap of kMaxBounces. Emissive surfaces and the
 // constant sky are reached by sampled rays only (no NEE for them), so nothing is counted twice.
+// A vertex takes NEE from the delta lights LightSampler chooses (all of them when few, else one
+// from a light tree, weighted by one over its probability: unbiased either way).
 // The environment map is reached by the probe's own rays in full and, at surface vertices, by
 // NEE (importance-sampled by texel power) and by the bounce ray, each weighted by the power
 // heuristic (Veach 1997, sec. 9.2) so that together they count it once. Albedo and emission are the
@@ -23,6 +25,8 @@
 // Ramamoorthi-Hanrahan convolution, so it is exactly the variance of the irradiance the probe
 // reports); the probe stops when the largest, relative to its brightest axis, is at most the
 // target. The decision uses only the probe's own samples: deterministic for any thread count.
+// Every sample draws from its own stream, derived from (seed, probe, sample), so a batch of paths
+// traced bounce by bounce in Embree stream calls gives the same paths as one ray at a time.
 // The same rays feed the luminance and hue histograms and the visibility map (Capture.h gives
 // the layouts; DDGI, Majercik et al. 2019, sec. 4, for the map).
 // A single-sided surface seen from behind ends the path with zero radiance (the inside of a
@@ -59,8 +63,6 @@ namespace {
 constexpr int kMaxBounces = 128;
 /// Russian roulette starts after this many bounces.
 constexpr int kRussianRouletteStartBounce = 3;
-/// Cancellation is polled every this many probe samples.
-constexpr int kCancelPollSamples = 1024;
 
 // ---- Random numbers ------------------------------------------------------------------------
 
@@ -136,19 +138,42 @@ double insideWeight(const Scene& scene, const Hit& hit) {
   return scene.materials[materialIndex].doubleSided ? 0.5 : 1.0;
 }
 
+/// A path being traced: its current ray (o, d), the radiance it has gathered, its throughput,
+/// its own random stream and what its first hit told about the probe.
+struct PathState {
+  Vec3 o, d;
+  Rgb L;
+  Rgb beta{1, 1, 1};
+  double bouncePdf = 0;  // pdf (per sr) of the cosine-weighted bounce that made d; 0 at the probe
+  uint64_t rng = 0;
+  int bounce = 0;
+  double firstHitBackface = 0;  ///< insideWeight of the first hit
+  double firstHitDistance = std::numeric_limits<double>::infinity();
+};
+
+/// A shadow ray of a path vertex and the radiance it adds to path `path` when nothing blocks it.
+struct ShadowRay {
+  Ray ray;
+  Rgb contribution;
+  uint32_t path = 0;
+};
+
 class PathTracer {
  public:
-  PathTracer(const Tracer& tracer, const LightingRig& rig)
+  PathTracer(const Tracer& tracer, const LightingRig& rig, size_t exactLightCount, int maxLightCut)
       : tracer_(tracer),
         scene_(tracer.scene()),
         lights_(allLights(tracer.scene(), rig)),
+        sampler_(lights_, exactLightCount, maxLightCut),
         sky_(rig.skyRadiance),
         env_(environmentOf(rig)),
         envNee_(env_ && env_->canSample()),
         eps_(tracer.rayEpsilon()) {
-    // O(1) here: traceRadiance builds one per ray. Material indices are checked per hit.
+    // Material indices are checked per hit.
     PS_CHECK_EQ(scene_.triangleMaterial.size(), scene_.triangleCount());
   }
+  PathTracer(const PathTracer&) = delete;  // sampler_ refers to lights_
+  PathTracer& operator=(const PathTracer&) = delete;
 
   const std::vector<Light>& lights() const { return lights_; }
   Rgb sky() const { return sky_; }
@@ -171,105 +196,167 @@ class PathTracer {
     return any;
   }
 
-  /// Radiance arriving at `origin` from direction -dir (travelling along dir from origin).
-  /// `firstHitBackface` is set to how much the first surface hit counts towards "inside"
-  /// (insideWeight; a path goes on from the back of double-sided geometry), `firstHitDistance`
-  /// to the distance along dir to the first hit (infinity when the ray leaves the scene).
+  /// Radiance arriving at `origin` from direction -dir (travelling along dir from origin), one
+  /// ray at a time; `rng` is the path's stream and is advanced. `firstHitBackface` is set to how
+  /// much the first surface hit counts towards "inside" (insideWeight; a path goes on from the
+  /// back of double-sided geometry), `firstHitDistance` to the distance along dir to the first
+  /// hit (infinity when the ray leaves the scene).
   Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rng, double* firstHitBackface,
                double* firstHitDistance = nullptr) const {
-    if (firstHitBackface) *firstHitBackface = 0;
-    if (firstHitDistance) *firstHitDistance = std::numeric_limits<double>::infinity();
-    Rgb L;
-    Rgb beta{1, 1, 1};
-    Vec3 o = origin;
-    Vec3 d = dir;
-    double bouncePdf = 0;  // pdf (per sr) of the cosine-weighted bounce that made d; 0 at the probe
-    for (int bounce = 0; bounce < kMaxBounces; ++bounce) {
-      const auto hit = tracer_.intersect(Ray{o, d});
-      if (!hit) {
-        // Escaped: the constant sky plus the environment map. From the probe (uniform
-        // directions) the map counts fully; after a bounce it is weighted by the power
-        // heuristic against the map's own sampling at that vertex (Veach 1997, eq. 9.13).
-        if (!env_) {
-          L += beta * sky_;
-        } else {
-          double w = 1;
-          if (bounce > 0 && envNee_) {
-            const double pe = env_->pdf(d);
-            w = bouncePdf * bouncePdf / (bouncePdf * bouncePdf + pe * pe);
-          }
-          L += beta * (sky_ + env_->radiance(d) * w);
-        }
-        break;
-      }
-      const uint32_t materialIndex = scene_.triangleMaterial[hit->triangle];
-      PS_CHECK_LT(size_t{materialIndex}, scene_.materials.size());
-      const Material& m = scene_.materials[materialIndex];
-      if (bounce == 0 && firstHitBackface) *firstHitBackface = insideWeight(scene_, *hit);
-      if (bounce == 0 && firstHitDistance) *firstHitDistance = hit->t;
-      // Inside of a solid (Kontkanen & Laine sec. 5): black.
-      if (!hit->frontFace && !m.doubleSided) break;
-      // Emission, reached by sampled rays only; factor times texture at the hit's UV0.
-      if (!m.emission.isBlack())
-        L +=
-            beta * (m.isTextured() ? scene_.emissionAt(hit->triangle, hit->u, hit->v) : m.emission);
-      const Rgb albedo = m.isTextured() ? scene_.albedoAt(hit->triangle, hit->u, hit->v) : m.albedo;
-      if (albedo.isBlack()) break;
-
-      // Shade on the side the ray arrived from.
-      const Vec3 n = hit->frontFace ? hit->geometricNormal : -hit->geometricNormal;
-      const Vec3 p = o + d * hit->t + n * eps_;
-      // Next-event estimation to the delta lights: L_r = albedo / pi * E * max(0, cos).
-      Rgb e;
-      for (const Light& light : lights_) {
-        const auto a = visibleDeltaArrival(tracer_, light, p);
-        if (!a) continue;
-        const double cosTheta = dot(n, a->directionToLight);
-        if (cosTheta > 0) e += a->irradiance * cosTheta;
-      }
-      const Rgb brdfPi = albedo * (1.0 / kPi);
-      L += beta * brdfPi * e;
-
-      // Next-event estimation to the environment map, importance-sampled by its luminance and
-      // weighted by the power heuristic against the cosine-weighted bounce (Veach 1997, 9.2).
-      if (envNee_) {
-        double pe = 0;
-        const Vec3 wl = env_->sample(uniform01(rng), uniform01(rng), pe);
-        const double cosTheta = dot(n, wl);
-        if (cosTheta > 0 && pe > 0) {
-          const Ray shadow{p, wl, eps_, std::numeric_limits<double>::infinity()};
-          if (!tracer_.occluded(shadow)) {
-            const double pb = cosTheta / kPi;
-            const double w = pe * pe / (pe * pe + pb * pb);
-            L += beta * brdfPi * env_->radiance(wl) * (cosTheta * w / pe);
-          }
-        }
-      }
-
-      // Lambertian bounce, cosine-weighted: f cos / pdf = albedo.
-      const double u1 = uniform01(rng), u2 = uniform01(rng);
-      d = cosineHemisphere(n, u1, u2);
-      // Only the environment map's MIS weight reads it: skip the division otherwise.
-      if (envNee_) bouncePdf = std::max(0.0, dot(n, d)) / kPi;
-      o = p;
-      beta = beta * albedo;
-      if (bounce + 1 >= kRussianRouletteStartBounce) {
-        const double q = std::min(1.0, beta.maxComponent());  // survival by throughput
-        if (!(q > 0) || uniform01(rng) >= q) break;
-        beta *= 1.0 / q;
-      }
-    }
-    // NaN guard: a degenerate configuration must not poison a probe.
-    return isFinite(L) ? L : Rgb{};
+    PathState s;
+    s.o = origin;
+    s.d = dir;
+    s.rng = rng;
+    trace(std::span<PathState>(&s, 1), false);
+    rng = s.rng;
+    if (firstHitBackface) *firstHitBackface = s.firstHitBackface;
+    if (firstHitDistance) *firstHitDistance = s.firstHitDistance;
+    return s.L;
   }
 
-  /// SH of the radiance arriving at p straight from the delta lights (unoccluded ones).
+  /// Traces every path to its end (each set up with its ray and stream). `packets`: bounce by
+  /// bounce over all the paths, each bounce's rays in one Embree stream call (the first
+  /// bounce's, which share the probe as origin, as coherent) and its shadow rays in another;
+  /// else path by path, one ray at a time. A path's arithmetic and random draws are the same
+  /// either way. Radiance that is not finite is set to 0 (a degenerate configuration must not
+  /// poison a probe).
+  void trace(std::span<PathState> paths, bool packets) const {
+    thread_local std::vector<ShadowRay> shadows;
+    thread_local std::vector<LightChoice> choices;
+    if (!packets) {
+      for (size_t i = 0; i < paths.size(); ++i) {
+        PathState& s = paths[i];
+        bool going = true;
+        while (going) {
+          shadows.clear();
+          going = step(s, tracer_.intersect(Ray{s.o, s.d}), 0, shadows, choices);
+          for (const ShadowRay& sh : shadows)
+            if (!tracer_.occluded(sh.ray)) s.L += sh.contribution;
+        }
+        if (!isFinite(s.L)) s.L = Rgb{};
+      }
+      return;
+    }
+    thread_local std::vector<uint32_t> active, next;
+    thread_local std::vector<Ray> rays, shadowRays;
+    thread_local std::vector<std::optional<Hit>> hits;
+    thread_local std::vector<uint8_t> blocked;
+    active.clear();
+    for (size_t i = 0; i < paths.size(); ++i) active.push_back(static_cast<uint32_t>(i));
+    for (bool first = true; !active.empty(); first = false) {
+      rays.clear();
+      for (uint32_t i : active) rays.push_back(Ray{paths[i].o, paths[i].d});
+      hits.resize(rays.size());
+      tracer_.intersectStream(rays, hits, first);
+      shadows.clear();
+      next.clear();
+      for (size_t k = 0; k < active.size(); ++k)
+        if (step(paths[active[k]], hits[k], active[k], shadows, choices)) next.push_back(active[k]);
+      shadowRays.clear();
+      for (const ShadowRay& sh : shadows) shadowRays.push_back(sh.ray);
+      blocked.resize(shadowRays.size());
+      tracer_.occludedStream(shadowRays, blocked, false);
+      for (size_t k = 0; k < shadows.size(); ++k)
+        if (!blocked[k]) paths[shadows[k].path].L += shadows[k].contribution;
+      std::swap(active, next);
+    }
+    for (PathState& s : paths)
+      if (!isFinite(s.L)) s.L = Rgb{};
+  }
+
+  /// SH of the radiance arriving at p straight from the delta lights (unoccluded ones), every
+  /// light summed.
   ShRgb directDeltaSh(Vec3 p) const { return ps::directDeltaSh(tracer_, lights_, p); }
 
  private:
+  /// One vertex of path s, whose current ray found `hit` (or left the scene): adds what it
+  /// reaches (sky, emission), appends the vertex's shadow rays (for path `index`) to `shadows`,
+  /// and draws the next ray. Returns false when the path ends here; its shadow rays still count.
+  bool step(PathState& s, const std::optional<Hit>& hit, uint32_t index,
+            std::vector<ShadowRay>& shadows, std::vector<LightChoice>& choices) const {
+    if (!hit) {
+      // Escaped: the constant sky plus the environment map. From the probe (uniform
+      // directions) the map counts fully; after a bounce it is weighted by the power
+      // heuristic against the map's own sampling at that vertex (Veach 1997, eq. 9.13).
+      if (!env_) {
+        s.L += s.beta * sky_;
+      } else {
+        double w = 1;
+        if (s.bounce > 0 && envNee_) {
+          const double pe = env_->pdf(s.d);
+          w = s.bouncePdf * s.bouncePdf / (s.bouncePdf * s.bouncePdf + pe * pe);
+        }
+        s.L += s.beta * (sky_ + env_->radiance(s.d) * w);
+      }
+      return false;
+    }
+    const uint32_t materialIndex = scene_.triangleMaterial[hit->triangle];
+    PS_CHECK_LT(size_t{materialIndex}, scene_.materials.size());
+    const Material& m = scene_.materials[materialIndex];
+    if (s.bounce == 0) {
+      s.firstHitBackface = insideWeight(scene_, *hit);
+      s.firstHitDistance = hit->t;
+    }
+    // Inside of a solid (Kontkanen & Laine sec. 5): black.
+    if (!hit->frontFace && !m.doubleSided) return false;
+    // Emission, reached by sampled rays only; factor times texture at the hit's UV0.
+    if (!m.emission.isBlack())
+      s.L +=
+          s.beta * (m.isTextured() ? scene_.emissionAt(hit->triangle, hit->u, hit->v) : m.emission);
+    const Rgb albedo = m.isTextured() ? scene_.albedoAt(hit->triangle, hit->u, hit->v) : m.albedo;
+    if (albedo.isBlack()) return false;
+
+    // Shade on the side the ray arrived from.
+    const Vec3 n = hit->frontFace ? hit->geometricNormal : -hit->geometricNormal;
+    const Vec3 p = s.o + s.d * hit->t + n * eps_;
+    const Rgb betaBrdf = s.beta * albedo * (1.0 / kPi);
+    // Next-event estimation to the delta lights: L_r = albedo / pi * E * max(0, cos), over the
+    // lights the sampler picks, each weighted by 1 / its probability (LightSampler.h). A light
+    // whose range window has ended at p, or that lies below the surface, costs no ray.
+    choices.clear();
+    sampler_.choose(p, n, sampler_.sampling() ? uniform01(s.rng) : 0.0, choices);
+    for (const LightChoice& c : choices) {
+      const auto a = finiteDeltaArrival(lights_[c.light], p);
+      if (!a) continue;
+      const double cosTheta = dot(n, a->directionToLight);
+      if (cosTheta <= 0) continue;
+      shadows.push_back({deltaLightShadowRay(eps_, p, *a),
+                         betaBrdf * a->irradiance * (cosTheta * c.weight), index});
+    }
+
+    // Next-event estimation to the environment map, importance-sampled by its luminance and
+    // weighted by the power heuristic against the cosine-weighted bounce (Veach 1997, 9.2).
+    if (envNee_) {
+      double pe = 0;
+      const Vec3 wl = env_->sample(uniform01(s.rng), uniform01(s.rng), pe);
+      const double cosTheta = dot(n, wl);
+      if (cosTheta > 0 && pe > 0) {
+        const double pb = cosTheta / kPi;
+        const double w = pe * pe / (pe * pe + pb * pb);
+        shadows.push_back({Ray{p, wl, eps_, std::numeric_limits<double>::infinity()},
+                           betaBrdf * env_->radiance(wl) * (cosTheta * w / pe), index});
+      }
+    }
+
+    // Lambertian bounce, cosine-weighted: f cos / pdf = albedo.
+    const double u1 = uniform01(s.rng), u2 = uniform01(s.rng);
+    s.d = cosineHemisphere(n, u1, u2);
+    // Only the environment map's MIS weight reads it: skip the division otherwise.
+    if (envNee_) s.bouncePdf = std::max(0.0, dot(n, s.d)) / kPi;
+    s.o = p;
+    s.beta = s.beta * albedo;
+    if (s.bounce + 1 >= kRussianRouletteStartBounce) {
+      const double q = std::min(1.0, s.beta.maxComponent());  // survival by throughput
+      if (!(q > 0) || uniform01(s.rng) >= q) return false;
+      s.beta *= 1.0 / q;
+    }
+    return ++s.bounce < kMaxBounces;
+  }
+
   const Tracer& tracer_;
   const Scene& scene_;
   std::vector<Light> lights_;
+  LightSampler sampler_;
   Rgb sky_;
   std::shared_ptr<const EnvironmentMap> env_;
   bool envNee_;  ///< the map can be importance-sampled (loaded through loadEnvironmentMap)
@@ -465,7 +552,7 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
   if (settings.threads < 0)
     throw ParameterError("capture: threads is " + std::to_string(settings.threads) +
                          ", expected 0 (all) or a positive count");
-  const PathTracer pt(tracer, rig);
+  const PathTracer pt(tracer, rig, settings.exactLightCount, settings.maxLightCut);
   if (pt.lights().empty() && !pt.hasSky() && !pt.hasEmissiveSurface())
     throw ParameterError(
         "the scene has no light: it brings no punctual light and no emissive surface, and the "
@@ -486,7 +573,9 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
       [&](size_t probe, const std::atomic<bool>& cancelled) {
         const auto t0 = std::chrono::steady_clock::now();
         const Vec3 p = points[probe];
-        uint64_t rng = streamState(settings.seed, probe);
+        // The probe's stream gives the sequence's rotation and seeds one stream per sample.
+        const uint64_t probeStream = streamState(settings.seed, probe);
+        uint64_t rng = probeStream;
         const double offset[2] = {uniform01(rng), uniform01(rng)};
         // The delta lights' direct light: added to the SH in Full mode, and part of the irradiance
         // the relative error is measured against.
@@ -499,25 +588,39 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
         ProbeCapture& c = out[probe];
         std::array<double, kHueBins> hue{};
         double backfaces = 0;
+        std::array<PathState, kPathBatchSamples> paths;
+        std::array<Vec3, kPathBatchSamples> dirs;
         int j = 0;
-        for (; j < maxSamples; ++j) {
-          if (j % kCancelPollSamples == kCancelPollSamples - 1 && cancelled.load()) return;
-          if (adaptive && j >= settings.minSamplesPerProbe && j % kAdaptiveBatchSamples == 0 &&
+        while (j < maxSamples) {
+          if (cancelled.load()) return;
+          // Batches start at multiples of kAdaptiveBatchSamples: the rule is checked there.
+          if (adaptive && j >= settings.minSamplesPerProbe &&
               irr.relativeError(directLum) <= settings.targetRelativeError)
             break;
-          double u, v;
-          r2Point(static_cast<uint64_t>(j), offset, u, v);
-          const Vec3 dir = uniformSphere(u, v);
-          double backface = 0, distance = 0;
-          const Rgb L = pt.radiance(p, dir, rng, &backface, &distance);
-          backfaces += backface;
-          if (settings.visibilityMaps) dist.add(dir, std::min(distance, miss));
-          acc.add(dir, L);
-          const double lum = luminance(L);
-          irr.add(dir, lum);
-          c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;
-          const int h = hueBin(L);
-          if (h >= 0) hue[size_t(h)] += lum;
+          const int count = std::min(kPathBatchSamples, maxSamples - j);
+          for (int k = 0; k < count; ++k) {
+            double u, v;
+            r2Point(static_cast<uint64_t>(j + k), offset, u, v);
+            PathState& s = paths[size_t(k)];
+            s = PathState{};
+            s.o = p;
+            s.d = dirs[size_t(k)] = uniformSphere(u, v);
+            s.rng = streamState(probeStream, static_cast<uint64_t>(j + k));
+          }
+          pt.trace(std::span<PathState>(paths.data(), size_t(count)), settings.tracePackets);
+          for (int k = 0; k < count; ++k) {
+            const PathState& s = paths[size_t(k)];
+            const Vec3 dir = dirs[size_t(k)];
+            backfaces += s.firstHitBackface;
+            if (settings.visibilityMaps) dist.add(dir, std::min(s.firstHitDistance, miss));
+            acc.add(dir, s.L);
+            const double lum = luminance(s.L);
+            irr.add(dir, lum);
+            c.luminanceHistogram[size_t(luminanceBin(s.L))] += 1.0;
+            const int h = hueBin(s.L);
+            if (h >= 0) hue[size_t(h)] += lum;
+          }
+          j += count;
         }
         const int n = j;
         c.samples = n;
@@ -608,7 +711,8 @@ Rgb traceRadiance(const Tracer& tracer, const LightingRig& rig, Vec3 origin, Vec
                   uint64_t& rngState, CaptureMode /*mode*/) {
   // The mode changes nothing along a ray: delta lights are never hit by rays, and the light
   // they send straight to a point is added from DirectLight.h by the caller.
-  const PathTracer pt(tracer, rig);
+  // Every light summed: the tree would be built per ray here.
+  const PathTracer pt(tracer, rig, std::numeric_limits<size_t>::max(), 1);
   return pt.radiance(origin, dir, rngState, nullptr);
 }
 

@@ -7,6 +7,7 @@
 #include <span>
 #include <vector>
 
+#include "core/capture/LightSampler.h"
 #include "core/common/Progress.h"
 #include "core/math/Sh.h"
 #include "core/scene/LightingRig.h"
@@ -32,6 +33,17 @@ struct CaptureSettings {
   uint64_t seed = 1;               ///< per-probe streams derive from (seed, probe index)
   CaptureMode mode = CaptureMode::Full;
   int threads = 0;  ///< 0 = all hardware threads; results do not depend on it
+  /// Point and spot lights are summed at every path vertex while there are at most this many;
+  /// above it, one is importance-sampled per vertex from a light tree (LightSampler.h). The
+  /// estimate is unbiased either way; the default is the faster to a given error.
+  size_t exactLightCount = kExactLightCount;
+  /// When sampling, the most nodes of the tree's cut a light is drawn from (LightSampler.h).
+  int maxLightCut = kMaxCut;
+  /// Trace each batch of kPathBatchSamples paths bounce by bounce, every bounce's rays in one
+  /// Embree stream call and its shadow rays in another; false: one ray at a time. The random
+  /// streams are per sample, so both give the same paths, up to the last bits of Embree's packet
+  /// kernels (and, where two coincident triangles tie, which one is reported).
+  bool tracePackets = true;
   /// Record each probe's visibility map (ProbeCapture::distanceMoments). Off by default: the
   /// bake turns it on for the probes it stores; placement's many cheap captures do not need
   /// the 2 KB per probe.
@@ -40,6 +52,9 @@ struct CaptureSettings {
 
 /// Adaptive sampling checks its error after every this many rays.
 inline constexpr int kAdaptiveBatchSamples = 64;
+/// Paths traced together (CaptureSettings::tracePackets): one adaptive batch, so that the
+/// stopping rule sees the same samples either way.
+inline constexpr int kPathBatchSamples = kAdaptiveBatchSamples;
 
 /// Histograms of the incident radiance over the probe's rays (the same rays as the SH; light
 /// arriving straight from delta lights is not in them), for placement's probe matching
@@ -107,7 +122,8 @@ struct ProbeCapture {
   std::vector<float> distanceMoments;
 };
 
-/// Captures one probe per point. Deterministic for a given seed whatever the thread count.
+/// Captures one probe per point. Deterministic for a given seed whatever the thread count: sample
+/// j of probe i draws from its own random stream, derived from (seed, i, j).
 /// Throws ps::ParameterError when the scene plus rig has no light at all, or a setting is out
 /// of range.
 std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig& rig,

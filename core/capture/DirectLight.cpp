@@ -38,24 +38,33 @@ std::optional<DeltaLightArrival> deltaLightArrival(const Light& light, Vec3 p) {
   return a;
 }
 
-bool deltaLightVisible(const Tracer& tracer, Vec3 p, const DeltaLightArrival& a) {
-  Ray r;
-  r.origin = p;
-  r.direction = a.directionToLight;
-  r.tMin = tracer.rayEpsilon();
-  r.tMax = std::isfinite(a.distance) ? a.distance * (1.0 - 1e-6)
-                                     : std::numeric_limits<double>::infinity();
-  return !tracer.occluded(r);
-}
-
-std::optional<DeltaLightArrival> visibleDeltaArrival(const Tracer& tracer, const Light& light,
-                                                     Vec3 p) {
+std::optional<DeltaLightArrival> finiteDeltaArrival(const Light& light, Vec3 p) {
   auto a = deltaLightArrival(light, p);
   const auto finite = [](Rgb c) {
     return std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b);
   };
   if (!a || !isFinite(a->directionToLight) || !finite(a->irradiance)) return std::nullopt;
-  if (!deltaLightVisible(tracer, p, *a)) return std::nullopt;
+  return a;
+}
+
+Ray deltaLightShadowRay(double rayEpsilon, Vec3 p, const DeltaLightArrival& a) {
+  Ray r;
+  r.origin = p;
+  r.direction = a.directionToLight;
+  r.tMin = rayEpsilon;
+  r.tMax = std::isfinite(a.distance) ? a.distance * (1.0 - 1e-6)
+                                     : std::numeric_limits<double>::infinity();
+  return r;
+}
+
+bool deltaLightVisible(const Tracer& tracer, Vec3 p, const DeltaLightArrival& a) {
+  return !tracer.occluded(deltaLightShadowRay(tracer.rayEpsilon(), p, a));
+}
+
+std::optional<DeltaLightArrival> visibleDeltaArrival(const Tracer& tracer, const Light& light,
+                                                     Vec3 p) {
+  auto a = finiteDeltaArrival(light, p);
+  if (!a || !deltaLightVisible(tracer, p, *a)) return std::nullopt;
   return a;
 }
 

@@ -22,8 +22,15 @@ struct DeltaLightArrival {
 /// clamp(1 - (d / range)^4, 0, 1)^2. Nothing when the light contributes nothing at p.
 std::optional<DeltaLightArrival> deltaLightArrival(const Light& light, Vec3 p);
 
-/// True when nothing blocks the segment from p towards the light (shadow ray offset by the
-/// tracer's epsilon at the start).
+/// deltaLightArrival(), and nothing also when its direction or irradiance is not finite (a light
+/// at p, a zero direction: never NaN into a probe).
+std::optional<DeltaLightArrival> finiteDeltaArrival(const Light& light, Vec3 p);
+
+/// The shadow ray from p towards the light: offset by the tracer's epsilon `rayEpsilon` at the
+/// start, ending just short of a point or spot light.
+Ray deltaLightShadowRay(double rayEpsilon, Vec3 p, const DeltaLightArrival& a);
+
+/// True when nothing blocks the segment from p towards the light (deltaLightShadowRay).
 bool deltaLightVisible(const Tracer& tracer, Vec3 p, const DeltaLightArrival& a);
 
 /// What the delta light delivers at p through an unoccluded segment (p is a probe, a ray origin

@@ -60,6 +60,25 @@ void fillRay(double ox, double oy, double oz, double dx, double dy, double dz, d
   r.flags = 0;
 }
 
+/// The ray and hit record of a closest-hit query, ready for Embree.
+void fillRayHit(const Ray& ray, RTCRayHit& rh) {
+  fillRay(ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y,
+          ray.direction.z, ray.tMin, ray.tMax, rh.ray);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+}
+
+/// Embree sets an occlusion ray's tfar to -inf when something is hit.
+bool wasOccluded(const RTCRay& r) {
+  return r.tfar < 0.0f && std::isinf(r.tfar);
+}
+
+/// Per-thread buffers of the stream calls (Embree wants 16-byte aligned records; RTCRayHit and
+/// RTCRay are declared so, and std::vector honours it).
+thread_local std::vector<RTCRayHit> tStreamHits;
+thread_local std::vector<RTCRay> tStreamRays;
+
 /// Embree intersection and occlusion filter for alphaMode MASK (glTF 3.9.4): a candidate hit on
 /// a cut-out point (alpha < alphaCutoff) is rejected, so the ray passes through it. Installed
 /// only when some material is a mask; called by Embree for every candidate hit.
@@ -107,6 +126,21 @@ struct Tracer::Impl {
   /// Per triangle, the unit geometric normal from the counter-clockwise winding, computed in
   /// double once here instead of per hit; (0, 0, 0) for a degenerate triangle.
   std::vector<Vec3> faceNormals;
+
+  /// The Hit of a finished closest-hit query along `direction`, or nothing on a miss.
+  std::optional<Hit> hitOf(const RTCRayHit& rh, Vec3 direction) const {
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+    Hit hit;
+    hit.t = rh.ray.tfar;
+    hit.triangle = rh.hit.primID;
+    hit.u = rh.hit.u;
+    hit.v = rh.hit.v;
+    const Vec3 n = faceNormals[hit.triangle];
+    // A degenerate triangle Embree still reported: face the ray.
+    hit.geometricNormal = n == Vec3{} ? normalize(-direction) : n;
+    hit.frontFace = dot(direction, hit.geometricNormal) < 0;
+    return hit;
+  }
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
@@ -197,19 +231,45 @@ std::optional<Hit> Tracer::intersect(double ox, double oy, double oz, double dx,
   rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(impl_->scene, &context, &rh);
-  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+  return impl_->hitOf(rh, Vec3{dx, dy, dz});
+}
 
-  Hit hit;
-  hit.t = rh.ray.tfar;
-  hit.triangle = rh.hit.primID;
-  hit.u = rh.hit.u;
-  hit.v = rh.hit.v;
-  const Vec3 n = impl_->faceNormals[hit.triangle];
-  // A degenerate triangle Embree still reported: face the ray.
-  const Vec3 direction{dx, dy, dz};
-  hit.geometricNormal = n == Vec3{} ? normalize(-direction) : n;
-  hit.frontFace = dot(direction, hit.geometricNormal) < 0;
-  return hit;
+void Tracer::intersectStream(std::span<const Ray> rays, std::span<std::optional<Hit>> hits,
+                             bool coherent) const {
+  PS_CHECK_EQ(rays.size(), hits.size());
+  if (rayLog_)
+    for (const Ray& r : rays) rayLog_->push_back({r, false});
+  std::vector<RTCRayHit>& buffer = tStreamHits;
+  buffer.resize(rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) fillRayHit(rays[i], buffer[i]);
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags =
+      coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  rtcIntersect1M(impl_->scene, &context, buffer.data(), static_cast<unsigned>(buffer.size()),
+                 sizeof(RTCRayHit));
+  for (size_t i = 0; i < rays.size(); ++i) hits[i] = impl_->hitOf(buffer[i], rays[i].direction);
+}
+
+void Tracer::occludedStream(std::span<const Ray> rays, std::span<uint8_t> blocked,
+                            bool coherent) const {
+  PS_CHECK_EQ(rays.size(), blocked.size());
+  if (rayLog_)
+    for (const Ray& r : rays) rayLog_->push_back({r, true});
+  std::vector<RTCRay>& buffer = tStreamRays;
+  buffer.resize(rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const Ray& r = rays[i];
+    fillRay(r.origin.x, r.origin.y, r.origin.z, r.direction.x, r.direction.y, r.direction.z, r.tMin,
+            r.tMax, buffer[i]);
+  }
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags =
+      coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  rtcOccluded1M(impl_->scene, &context, buffer.data(), static_cast<unsigned>(buffer.size()),
+                sizeof(RTCRay));
+  for (size_t i = 0; i < rays.size(); ++i) blocked[i] = wasOccluded(buffer[i]) ? 1 : 0;
 }
 
 std::optional<uint32_t> Tracer::oppositeFaceAt(const Ray& ray, const Hit& hit,
@@ -220,11 +280,8 @@ std::optional<uint32_t> Tracer::oppositeFaceAt(const Ray& ray, const Hit& hit,
   c.faceNormals = &impl_->faceNormals;
   c.normal = hit.geometricNormal;
   RTCRayHit rh;
-  fillRay(ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y,
-          ray.direction.z, std::max(0.0, hit.t - halfWidth), hit.t + halfWidth, rh.ray);
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  fillRayHit(Ray{ray.origin, ray.direction, std::max(0.0, hit.t - halfWidth), hit.t + halfWidth},
+             rh);
   rtcIntersect1(impl_->scene, &c.context, &rh);
   if (c.found == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
   return c.found;
@@ -238,8 +295,7 @@ bool Tracer::occluded(double ox, double oy, double oz, double dx, double dy, dou
   RTCRay r;
   fillRay(ox, oy, oz, dx, dy, dz, tMin, tMax, r);
   rtcOccluded1(impl_->scene, &context, &r);
-  // Embree sets tfar to -inf when something is hit.
-  return r.tfar < 0.0f && std::isinf(r.tfar);
+  return wasOccluded(r);
 }
 
 }  // namespace ps

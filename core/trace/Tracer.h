@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "core/math/Vec3.h"
@@ -51,6 +52,16 @@ class Tracer {
     return occluded(ray.origin.x, ray.origin.y, ray.origin.z, ray.direction.x, ray.direction.y,
                     ray.direction.z, ray.tMin, ray.tMax);
   }
+
+  /// Closest hits of many rays in one Embree stream call (rtcIntersect1M): hits[i] for rays[i]
+  /// (the sizes must match), what intersect() gives each ray up to the last bits of Embree's
+  /// packet kernels. `coherent`: the rays share an origin (a probe's first rays), and Embree
+  /// gathers them into SIMD packets; else it traces them one by one. Thread-safe.
+  void intersectStream(std::span<const Ray> rays, std::span<std::optional<Hit>> hits,
+                       bool coherent) const;
+  /// occluded() for many rays in one stream call (rtcOccluded1M): blocked[i] is 1 when something
+  /// lies on rays[i] (the sizes must match). `coherent` as for intersectStream().
+  void occludedStream(std::span<const Ray> rays, std::span<uint8_t> blocked, bool coherent) const;
 
   /// A triangle within `halfWidth` of `hit`'s distance along `ray` whose plane is the hit
   /// triangle's turned round (normals within about 2.6 degrees of opposite), or nothing. Where

@@ -2,15 +2,24 @@
 // process. The capture's rays (probe, bounce and shadow rays) are recorded once through
 // Tracer::setRayLog from a one-thread capture; BM_BareEmbreeRays then traces exactly those rays
 // with rtcIntersect1 / rtcOccluded1 on an Embree scene built here with the same settings, and
-// BM_CaptureRaysPerSecond runs the capture itself (1 and 2 threads), counting the same rays.
-// After the runs the ratios are printed: capture / bare (goal >= 0.7) and 2 threads / 1
-// (goal >= 1.8).
+// BM_CaptureRaysPerSecond runs the capture itself (1 and 2 threads in packets, and 1 thread a ray
+// at a time, CaptureSettings::tracePackets), counting the same rays. After the runs the ratios
+// are printed: capture / bare (goal >= 1.0), 2 threads / 1 (goal >= 1.9) and packets / single
+// rays. With --benchmark_repetitions the ratios are of the medians.
+//
+// BM_LevelTimeToError: the wall time of an adaptive capture to a 5 % relative error per probe
+// (CaptureSettings::targetRelativeError) at 64 probes (placeUniformBudget) of the generated
+// level (scripts/make_level.py, written to the temporary folder; sky 0.2, 0.25, 0.35), on one
+// thread: `level` is the full level (79 point lights and a sun), `lamps` the same building with
+// a lamp in every room (--lamps-per-room 1: 690 point lights), `lamps10` that building with 10
+// of those point lights (every 69th) and the sun. Goal: lamps at most 2 times lamps10.
 #include <benchmark/benchmark.h>
 #include <embree3/rtcore.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -173,7 +182,8 @@ void BM_CaptureRaysPerSecond(benchmark::State& state, const std::string& name) {
     state.SkipWithError(("scene not found: " + name).c_str());
     return;
   }
-  const CaptureSettings cs = settings(int(state.range(0)));
+  CaptureSettings cs = settings(int(state.range(0)));
+  cs.tracePackets = state.range(1) != 0;
   for (auto _ : state) benchmark::DoNotOptimize(captureProbes(*f->tracer, f->rig, f->points, cs));
   // Deterministic sampling: every run traces exactly the recorded rays.
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(f->rays.size()));
@@ -244,6 +254,81 @@ void BM_TimeToError(benchmark::State& state, const std::string& name, bool adapt
   state.counters["fixed_spp"] = adaptive ? 0.0 : double(e->fixed.samplesPerProbe);
 }
 
+// ---- The generated level -------------------------------------------------------------------
+
+constexpr int kLevelProbes = 64;
+constexpr double kLevelTargetError = 0.05;
+
+struct LevelFixture {
+  Scene scene;
+  std::unique_ptr<Tracer> tracer;
+  LightingRig rig;
+  std::vector<Vec3> points;
+};
+
+/// "level", "lamps" or "lamps10" (above); null when the script fails.
+LevelFixture* levelFixture(const std::string& which) {
+  static std::map<std::string, std::unique_ptr<LevelFixture>> cache;
+  auto it = cache.find(which);
+  if (it != cache.end()) return it->second.get();
+  const bool lamps = which != "level";
+  const fs::path path = fs::temp_directory_path() /
+                        (std::string("ps-bench-capture-") + (lamps ? "lamps" : "level") + ".glb");
+  const std::string command = "python3 '" + std::string(PS_SOURCE_DIR) +
+                              "/scripts/make_level.py' " + (lamps ? "--lamps-per-room 1 " : "") +
+                              "-o '" + path.string() + "' > /dev/null";
+  if (std::system(command.c_str()) != 0) {
+    cache[which] = nullptr;
+    return nullptr;
+  }
+  auto f = std::make_unique<LevelFixture>();
+  f->scene = loadScene(path);
+  if (which == "lamps10") {
+    std::vector<Light> kept;
+    std::vector<const Light*> points;
+    for (const Light& l : f->scene.lights)
+      (l.type == LightType::Directional ? kept.push_back(l) : points.push_back(&l));
+    const size_t step = std::max<size_t>(1, points.size() / 10);
+    for (size_t i = 0; i < points.size() && kept.size() < 11; i += step) kept.push_back(*points[i]);
+    f->scene.lights = kept;
+  }
+  f->tracer = std::make_unique<Tracer>(f->scene);
+  f->rig.skyRadiance = {0.2, 0.25, 0.35};
+  f->points = placeUniformBudget(*f->tracer, kLevelProbes, UniformSettings{}).points;
+  LevelFixture* raw = f.get();
+  cache[which] = std::move(f);
+  return raw;
+}
+
+void BM_LevelTimeToError(benchmark::State& state, const std::string& which) {
+  LevelFixture* f = levelFixture(which);
+  if (!f) {
+    state.SkipWithError("scripts/make_level.py failed");
+    return;
+  }
+  CaptureSettings cs;
+  cs.targetRelativeError = kLevelTargetError;
+  cs.threads = 1;
+  int64_t samples = 0;
+  double worst = 0;
+  for (auto _ : state) {
+    const auto caps = captureProbes(*f->tracer, f->rig, f->points, cs);
+    samples = 0;
+    worst = 0;
+    for (const ProbeCapture& c : caps) {
+      samples += c.samples;
+      worst = std::max(worst, c.relativeError);
+    }
+    benchmark::DoNotOptimize(samples);
+  }
+  size_t pointLights = 0;
+  for (const Light& l : f->scene.lights) pointLights += l.type == LightType::Directional ? 0 : 1;
+  state.counters["probes"] = double(f->points.size());
+  state.counters["point_lights"] = double(pointLights);
+  state.counters["samples"] = double(samples);
+  state.counters["worst_rel_error"] = worst;
+}
+
 /// Rates (rays/s) per benchmark name, for the ratios printed after the runs.
 class RateReporter : public benchmark::ConsoleReporter {
  public:
@@ -254,6 +339,12 @@ class RateReporter : public benchmark::ConsoleReporter {
       std::string name = run.benchmark_name();  // without the "/min_time:..." part
       const size_t cut = name.find("/min_time:");
       if (cut != std::string::npos) name.erase(cut, name.find('/', cut + 1) - cut);
+      // Repetitions: the median stands for the runs (it is reported after them).
+      if (run.run_type == Run::RT_Aggregate) {
+        const std::string median = "_median";
+        if (!name.ends_with(median)) continue;
+        name.erase(name.size() - median.size());
+      }
       if (it != run.counters.end()) rates()[name] = it->second.value;
       seconds()[name] = run.GetAdjustedRealTime() / benchmark::GetTimeUnitMultiplier(run.time_unit);
     }
@@ -273,8 +364,9 @@ int main(int argc, char** argv) {
         ->UseRealTime();
     benchmark::RegisterBenchmark(("BM_CaptureRaysPerSecond/" + name).c_str(),
                                  BM_CaptureRaysPerSecond, name)
-        ->Arg(1)
-        ->Arg(2)
+        ->Args({1, 1})
+        ->Args({2, 1})
+        ->Args({1, 0})
         ->Unit(benchmark::kMillisecond)
         ->MinTime(1.0)
         ->UseRealTime();
@@ -286,6 +378,12 @@ int main(int argc, char** argv) {
         ->Unit(benchmark::kMillisecond)
         ->MinTime(1.0)
         ->UseRealTime();
+  for (const char* which : {"level", "lamps", "lamps10"})
+    benchmark::RegisterBenchmark((std::string("BM_LevelTimeToError/") + which).c_str(),
+                                 BM_LevelTimeToError, std::string(which))
+        ->Unit(benchmark::kMillisecond)
+        ->Iterations(1)
+        ->UseRealTime();
   benchmark::Initialize(&argc, argv);
   RateReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
@@ -293,11 +391,13 @@ int main(int argc, char** argv) {
   for (const char* s : scenes) {
     const std::string name = s;
     const double bare = rates()["BM_BareEmbreeRays/" + name + "/real_time"];
-    const double one = rates()["BM_CaptureRaysPerSecond/" + name + "/1/real_time"];
-    const double two = rates()["BM_CaptureRaysPerSecond/" + name + "/2/real_time"];
+    const double one = rates()["BM_CaptureRaysPerSecond/" + name + "/1/1/real_time"];
+    const double two = rates()["BM_CaptureRaysPerSecond/" + name + "/2/1/real_time"];
+    const double single = rates()["BM_CaptureRaysPerSecond/" + name + "/1/0/real_time"];
     if (bare > 0 && one > 0)
       std::printf("  %-16s capture 1 thread / bare Embree 1 thread: %.3f", s, one / bare);
     if (one > 0 && two > 0) std::printf("   capture 2 threads / 1 thread: %.3f", two / one);
+    if (one > 0 && single > 0) std::printf("   packets / single rays: %.3f", one / single);
     if (bare > 0 || one > 0) std::printf("\n");
   }
   const double ta = seconds()["BM_TimeToError/two-rooms/adaptive/real_time"];
@@ -305,6 +405,11 @@ int main(int argc, char** argv) {
   if (ta > 0 && tf > 0)
     std::printf("  two-rooms time to %.0f %% worst error: fixed spp / adaptive = %.3f\n",
                 100 * kTargetError, tf / ta);
+  const double tl = seconds()["BM_LevelTimeToError/lamps/iterations:1/real_time"];
+  const double t10 = seconds()["BM_LevelTimeToError/lamps10/iterations:1/real_time"];
+  if (tl > 0 && t10 > 0)
+    std::printf("  level time to %.0f %% error: a lamp in every room / 10 lamps = %.3f\n",
+                100 * kLevelTargetError, tl / t10);
   benchmark::Shutdown();
   return 0;
 }

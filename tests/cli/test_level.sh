@@ -29,6 +29,11 @@ if cmp -s "$tmp/a.glb" "$tmp/c.glb"; then echo "FAIL: seeds 1 and 2 give the sam
 grep -Eq "^wrote .*: 26 x 14 m, 3.8 m high, 1 storeys, [4-9] rooms, 0 stairwells, [0-9]+ triangles" "$tmp/gen.txt"
 grep -Eq ", 2 storeys, [0-9]+ rooms, [1-9] stairwells, " "$tmp/gen-m.txt"
 grep -q "^sky: --env 0.2,0.25,0.35$" "$tmp/gen.txt"
+# --lamps-per-room N: N lamps in each room, the same building (its triangle count is unchanged).
+"${gen[@]}" --preset small --lamps-per-room 2 -o "$tmp/lamps.glb" | tee "$tmp/gen-lamps.txt"
+rooms=$(sed -nE 's/.* ([0-9]+) rooms,.*/\1/p' "$tmp/gen-lamps.txt")
+tris=$(sed -nE 's/.* ([0-9]+) triangles,.*/\1/p' "$tmp/gen.txt")
+grep -q " $tris triangles, $((2 * rooms + 1)) point lights and a sun" "$tmp/gen-lamps.txt"
 
 # Every box: 12 triangles wound counter-clockwise from outside, their normals the stored ones and
 # pointing away from the box's centre; each mesh's directed edges pair up (closed); no two

@@ -1,0 +1,94 @@
+#pragma once
+// Which delta lights a path vertex takes its next-event estimate from: all of them when the
+// scene has few point and spot lights, else one drawn from a light BVH by power, distance,
+// orientation and range (Conty Estevez & Kulla 2018, "Importance Sampling of Many Lights with
+// Adaptive Tree Splitting", sec. 4 and 5.1; the bounds follow pbrt-v4's BVHLightSampler).
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/scene/Scene.h"
+
+namespace ps {
+
+/// A light to shade with, and the factor its contribution is multiplied by: 1 / the probability
+/// that it was chosen (1 when every light is summed).
+struct LightChoice {
+  uint32_t light = 0;  ///< index into the lights the sampler was built over
+  double weight = 1;
+};
+
+/// Point and spot lights are summed at every path vertex up to this many; above it, one is
+/// sampled per vertex. Summing costs a shadow ray per light in range and facing the surface, and
+/// adds no noise; sampling costs one ray and adds the noise of the choice. Measured on the
+/// generated level at a 5 % error (BENCHMARKS.md, "Capture"): with 10 lamps summing took 0.66 of
+/// sampling's time, with 79 sampling took 0.51 of summing's; 16 lies between (counts between were
+/// not measured). When sampling, a vertex that only few single lights reach still sums them
+/// (LightSampler::choose).
+inline constexpr size_t kExactLightCount = 16;
+
+/// When sampling, the light is drawn from a cut through the tree of at most this many nodes
+/// (LightSampler::choose). Measured on the generated level with a lamp in every room
+/// (BENCHMARKS.md, "Capture"): a cut of 1 (a plain descent from the root) needed 2.2 times the
+/// samples of 32 to reach a 5 % error, as the loose bounds of the upper nodes send many picks to
+/// lamps behind walls.
+inline constexpr int kMaxCut = 32;
+
+/// A tree node is in the cut whole unless half its bounding box's diagonal, squared, is more than
+/// this times the squared distance from the point to the box's centre (the point is near or
+/// among its lights, so that its bounds say little about them). Measured as kMaxCut: 0.25 split
+/// more and cost more per vertex than it saved in samples; 4 split too little.
+inline constexpr double kSplitRatioSquared = 1.0;
+
+class LightSampler {
+ public:
+  /// Builds the tree (O(n log^2 n) in the point and spot lights). `lights` must outlive the
+  /// sampler. `exactCount`: point and spot lights are summed while there are at most this many
+  /// (and, when sampling, a cut of at most this many single lights is summed); `maxCut` (1 to
+  /// kMaxCut): the most nodes of the cut a light is drawn from.
+  explicit LightSampler(std::span<const Light> lights, size_t exactCount = kExactLightCount,
+                        int maxCut = kMaxCut);
+
+  /// Appends to `out` the lights to shade the point p (offset from its surface; `n` the unit
+  /// normal on the side light must arrive from) with, so that the sum over `out` of weight times
+  /// the light's unshadowed contribution f (deltaLightArrival's irradiance times max(0, n . w))
+  /// is an unbiased estimate of the sum of f over every light: directional lights always
+  /// (weight 1); point and spot lights all (weight 1) when summed, else at most one, chosen with
+  /// a probability that is positive for every light with f > 0, so nothing is lost (or the few
+  /// that the cut through the tree resolves to single lights, all with weight 1). A light
+  /// whose range window has ended at p, or that lies below the surface, is never chosen when
+  /// sampling; when summing, the caller skips it before any ray (deltaLightArrival says
+  /// nothing). `u` is uniform in [0, 1) and is read only when sampling.
+  void choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& out) const;
+
+  /// True when point and spot lights are sampled rather than summed.
+  bool sampling() const { return !nodes_.empty(); }
+
+ private:
+  /// A node of the tree over the point and spot lights. Its first child is the next node, its
+  /// second `second`; a leaf holds one light.
+  struct Node {
+    Vec3 lo, hi;          ///< bounds of the light positions
+    double power = 0;     ///< sum of the lights' mean intensity over the channels (W/sr)
+    double maxRange = 0;  ///< the largest range window; infinity when a light has none
+    uint32_t second = 0;  ///< internal nodes: index of the second child
+    uint32_t light = 0;   ///< leaves: index into lights_
+    bool leaf = false;
+  };
+
+  uint32_t build(std::vector<uint32_t>& ids, size_t first, size_t last);
+  /// Whether the cut replaces the node by its children (kSplitRatioSquared).
+  bool looksLarge(const Node& node, Vec3 p) const;
+  /// An upper bound (up to a constant factor shared by all nodes) of the contribution the
+  /// node's lights can make at p, 0 only when none can.
+  double importance(const Node& node, Vec3 p, Vec3 n) const;
+
+  std::span<const Light> lights_;
+  size_t exactCount_ = 0;
+  int maxCut_ = 1;
+  std::vector<uint32_t> directional_;  ///< always shaded
+  std::vector<uint32_t> summed_;       ///< point and spot lights, when summed
+  std::vector<Node> nodes_;            ///< the tree, when sampling; root at 0
+};
+
+}  // namespace ps
