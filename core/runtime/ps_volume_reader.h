@@ -20,7 +20,7 @@
 // OUT OF OR IN CONNECTION WITH THE SOFTWARE OR THE USE OR OTHER DEALINGS IN THE SOFTWARE.
 //
 // ps_volume_reader.h: a dependency-free, header-only C++17 reader for ProbeStudio probe volumes
-// (.psv, format versions 1 to 3, docs/formats.md "Probe volume"). Copy this one file into an
+// (.psv, format versions 1 to 4, docs/formats.md "Probe volume"). Copy this one file into an
 // engine.
 //
 //   ps_runtime::Volume vol;
@@ -31,7 +31,7 @@
 //   ps_runtime::interpolate(vol, loc, sh);
 //   lastTet = loc.tet;  // coherent queries then walk a few steps
 //
-// A version 3 volume carries a visibility map per probe; query it with a surface normal (or
+// A version 4 volume carries a visibility map per probe; query it with a surface normal (or
 // nullptr for a point in the air) for the visibility-aware weights:
 //
 //   const double n[3] = {nx, ny, nz};
@@ -44,15 +44,16 @@
 // float matrices (double orientations in thin tetrahedra), and clamp a point outside the hull to
 // the nearest point of the hull surface. A query clearly inside its hint tetrahedron is answered
 // from that tetrahedron's double-precision matrix without a walk. The answers equal the core's
-// (tests/runtime). In a tetrahedron with leak cuts (version 2), a query interpolates only the
-// probes on its own side of the cut planes (applyCuts below). With visibility maps (version 3),
-// visibleWeights() multiplies each probe's barycentric weight by DDGI's visibility and normal
-// terms (Majercik et al. 2019, "Dynamic Diffuse Global Illumination with Ray-Traced Irradiance
-// Probes", JCGT 8(2), sec. 5.2), as core/traversal/VisibleInterpolation.h states and computes.
+// (tests/runtime). With visibility maps (version 4), visibleWeights() multiplies each probe's
+// barycentric weight by DDGI's visibility and normal terms (Majercik et al. 2019, "Dynamic Diffuse
+// Global Illumination with Ray-Traced Irradiance Probes", JCGT 8(2), sec. 5.2), as
+// core/traversal/VisibleInterpolation.h states and computes.
 //
 // Loading validates everything before allocating: the header's counts must match the file's
 // size exactly, the CRC-32 must match, and every index must be in range; a bad file gives
-// false and a one-line reason, never a crash. Needs a little-endian host.
+// false and a one-line reason, never a crash. A version 2 or 3 file with leak cut planes is
+// refused (its lighting was made to be read through the cuts, which this reader does not
+// apply): re-bake it. Needs a little-endian host.
 #ifndef PS_VOLUME_READER_H
 #define PS_VOLUME_READER_H
 
@@ -75,17 +76,7 @@ struct Volume {
   std::vector<std::array<int32_t, 4>> neighbors;  // opposite vertex i; -1 on the hull
   std::vector<std::array<float, 9>> matrices;     // (w0, w1, w2) = M (p - v3)
   std::vector<std::array<int32_t, 2>> hullFaces;  // (tet, local vertex opposite the face)
-  // Leak cuts (version 2; empty otherwise): tet t's planes are cutPlanes[cutStart[t] ..
-  // cutStart[t + 1]). p is on a plane's positive side when n.p >= d; bit k of `hide` hides
-  // vertex k from a query on the positive side, bit 4 + k from one on the negative side.
-  struct CutPlane {
-    float plane[4];  // nx, ny, nz, d
-    uint32_t hide;
-  };
-  static_assert(sizeof(CutPlane) == 20, "cut planes are read as 4 floats and a u32");
-  std::vector<uint32_t> cutStart;
-  std::vector<CutPlane> cutPlanes;
-  // Visibility maps (version 3; 0 and empty otherwise): visibilityMapSize texels per side of an
+  // Visibility maps (version 4; 0 and empty otherwise): visibilityMapSize texels per side of an
   // octahedral map per probe, each texel the mean and mean square of the distance (m, m^2) from
   // the probe to the first surface in its directions (2 R^2 floats per probe, texel i + R j at
   // octahedral (u, v) in [-1 + 2 i / R, -1 + 2 (i + 1) / R] x ...); probeFlags bit 0: the probe
@@ -112,7 +103,7 @@ struct Volume {
 
 struct Location {
   int32_t tet = -1;
-  float weights[4] = {0, 0, 0, 0};  // barycentric (cut to the query's side), in [0, 1], sum 1
+  float weights[4] = {0, 0, 0, 0};  // barycentric, in [0, 1], sum 1
   bool outside = false;             // clamped to the hull
 };
 
@@ -473,13 +464,15 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   if (std::memcmp(b, "PSVOLUM1", 8) != 0) return fail(error, "not a ProbeStudio volume");
   uint32_t h[8] = {0, 0, 0, 0, 0, 0, 0, 0};
   std::memcpy(h, b + 8, 6 * 4);
-  if (h[0] < 1 || h[0] > 3) return fail(error, "unsupported version " + std::to_string(h[0]));
-  // Version 2: a cut plane count, then the cuts after the hull; version 3: also a visibility
-  // map size, then the probe flags and maps after the cuts.
-  const bool cuts = h[0] >= 2, maps = h[0] == 3;
-  const size_t kHeader = 8 + (maps ? 8 : cuts ? 7 : 6) * 4;
+  if (h[0] < 1 || h[0] > 4) return fail(error, "unsupported version " + std::to_string(h[0]));
+  // Version 4: a visibility map size, then the probe flags and maps after the hull. Versions 2
+  // and 3 (no longer written): a leak-cut plane count C, then the cut starts and planes after
+  // the hull; version 3 also the map size and the maps after the cuts.
+  const bool cuts = h[0] == 2 || h[0] == 3, maps = h[0] >= 3;
+  const size_t kHeader = 8 + (6 + (cuts ? 1 : 0) + (maps ? 1 : 0)) * 4;
   if (size < kHeader + 4) return fail(error, "truncated: " + std::to_string(size) + " bytes");
-  if (cuts) std::memcpy(h + 6, b + 8 + 6 * 4, maps ? 8 : 4);
+  if (cuts) std::memcpy(h + 6, b + 8 + 6 * 4, 4);
+  if (maps) std::memcpy(h + 7, b + kHeader - 4, 4);
   if (h[1] != 2) return fail(error, "unsupported SH order " + std::to_string(h[1]));
   const uint64_t P = h[2], T = h[3], H = h[4], M = h[5], C = h[6], R = h[7];
   if (maps && (R < 1 || R > 64))
@@ -494,6 +487,10 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   std::memcpy(&crc, b + size - 4, 4);
   if (detail::crc32(b, size - 4) != crc) return fail(error, "CRC-32 mismatch: corrupted file");
   if (P < 4 || T < 1) return fail(error, "a volume needs at least 4 probes and 1 tetrahedron");
+  if (C > 0)
+    return fail(error, "cut_plane_count: " + std::to_string(C) +
+                           " leak cut planes, which this reader does not apply (the visibility "
+                           "maps replace them): re-bake the volume");
   const uint8_t* p = b + kHeader;
   detail::readArray(p, out.positions, size_t(P) * 3);
   detail::readArray(p, out.sh, size_t(P) * 27);
@@ -501,11 +498,11 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   detail::readArray(p, out.neighbors, size_t(T));
   detail::readArray(p, out.matrices, size_t(T));
   detail::readArray(p, out.hullFaces, size_t(H));
-  out.cutStart.clear();
-  out.cutPlanes.clear();
-  if (cuts) {
-    detail::readArray(p, out.cutStart, size_t(T) + 1);
-    detail::readArray(p, out.cutPlanes, size_t(C));
+  if (cuts) {  // C = 0: T + 1 cut starts, each 0
+    std::vector<uint32_t> cutStart;
+    detail::readArray(p, cutStart, size_t(T) + 1);
+    for (size_t t = 0; t <= T; ++t)
+      if (cutStart[t] != 0) return fail(error, "cut_start[" + std::to_string(t) + "]: expected 0");
   }
   out.visibilityMapSize = int32_t(R);
   out.probeFlags.clear();
@@ -533,23 +530,6 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
     if (out.hullFaces[k][0] < 0 || uint64_t(out.hullFaces[k][0]) >= T || out.hullFaces[k][1] < 0 ||
         out.hullFaces[k][1] > 3)
       return fail(error, "hull_faces[" + std::to_string(k) + "]: index out of range");
-  if (cuts) {
-    if (out.cutStart[0] != 0 || out.cutStart[size_t(T)] != C)
-      return fail(error, "cut_start: must run from 0 to the cut plane count");
-    for (size_t t = 0; t < T; ++t)
-      if (out.cutStart[t + 1] < out.cutStart[t] || out.cutStart[t + 1] - out.cutStart[t] > 8)
-        return fail(error, "cut_start[" + std::to_string(t) +
-                               "]: not non-decreasing, or more than 8 planes in one tetrahedron");
-    for (size_t c = 0; c < C; ++c) {
-      const float* q = out.cutPlanes[c].plane;
-      if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2]) ||
-          !std::isfinite(q[3]) ||
-          !(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] > 0.5) ||
-          out.cutPlanes[c].hide > 0xFF)
-        return fail(error, "cut_planes[" + std::to_string(c) +
-                               "]: not a finite unit-normal plane with an 8-bit hide mask");
-    }
-  }
   for (size_t i = 0; i < out.probeFlags.size(); ++i)
     if (out.probeFlags[i] > 1)
       return fail(error, "probe flag " + std::to_string(i) + ": expected 0 or 1");
@@ -562,7 +542,6 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
       return fail(error, "visibility of probe " + std::to_string(k / size_t(2 * R * R)) +
                              ": negative variance (mean squared exceeds mean square)");
   }
-  if (maps && C == 0) out.cutStart.clear();
   detail::buildLocator(out);
   return true;
 }
@@ -621,43 +600,10 @@ inline Location locateBarycentric(const Volume& v, double x, double y, double z,
 
 }  // namespace detail
 
-/// Leak cuts: each cut plane of the query's tetrahedron hides the probes its mask names for the
-/// query's side of it. The kept probes' weights are renormalised (shared equally when they sum
-/// to 0), the hidden ones get 0; when every probe is hidden the weights stay as they were.
-/// (x, y, z) is the query point, before any clamp to the hull.
-inline void applyCuts(const Volume& v, double x, double y, double z, Location& loc) {
-  if (loc.tet < 0 || v.cutStart.empty()) return;
-  const uint32_t first = v.cutStart[size_t(loc.tet)], last = v.cutStart[size_t(loc.tet) + 1];
-  uint32_t kept = 0xF;
-  for (uint32_t c = first; c < last; ++c) {
-    const Volume::CutPlane& cp = v.cutPlanes[c];
-    const bool positive =
-        double(cp.plane[0]) * x + double(cp.plane[1]) * y + double(cp.plane[2]) * z >=
-        double(cp.plane[3]);
-    kept &= ~(positive ? cp.hide : cp.hide >> 4) & 0xFu;
-  }
-  if (kept == 0xF || kept == 0) return;
-  double sum = 0;
-  int count = 0;
-  for (int k = 0; k < 4; ++k)
-    if (kept >> k & 1) {
-      sum += loc.weights[k];
-      ++count;
-    }
-  for (int k = 0; k < 4; ++k)
-    loc.weights[k] = !(kept >> k & 1) ? 0.0f
-                     : sum > 0        ? float(loc.weights[k] / sum)
-                                      : 1.0f / float(count);
-}
-
-/// The tetrahedron containing (x, y, z) and its barycentric weights (cut to the query's side,
-/// above), walking from `hintTet` (the previous query's tet, or -1). Outside the hull: the
-/// nearest hull point (outside = true).
+/// The tetrahedron containing (x, y, z) and its barycentric weights, walking from `hintTet` (the
+/// previous query's tet, or -1). Outside the hull: the nearest hull point (outside = true).
 inline Location locate(const Volume& v, double x, double y, double z, int32_t hintTet = -1) {
-  Location loc = detail::locateBarycentric(v, x, y, z, hintTet);
-  if (!v.cutStart.empty() && std::isfinite(x) && std::isfinite(y) && std::isfinite(z))
-    applyCuts(v, x, y, z, loc);
-  return loc;
+  return detail::locateBarycentric(v, x, y, z, hintTet);
 }
 
 /// The SH (27 floats: 9 coefficients x RGB) blended with the location's weights.

@@ -1085,7 +1085,6 @@ TEST(Greedy, DefaultFieldBeatsUniformAndKeepsOffTheLight) {
   const Loaded& l = loaded("two-rooms.gltf");
   PlaceRequest r;
   r.budget = 64;
-  r.refineLeaks = false;
   r.method = "uniform";
   const ProbeSet u = placeProbeSet(*l.tracer, {}, r).set;
   r.method = "greedy";
@@ -1245,7 +1244,6 @@ TEST(PlacePipeline, KeepsLockedAndAcceptedProbesRejectsStayAndLeakProbesAreMarke
   r.budget = 64;
   r.keepAccepted = true;
   // A rejected probe at a grid point of a run without it: that spot stays empty.
-  r.refineLeaks = false;
   const PlaceResult plain = placeProbeSet(*l.tracer, set, r);
   rejected.position = plain.set.probes.back().position;
   const uint64_t rejectedId = set.add(rejected);
@@ -1269,21 +1267,13 @@ TEST(PlacePipeline, KeepsLockedAndAcceptedProbesRejectsStayAndLeakProbesAreMarke
     EXPECT_GE(length(placed.set.probes[i].position - rejected.position),
               0.5 * placed.set.placement.spacingMeters);
   }
-  // Keeping the candidates as well, and refining leaks: two-rooms' wall gets "leak" probes.
+  // Keeping the candidates as well: three kept, the new probes in the state asked for.
   r.keepCandidates = true;
-  r.refineLeaks = true;
   r.newState = ProbeState::Accepted;
-  const PlaceResult refined = placeProbeSet(*l.tracer, set, r);
-  EXPECT_EQ(refined.kept, 3u);
-  EXPECT_GT(refined.leakAdded, 0u);
-  size_t leak = 0;
-  for (const Probe& p : refined.set.probes)
-    if (p.method == "leak") {
-      ++leak;
-      EXPECT_EQ(p.state, ProbeState::Accepted);
-      EXPECT_GE(p.score, 1);
-    }
-  EXPECT_EQ(leak, refined.leakAdded);
+  const PlaceResult both = placeProbeSet(*l.tracer, set, r);
+  EXPECT_EQ(both.kept, 3u);
+  for (size_t i = 4; i < both.set.probes.size(); ++i)
+    EXPECT_EQ(both.set.probes[i].state, ProbeState::Accepted);
 }
 
 // ----------------------------------------------------------------------------------- ascent
