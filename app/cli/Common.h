@@ -113,12 +113,15 @@ void addRemovedOption(CLI::App& cmd, const std::string& name, bool takesValue,
 
 /// What replaced bake's leak refinement and leak cuts, for addRemovedOption.
 inline constexpr const char* kLeakBakeReplacement =
-    "the baked volume's visibility maps weigh each probe by whether it sees the query "
-    "(docs/leaks.md); the volume holds exactly the accepted probes";
+    "the baked volume's visibility maps weigh each probe by whether it sees the query, and a "
+    "query whose tetrahedron's probes are all hidden takes its light from the neighbouring "
+    "tetrahedra's probes that see it (docs/leaks.md); the volume holds exactly the accepted "
+    "probes";
 /// What replaced place's leak refinement, for addRemovedOption.
 inline constexpr const char* kLeakPlaceReplacement =
     "coverage-first placement puts probes in every room and the budget is the set's probe "
-    "count; the baked volume's visibility maps keep light from crossing walls (docs/leaks.md)";
+    "count; the baked volume's visibility maps and their neighbour search keep light from "
+    "crossing walls (docs/leaks.md)";
 
 void registerPlace(CLI::App& app);
 void registerBake(CLI::App& app);

@@ -225,7 +225,7 @@ int main(int argc, char** argv) {
   if (parser.isSet(noCutsOpt)) {
     fail(QStringLiteral(
         "--no-leak-cuts: removed; the preview has no leak cuts: the baked volume's visibility "
-        "maps keep light from crossing walls (docs/leaks.md)"));
+        "maps and their neighbour search keep light from crossing walls (docs/leaks.md)"));
     return 1;
   }
 

@@ -199,34 +199,42 @@ struct QueryMeasures {
 /// Query q of `reference` in `volume`: writes entry q of each of m's vectors (sized M by the
 /// caller; no other entry, so queries may run in parallel). `visibility`: interpolate with the
 /// visibility-aware weights (the volume has maps), with the query's normal for their normal term
-/// when `normalTerm`. One ray per probe of the query's tet.
+/// when `normalTerm`. One ray per probe the query's weights blend.
 void measureQuery(const Tracer& tracer, const ProbeVolume& volume, bool visibility, bool normalTerm,
                   const EvalReference& reference, size_t q, QueryMeasures& m) {
   const Vec3 point = reference.points[q];
   m.ref[q] = luminance(reference.irradiance[q]);
   const VolumeLocation loc = locate(volume, point);
-  // The weights the query is read with: the location's, or the visibility-aware ones.
-  std::array<double, 4> weights{};
+  // The probes and weights the query is read with: the location's, or the visibility-aware
+  // ones (the tet's four, or the neighbour search's).
+  std::array<int32_t, kMaxVisibleProbes> probes{};
+  std::array<double, kMaxVisibleProbes> weights{};
+  int count = 0;
   if (visibility) {
     // The query is a point in the air: its normal picks the irradiance's direction, not a side
     // of a surface, so the normal term is off unless asked for (docs/leaks.md measures both).
     const VisibleWeights w = visibleWeights(
         volume, loc, point, normalTerm ? std::optional<Vec3>(reference.normals[q]) : std::nullopt);
     m.got[q] = luminance(interpolate(volume, w).irradiance(reference.normals[q]));
+    probes = w.probes;
     weights = w.weights;
+    count = w.count;
   } else {
     m.got[q] = luminance(interpolate(volume, loc).irradiance(reference.normals[q]));
-    for (int k = 0; k < 4; ++k) weights[k] = loc.weights[k];
+    if (loc.tet >= 0) count = 4;
+    for (int k = 0; k < count; ++k) {
+      probes[size_t(k)] = volume.tets[size_t(loc.tet)][k];
+      weights[size_t(k)] = loc.weights[k];
+    }
   }
   m.outside[q] = loc.outside ? 1 : 0;
   if (loc.tet < 0) return;
   // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
   // weight 0 (opposite the face a query outside the hull is clamped to, or unseen by the
   // visibility maps) is not interpolated.
-  for (int k = 0; k < 4; ++k) {
-    if (!(weights[k] > 0)) continue;
-    const int32_t vi = volume.tets[size_t(loc.tet)][k];
-    const Vec3 d = volume.position(vi) - point;
+  for (int k = 0; k < count; ++k) {
+    if (!(weights[size_t(k)] > 0)) continue;
+    const Vec3 d = volume.position(probes[size_t(k)]) - point;
     const double len = length(d);
     if (len <= 2 * tracer.rayEpsilon()) continue;
     if (tracer.occluded(Ray{point, d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len}))

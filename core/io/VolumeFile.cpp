@@ -206,8 +206,8 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
     r.fail("cut_plane_count",
            "the volume holds " + std::to_string(C) + " leak cut planes (format version " +
                std::to_string(version) +
-               "), which this build no longer applies: the visibility maps replace them "
-               "(docs/leaks.md). Re-bake the volume from its probe set with "
+               "), which this build no longer applies: the visibility maps and their neighbour "
+               "search replace them (docs/leaks.md). Re-bake the volume from its probe set with "
                "`probestudio bake`");
 
   VolumeFile vf;

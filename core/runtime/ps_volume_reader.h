@@ -47,7 +47,9 @@
 // (tests/runtime). With visibility maps (version 4), visibleWeights() multiplies each probe's
 // barycentric weight by DDGI's visibility and normal terms (Majercik et al. 2019, "Dynamic Diffuse
 // Global Illumination with Ray-Traced Irradiance Probes", JCGT 8(2), sec. 5.2), as
-// core/traversal/VisibleInterpolation.h states and computes.
+// core/traversal/VisibleInterpolation.h states and computes; where no probe of the query's
+// tetrahedron sees it, the probes of the tetrahedra around it that do (the neighbour search,
+// from the stored face neighbours alone).
 //
 // Loading validates everything before allocating: the header's counts must match the file's
 // size exactly, the CRC-32 must match, and every index must be in range; a bad file gives
@@ -490,7 +492,7 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   if (C > 0)
     return fail(error, "cut_plane_count: " + std::to_string(C) +
                            " leak cut planes, which this reader does not apply (the visibility "
-                           "maps replace them): re-bake the volume");
+                           "maps and their neighbour search replace them): re-bake the volume");
   const uint8_t* p = b + kHeader;
   detail::readArray(p, out.positions, size_t(P) * 3);
   detail::readArray(p, out.sh, size_t(P) * 27);
@@ -617,13 +619,20 @@ inline void interpolate(const Volume& v, const Location& loc, float out[27]) {
   for (int k = 0; k < 27; ++k) out[k] = static_cast<float>(acc[k]);
 }
 
-/// The four probes of a query and their visibility-aware weights (visibleWeights).
+/// The most probes one query's visibility-aware weights blend (the neighbour search's).
+constexpr int kMaxWeightedProbes = 16;
+
+/// The probes of a query and their visibility-aware weights (visibleWeights): the four of its
+/// tetrahedron, or those of the neighbour search that see it (fallback 3).
 struct Weights {
-  int32_t tet = -1;
-  int32_t probes[4] = {0, 0, 0, 0};
-  double weights[4] = {0, 0, 0, 0};  // non-negative, sum 1
-  bool outside = false;              // clamped to the hull
-  int fallback = 0;  // 0: barycentric x visibility; 1: visibility alone; 2: barycentric alone
+  int32_t tet = -1;   // the query's tetrahedron
+  int32_t count = 0;  // entries in use: 4, or 1 to kMaxWeightedProbes with fallback 3
+  int32_t probes[kMaxWeightedProbes] = {};
+  double weights[kMaxWeightedProbes] = {};  // non-negative, sum 1
+  bool outside = false;                     // clamped to the hull
+  // 0: barycentric x visibility; 1: visibility alone; 2: barycentric alone; 3: the neighbour
+  // search
+  int fallback = 0;
 };
 
 namespace detail {
@@ -707,20 +716,55 @@ inline double probeFactor(const Volume& v, int32_t probe, V3 p, const double* n)
   return f < kVisibilityMinFactor ? 0.0 : f;
 }
 
+// The neighbour search's candidates (as the core's neighbourCandidates): the tetrahedra within
+// two face steps of `tet`, breadth first through `neighbors` (each in local order), and their
+// vertices not in `tet`, in that order, without repeats, at most kMaxWeightedProbes.
+inline int neighbourCandidates(const Volume& v, int32_t tet, int32_t out[kMaxWeightedProbes]) {
+  int32_t tets[1 + 4 + 12];
+  int nt = 0, begin = 0;
+  tets[nt++] = tet;
+  for (int depth = 0; depth < 2; ++depth) {
+    const int end = nt;
+    for (int i = begin; i < end; ++i)
+      for (int k = 0; k < 4; ++k) {
+        const int32_t n = v.neighbors[size_t(tets[i])][k];
+        if (n < 0 || std::find(tets, tets + nt, n) != tets + nt) continue;
+        tets[nt++] = n;
+      }
+    begin = end;
+  }
+  const auto& own = v.tets[size_t(tet)];
+  int count = 0;
+  for (int i = 1; i < nt && count < kMaxWeightedProbes; ++i)
+    for (int k = 0; k < 4 && count < kMaxWeightedProbes; ++k) {
+      const int32_t q = v.tets[size_t(tets[i])][k];
+      if (std::find(own.begin(), own.end(), q) != own.end() ||
+          std::find(out, out + count, q) != out + count)
+        continue;
+      out[count++] = q;
+    }
+  return count;
+}
+
 }  // namespace detail
 
 /// The visibility-aware weights at (x, y, z) for `loc` (locate() of that point), with `normal`
 /// the unit surface normal there (3 doubles) or nullptr. Per probe i: w_i = b_i f_i with f_i
 /// DDGI's chebyshev visibility (variance bias 0.05 mean, cubed) times the smooth-backface term
 /// ((dot(dir to probe, n) + 1) / 2)^2 + 0.2, crushed below 0.2 to f^3 / 0.04 and 0 below 1e-3
-/// (0 for a probe inside geometry), renormalised. When every w_i is 0: f_i alone, renormalised;
-/// when every f_i is 0 too: the barycentric weights. Without maps: the barycentric weights.
+/// (0 for a probe inside geometry), renormalised. When every w_i is 0: f_i alone, renormalised.
+/// When every f_i is 0 too (no probe of the tetrahedron sees the point): the neighbour search,
+/// the vertices of the tetrahedra within two face steps (breadth first, each tetrahedron's
+/// neighbours in local order) that are not the tetrahedron's, the first 16, each with f_j > 0
+/// weighing f_j / d_j^2 (d_j its distance to the point), renormalised (fallback 3); when none of
+/// them sees the point either: the barycentric weights. Without maps: the barycentric weights.
 inline Weights visibleWeights(const Volume& v, const Location& loc, double x, double y, double z,
                               const double* normal) {
   Weights w;
   w.tet = loc.tet;
   w.outside = loc.outside;
   if (loc.tet < 0) return w;
+  w.count = 4;
   for (int i = 0; i < 4; ++i) {
     w.probes[i] = v.tets[size_t(loc.tet)][i];
     w.weights[i] = loc.weights[i];
@@ -742,14 +786,30 @@ inline Weights visibleWeights(const Volume& v, const Location& loc, double x, do
   } else {
     w.fallback = 2;
   }
-  return w;
+  if (w.fallback != 2) return w;
+  Weights n;
+  n.tet = w.tet;
+  n.outside = w.outside;
+  n.count = detail::neighbourCandidates(v, loc.tet, n.probes);
+  double nsum = 0;
+  for (int j = 0; j < n.count; ++j) {
+    const double fj = detail::probeFactor(v, n.probes[j], p, normal);
+    const detail::V3 d = p - detail::pos(v, n.probes[j]);
+    n.weights[j] =
+        fj > 0 ? fj / std::max(detail::dot(d, d), std::numeric_limits<double>::min()) : 0;
+    nsum += n.weights[j];
+  }
+  if (!(nsum > 0)) return w;
+  for (int j = 0; j < n.count; ++j) n.weights[j] /= nsum;
+  n.fallback = 3;
+  return n;
 }
 
 /// The SH (27 floats) blended with visibility-aware weights.
 inline void interpolate(const Volume& v, const Weights& w, float out[27]) {
   double acc[27] = {};
   if (w.tet >= 0)
-    for (int i = 0; i < 4; ++i) {
+    for (int i = 0; i < w.count; ++i) {
       const float* s = v.sh.data() + size_t(27) * size_t(w.probes[i]);
       for (int k = 0; k < 27; ++k) acc[k] += w.weights[i] * s[k];
     }

@@ -3,7 +3,9 @@
 // the runtime reader repeats.
 #include "core/traversal/VisibleInterpolation.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/common/Check.h"
 #include "core/math/Octahedral.h"
@@ -34,6 +36,45 @@ void lookupMoments(const float* map, int R, Vec3 d, double& mu, double& mu2) {
 const float* probeMap(const ProbeVolume& v, int32_t probe) {
   const int R = v.visibilityMapSize;
   return v.visibility.data() + size_t(probe) * size_t(2 * R * R);
+}
+
+/// The factor f of probe `probe` of `v` (which has maps) for p.
+double probeFactor(const ProbeVolume& v, int32_t probe, Vec3 p, const std::optional<Vec3>& n) {
+  return visibilityFactor(probeMap(v, probe), v.visibilityMapSize,
+                          v.probeInside[size_t(probe)] != 0, v.position(probe), p, n);
+}
+
+/// The neighbour search (fallback 2 of VisibleInterpolation.h): the tets within
+/// kNeighbourSearchDepth face steps of `tet`, breadth first through the stored face neighbours
+/// (Sukys 3.2.1: per tet, 4 neighbour ids), each neighbour list in local order; their vertices
+/// not in `tet`, in that order, without repeats, at most kMaxNeighbourProbes. Sets w.count and
+/// w.probes to them. Reads at most 1 + 4 + 12 tets.
+void neighbourCandidates(const ProbeVolume& v, int32_t tet, VisibleWeights& w) {
+  constexpr int kMaxTets = 1 + 4 + 12;
+  static_assert(kNeighbourSearchDepth == 2, "kMaxTets counts two face steps");
+  int32_t tets[kMaxTets];
+  int nt = 0, begin = 0;
+  tets[nt++] = tet;
+  for (int depth = 0; depth < kNeighbourSearchDepth; ++depth) {
+    const int end = nt;
+    for (int i = begin; i < end; ++i)
+      for (int k = 0; k < 4; ++k) {
+        const int32_t n = v.neighbors[size_t(tets[i])][k];
+        if (n < 0 || std::find(tets, tets + nt, n) != tets + nt) continue;
+        tets[nt++] = n;
+      }
+    begin = end;
+  }
+  const auto& own = v.tets[size_t(tet)];
+  w.count = 0;
+  for (int i = 1; i < nt && w.count < kMaxNeighbourProbes; ++i)
+    for (int k = 0; k < 4 && w.count < kMaxNeighbourProbes; ++k) {
+      const int32_t q = v.tets[size_t(tets[i])][k];
+      if (std::find(own.begin(), own.end(), q) != own.end() ||
+          std::find(w.probes.begin(), w.probes.begin() + w.count, q) != w.probes.begin() + w.count)
+        continue;
+      w.probes[size_t(w.count++)] = q;
+    }
 }
 
 }  // namespace
@@ -103,24 +144,44 @@ VisibleWeights visibleWeights(const ProbeVolume& v, const VolumeLocation& loc, V
   w.outside = loc.outside;
   if (loc.tet < 0) return w;
   const auto& tet = v.tets[size_t(loc.tet)];
+  w.count = 4;
   for (int i = 0; i < 4; ++i) {
-    w.probes[i] = tet[i];
-    w.weights[i] = loc.weights[i];
-    w.factors[i] = 1.0;
+    w.probes[size_t(i)] = tet[i];
+    w.weights[size_t(i)] = loc.weights[i];
+    w.factors[size_t(i)] = 1.0;
   }
   if (!v.hasVisibility()) return w;
   PS_CHECK_EQ(v.visibility.size(),
               v.probeCount() * size_t(2 * v.visibilityMapSize * v.visibilityMapSize));
   PS_CHECK_EQ(v.probeInside.size(), v.probeCount());
-  std::array<double, 4> barycentric{};
+  std::array<double, 4> barycentric{}, factors{}, weights{};
   for (int i = 0; i < 4; ++i) {
     barycentric[i] = double(loc.weights[i]);
-    w.factors[i] =
-        visibilityFactor(probeMap(v, tet[i]), v.visibilityMapSize,
-                         v.probeInside[size_t(tet[i])] != 0, v.position(tet[i]), p, normal);
+    factors[i] = probeFactor(v, tet[i], p, normal);
   }
-  w.fallback = combineVisibleWeights(barycentric, w.factors, w.weights);
-  return w;
+  w.fallback = combineVisibleWeights(barycentric, factors, weights);
+  std::copy(factors.begin(), factors.end(), w.factors.begin());
+  std::copy(weights.begin(), weights.end(), w.weights.begin());
+  if (w.fallback != VisibleFallback::Barycentric) return w;
+  // No probe of p's tet sees p: the neighbour search (fallback 2), each candidate that sees p
+  // weighed by f_j / d_j^2. When none does, the barycentric weights stand.
+  VisibleWeights n;
+  n.tet = w.tet;
+  n.outside = w.outside;
+  neighbourCandidates(v, loc.tet, n);
+  double sum = 0;
+  for (int j = 0; j < n.count; ++j) {
+    const int32_t q = n.probes[size_t(j)];
+    const double f = probeFactor(v, q, p, normal);
+    const Vec3 d = p - v.position(q);
+    n.factors[size_t(j)] = f;
+    n.weights[size_t(j)] = f > 0 ? f / std::max(dot(d, d), std::numeric_limits<double>::min()) : 0;
+    sum += n.weights[size_t(j)];
+  }
+  if (!(sum > 0)) return w;
+  for (int j = 0; j < n.count; ++j) n.weights[size_t(j)] /= sum;
+  n.fallback = VisibleFallback::Neighbours;
+  return n;
 }
 
 VisibleWeights visibleWeights(const ProbeVolume& v, Vec3 p, const std::optional<Vec3>& normal,
@@ -131,7 +192,7 @@ VisibleWeights visibleWeights(const ProbeVolume& v, Vec3 p, const std::optional<
 ShRgb interpolate(const ProbeVolume& v, const VisibleWeights& w) {
   ShRgb out;
   if (w.tet < 0) return out;
-  for (int i = 0; i < 4; ++i) {
+  for (int i = 0; i < w.count; ++i) {
     const float* s = v.sh.data() + size_t(27) * size_t(w.probes[i]);
     const double wi = w.weights[i];
     for (int k = 0; k < kShCoeffCount; ++k)

@@ -27,7 +27,7 @@ expect_refused() {  # expect_refused OPTION "expected text" cmd...
 }
 
 for option in --leak-refine --no-leak-refine; do
-  expect_refused "$option" "visibility maps keep light from crossing walls" \
+  expect_refused "$option" "visibility maps and their neighbour search" \
     "$cli" place "$scene" --budget 8 "$option" -o "$tmp/out.json"
   expect_refused "$option" "coverage-first placement" \
     "$cli" place "$scene" --budget 8 "$option" -o "$tmp/out.json"
@@ -36,7 +36,7 @@ done
 # bake refuses before it reads the probe set (which need not exist).
 for option in --leak-refine --no-leak-refine --no-leak-cuts --leak-cuts-only --leak-cut-probes; do
   expect_refused "$option" "visibility maps" "$cli" bake "$tmp/none.json" "$option" -o "$tmp/v.psv"
-  expect_refused "$option" "the volume holds exactly the accepted probes" \
+  expect_refused "$option" "neighbouring tetrahedra's probes that see it" \
     "$cli" bake "$tmp/none.json" "$option" -o "$tmp/v.psv"
 done
 expect_refused --over-cut-weight "visibility maps" \
