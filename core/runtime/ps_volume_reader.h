@@ -637,23 +637,16 @@ struct Weights {
 
 namespace detail {
 
-// Octahedral map of the sphere (Cigolle et al. 2014): (u, v) in [-1, 1]^2, lower hemisphere
-// folded onto the corners.
-inline void octEncode(double x, double y, double z, double& u, double& v) {
-  const double s = std::abs(x) + std::abs(y) + std::abs(z);
-  u = x / s;
-  v = y / s;
-  if (z < 0) {
-    const double fu = (1.0 - std::abs(v)) * (u >= 0 ? 1.0 : -1.0);
-    const double fv = (1.0 - std::abs(u)) * (v >= 0 ? 1.0 : -1.0);
-    u = fu;
-    v = fv;
-  }
-  u = std::min(1.0, std::max(-1.0, u));
-  v = std::min(1.0, std::max(-1.0, v));
+// Asks the cache for the line holding p (no effect on results).
+inline void prefetch(const void* p) {
+#if defined(__GNUC__) || defined(__clang__)
+  __builtin_prefetch(p);
+#else
+  (void)p;
+#endif
 }
 
-// Texel (i, j), i and j in [-1, R], a step beyond an edge mirrored across the seam.
+// Texel i + R j, i and j in [-1, R], a step beyond an edge mirrored across the seam.
 inline int octWrappedTexel(int i, int j, int R) {
   if (i < 0) {
     i = 0;
@@ -675,45 +668,137 @@ inline int octWrappedTexel(int i, int j, int R) {
 constexpr double kVisibilityVarianceBias = 0.05;
 constexpr double kVisibilityMinFactor = 1e-3;
 
-// DDGI's chebyshev visibility (sec. 5.2), sharpened to its cube, of probe `probe` for p, with
-// d = p - probe (r = |d| > 1e-6).
-inline double probeVisibility(const Volume& v, int32_t probe, V3 d, double r) {
-  const int R = v.visibilityMapSize;
-  const float* map = v.visibility.data() + size_t(probe) * size_t(2 * R * R);
-  double u, w;
-  octEncode(d.x / r, d.y / r, d.z / r, u, w);
-  const double x = (u + 1.0) * 0.5 * R - 0.5;
-  const double y = (w + 1.0) * 0.5 * R - 0.5;
-  const double fx0 = std::floor(x), fy0 = std::floor(y);
-  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
-  const double ax = x - fx0, ay = y - fy0;
-  const int t00 = octWrappedTexel(x0, y0, R), t10 = octWrappedTexel(x0 + 1, y0, R);
-  const int t01 = octWrappedTexel(x0, y0 + 1, R), t11 = octWrappedTexel(x0 + 1, y0 + 1, R);
-  const double w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
-  const double mu =
-      w00 * map[2 * t00] + w10 * map[2 * t10] + w01 * map[2 * t01] + w11 * map[2 * t11];
-  const double mu2 = w00 * map[2 * t00 + 1] + w10 * map[2 * t10 + 1] + w01 * map[2 * t01 + 1] +
-                     w11 * map[2 * t11 + 1];
-  if (r <= mu) return 1.0;
+// The visibility steps, as the core's (core/traversal/VisibleInterpolation.cpp), operation for
+// operation: the same IEEE results.
+
+// Texel coordinates of direction (dx, dy, dz) (any length > 0) in an R x R map, half = R / 2,
+// offset = R / 2 - 1/2: the octahedral encoding (Cigolle et al. 2014) of d / |d|_1 (that of
+// d / |d|), the lower hemisphere folded onto the corners, then (u + 1) R / 2 - 1/2.
+inline void texelCoords(double dx, double dy, double dz, double half, double offset, double& x,
+                        double& y) {
+  const double is = 1.0 / (std::abs(dx) + std::abs(dy) + std::abs(dz));
+  const double u0 = dx * is, v0 = dy * is;
+  const double fu = (1.0 - std::abs(v0)) * std::copysign(1.0, u0 + 0.0);
+  const double fv = (1.0 - std::abs(u0)) * std::copysign(1.0, v0 + 0.0);
+  const bool lower = dz < 0;
+  const double u = std::min(1.0, std::max(-1.0, lower ? fu : u0));
+  const double v = std::min(1.0, std::max(-1.0, lower ? fv : v0));
+  x = u * half + offset;
+  y = v * half + offset;
+}
+
+// The bilinear tap at texel coordinates (x, y) >= -1/2: four texels (seams wrapped) and their
+// weights; floor(x) as the truncation of x + 1, as the core takes it.
+struct MapTap {
+  int t00, t10, t01, t11;
+  double w00, w10, w01, w11;
+};
+inline MapTap tapAt(double x, double y, int R) {
+  const int x0 = static_cast<int>(x + 1.0) - 1, y0 = static_cast<int>(y + 1.0) - 1;
+  const double ax = x - x0, ay = y - y0;
+  MapTap t;
+  if (x0 >= 0 && y0 >= 0 && x0 < R - 1 && y0 < R - 1) {
+    t.t00 = x0 + R * y0;
+    t.t10 = t.t00 + 1;
+    t.t01 = t.t00 + R;
+    t.t11 = t.t01 + 1;
+  } else {
+    t.t00 = octWrappedTexel(x0, y0, R);
+    t.t10 = octWrappedTexel(x0 + 1, y0, R);
+    t.t01 = octWrappedTexel(x0, y0 + 1, R);
+    t.t11 = octWrappedTexel(x0 + 1, y0 + 1, R);
+  }
+  t.w00 = (1 - ax) * (1 - ay);
+  t.w10 = ax * (1 - ay);
+  t.w01 = (1 - ax) * ay;
+  t.w11 = ax * ay;
+  return t;
+}
+
+inline void tapMoments(const float* map, const MapTap& t, double& mu, double& mu2) {
+  mu = t.w00 * map[2 * t.t00] + t.w10 * map[2 * t.t10] + t.w01 * map[2 * t.t01] +
+       t.w11 * map[2 * t.t11];
+  mu2 = t.w00 * map[2 * t.t00 + 1] + t.w10 * map[2 * t.t10 + 1] + t.w01 * map[2 * t.t01 + 1] +
+        t.w11 * map[2 * t.t11 + 1];
+}
+
+// DDGI's Chebyshev visibility (sec. 5.2), cubed; both sides computed, one selected.
+inline double chebyshev(double mu, double mu2, double r) {
   const double bias = kVisibilityVarianceBias * mu;
   const double var = std::max(0.0, mu2 - mu * mu) + bias * bias;
   const double c = var / (var + (r - mu) * (r - mu));
-  return c * c * c;
+  return r <= mu ? 1.0 : c * c * c;
 }
 
-// The probe's factor: visibility times the smooth-backface normal term, tiny values crushed.
+// The smooth-backface normal term (dn = dot(p - probe, n)), the crush (f^3 / 0.04 below 0.2)
+// and the floor.
+inline double finish(double f, bool hasNormal, double dn, double r) {
+  if (hasNormal) {
+    const double s = (-dn / r + 1.0) * 0.5;
+    f *= s * s + 0.2;
+  }
+  const double crushed = f * f * f * 25.0;
+  f = f < 0.2 ? crushed : f;
+  return f < kVisibilityMinFactor ? 0.0 : f;
+}
+
+inline const float* probeMap(const Volume& v, int32_t probe) {
+  const int R = v.visibilityMapSize;
+  return v.visibility.data() + size_t(probe) * size_t(2 * R * R);
+}
+
+// One probe's factor for p (n: the unit normal, or nullptr).
 inline double probeFactor(const Volume& v, int32_t probe, V3 p, const double* n) {
   if (v.probeFlags[size_t(probe)] & 1) return 0.0;
   const V3 d = p - pos(v, probe);
   const double r = std::sqrt(dot(d, d));
   if (!(r > 1e-6)) return 1.0;
-  double f = probeVisibility(v, probe, d, r);
-  if (n) {
-    const double s = ((-(d.x / r)) * n[0] + (-(d.y / r)) * n[1] + (-(d.z / r)) * n[2] + 1.0) * 0.5;
-    f *= s * s + 0.2;
+  const int R = v.visibilityMapSize;
+  double x, y, mu, mu2;
+  texelCoords(d.x, d.y, d.z, 0.5 * R, 0.5 * R - 0.5, x, y);
+  tapMoments(probeMap(v, probe), tapAt(x, y, R), mu, mu2);
+  return finish(chebyshev(mu, mu2, r), n != nullptr, n ? d.x * n[0] + d.y * n[1] + d.z * n[2] : 0.0,
+                r);
+}
+
+// The four factors of a tetrahedron's probes q for p, side by side, each probe's lines asked
+// for before any is read (as the core's tetFactors).
+inline void tetFactors(const Volume& v, const std::array<int32_t, 4>& q, V3 p, const double* n,
+                       double f[4]) {
+  const int R = v.visibilityMapSize;
+  const double half = 0.5 * R, offset = 0.5 * R - 0.5;
+  double dx[4], dy[4], dz[4], r[4], x[4], y[4], dn[4], mu[4], mu2[4];
+  for (int i = 0; i < 4; ++i) {
+    const size_t qi = size_t(q[size_t(i)]);
+    prefetch(&v.probeFlags[qi]);
+    for (size_t k = 0; k < 27; k += 13) prefetch(v.sh.data() + 27 * qi + k);
+    const float* xi = v.positions.data() + 3 * qi;
+    dx[i] = p.x - double(xi[0]);
+    dy[i] = p.y - double(xi[1]);
+    dz[i] = p.z - double(xi[2]);
   }
-  if (f < 0.2) f = f * f * f / 0.04;
-  return f < kVisibilityMinFactor ? 0.0 : f;
+  for (int i = 0; i < 4; ++i) r[i] = std::sqrt(dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]);
+  for (int i = 0; i < 4; ++i) texelCoords(dx[i], dy[i], dz[i], half, offset, x[i], y[i]);
+  for (int i = 0; i < 4; ++i) dn[i] = n ? dx[i] * n[0] + dy[i] * n[1] + dz[i] * n[2] : 0.0;
+  MapTap taps[4];
+  const float* maps[4];
+  for (int i = 0; i < 4; ++i) {
+    maps[i] = probeMap(v, q[size_t(i)]);
+    if (!(r[i] > 1e-6)) continue;
+    taps[i] = tapAt(x[i], y[i], R);
+    prefetch(maps[i] + 2 * taps[i].t00);
+    prefetch(maps[i] + 2 * taps[i].t10 + 1);
+    prefetch(maps[i] + 2 * taps[i].t01);
+    prefetch(maps[i] + 2 * taps[i].t11 + 1);
+  }
+  for (int i = 0; i < 4; ++i) {
+    mu[i] = mu2[i] = 0;
+    if (r[i] > 1e-6) tapMoments(maps[i], taps[i], mu[i], mu2[i]);
+  }
+  for (int i = 0; i < 4; ++i) {
+    const double fi = finish(chebyshev(mu[i], mu2[i], r[i]), n != nullptr, dn[i], r[i]);
+    f[i] = (v.probeFlags[size_t(q[size_t(i)])] & 1) ? 0.0 : !(r[i] > 1e-6) ? 1.0 : fi;
+  }
 }
 
 // The neighbour search's candidates (as the core's neighbourCandidates): the tetrahedra within
@@ -772,17 +857,19 @@ inline Weights visibleWeights(const Volume& v, const Location& loc, double x, do
   if (v.visibilityMapSize <= 0) return w;
   const detail::V3 p = {x, y, z};
   double f[4], raw[4], sum = 0, factorSum = 0;
+  detail::tetFactors(v, v.tets[size_t(loc.tet)], p, normal, f);
   for (int i = 0; i < 4; ++i) {
-    f[i] = detail::probeFactor(v, w.probes[i], p, normal);
     raw[i] = double(loc.weights[i]) * f[i];
     sum += raw[i];
     factorSum += f[i];
   }
   if (sum > 0) {
-    for (int i = 0; i < 4; ++i) w.weights[i] = raw[i] / sum;
+    const double inv = 1.0 / sum;
+    for (int i = 0; i < 4; ++i) w.weights[i] = raw[i] * inv;
   } else if (factorSum > 0) {
     w.fallback = 1;
-    for (int i = 0; i < 4; ++i) w.weights[i] = f[i] / factorSum;
+    const double inv = 1.0 / factorSum;
+    for (int i = 0; i < 4; ++i) w.weights[i] = f[i] * inv;
   } else {
     w.fallback = 2;
   }
@@ -800,7 +887,8 @@ inline Weights visibleWeights(const Volume& v, const Location& loc, double x, do
     nsum += n.weights[j];
   }
   if (!(nsum > 0)) return w;
-  for (int j = 0; j < n.count; ++j) n.weights[j] /= nsum;
+  const double inv = 1.0 / nsum;
+  for (int j = 0; j < n.count; ++j) n.weights[j] *= inv;
   n.fallback = 3;
   return n;
 }

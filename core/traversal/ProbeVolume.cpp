@@ -607,12 +607,22 @@ void locateBatch(const ProbeVolume& v, std::span<const Vec3> points,
 ShRgb interpolate(const ProbeVolume& v, const VolumeLocation& loc) {
   ShRgb out;
   if (loc.tet < 0) return out;
+  // Per stored value (coefficient-major, RGB), the sum over the probes in their order.
+  const auto& t = v.tets[size_t(loc.tet)];
+  const float* s[4];
+  double w[4];
   for (int i = 0; i < 4; ++i) {
-    const float* s = v.sh.data() + size_t(27) * v.tets[loc.tet][i];
-    const double w = loc.weights[i];
-    for (int k = 0; k < kShCoeffCount; ++k)
-      for (int ch = 0; ch < 3; ++ch) out.c[k][ch] += w * s[3 * k + ch];
+    s[i] = v.sh.data() + size_t(27) * size_t(t[i]);
+    w[i] = loc.weights[i];
   }
+  double acc[27];
+  for (int k = 0; k < 27; ++k) {
+    double a = 0;
+    for (int i = 0; i < 4; ++i) a += w[i] * s[i][k];
+    acc[k] = a;
+  }
+  for (int k = 0; k < kShCoeffCount; ++k)
+    out.c[k] = Rgb(acc[3 * k], acc[3 * k + 1], acc[3 * k + 2]);
   return out;
 }
 

@@ -70,12 +70,13 @@ enum class VisibleFallback : uint8_t {
 struct VisibleWeights {
   int32_t tet = -1;  ///< p's tet (locate()); -1: the volume has no tets (count 0)
   /// Entries of probes, weights and factors in use: 4 (the tet's vertices, in its order), or 1
-  /// to kMaxNeighbourProbes with Neighbours (in the search's order); 0 for tet = -1.
+  /// to kMaxNeighbourProbes with Neighbours (in the search's order); 0 for tet = -1. The entries
+  /// from `count` on are unspecified (not cleared: the struct is made once per query).
   int32_t count = 0;
-  std::array<int32_t, kMaxVisibleProbes> probes{};  ///< probe indices
-  std::array<double, kMaxVisibleProbes> weights{};  ///< final, non-negative, sum 1
-  std::array<double, kMaxVisibleProbes> factors{};  ///< f (1 when the volume has no maps)
-  bool outside = false;                             ///< p is outside the hull (locate() clamped it)
+  std::array<int32_t, kMaxVisibleProbes> probes;  ///< probe indices
+  std::array<double, kMaxVisibleProbes> weights;  ///< final, non-negative, sum 1
+  std::array<double, kMaxVisibleProbes> factors;  ///< f (1 when the volume has no maps)
+  bool outside = false;                           ///< p is outside the hull (locate() clamped it)
   VisibleFallback fallback = VisibleFallback::None;
 };
 
