@@ -154,7 +154,8 @@ TEST(VisibleNeighbours, APointWhoseTetrahedronSpansTheWallsTakesItsOwnRoomsLight
 
 // The runtime reader runs the same search with the same weights: on a saved volume, at points
 // of the corridor and all through the rooms, the same probes, count and fallback, and weights
-// within 1e-12.
+// within 1e-12. A point on a face two tetrahedra share may be located in either by builds that
+// round differently (the sanitizer build contracts to FMA): such ties are counted and skipped.
 TEST(VisibleNeighbours, TheRuntimeReaderAgrees) {
   const Scene s = threeRooms();
   const Tracer tracer(s);
@@ -172,11 +173,15 @@ TEST(VisibleNeighbours, TheRuntimeReaderAgrees) {
   for (int i = 0; i < 2000; ++i)
     queries.push_back(
         {Vec3{-0.2 + 5.4 * u(rng), -0.2 + 2.4 * u(rng), -0.2 + 4.4 * u(rng)}, std::nullopt});
-  int neighbours = 0;
+  int neighbours = 0, ties = 0;
   for (const Query& q : queries) {
     const VolumeLocation a = locate(v, q.p);
     const ps_runtime::Location b = ps_runtime::locate(rv, q.p.x, q.p.y, q.p.z);
-    ASSERT_EQ(a.tet, b.tet);
+    if (a.tet != b.tet) {
+      ++ties;
+      ASSERT_LE(*std::min_element(a.weights.begin(), a.weights.end()), 1e-4f);
+      continue;
+    }
     const VisibleWeights wa = visibleWeights(v, a, q.p, q.n);
     const double n[3] = {q.n ? q.n->x : 0, q.n ? q.n->y : 0, q.n ? q.n->z : 0};
     const ps_runtime::Weights wb =
@@ -196,8 +201,10 @@ TEST(VisibleNeighbours, TheRuntimeReaderAgrees) {
                     1e-6 * std::max(1.0, std::abs(sa.c[k][c])));
     neighbours += wa.fallback == VisibleFallback::Neighbours;
   }
-  std::printf("%zu queries, %d from the neighbour search\n", queries.size(), neighbours);
+  std::printf("%zu queries, %d from the neighbour search, %d ties\n", queries.size(), neighbours,
+              ties);
   EXPECT_GT(neighbours, 100);
+  EXPECT_LE(ties, int(queries.size() / 1000));
 }
 
 // The search is bounded: at most kMaxNeighbourProbes probes, none of the point's own
