@@ -104,7 +104,7 @@ struct VolumeSource {
 /// Throws ps::FileError naming the volume and the metadata field.
 VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& volumePath);
 
-/// An option this build no longer has, still parsed (a flag, or with `takesValue` an option with
+/// A removed option, still parsed (a flag, or with `takesValue` an option with
 /// one value; hidden from --help) so that an old command fails saying what replaced it rather
 /// than "unrecognised". Giving it throws ps::ParameterError(name, "removed; " + replacement)
 /// before the subcommand runs: exit code 1, as for any bad parameter.

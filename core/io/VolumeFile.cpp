@@ -28,7 +28,7 @@
 // Versions 2 and 3 (read, never written) also hold a leak-cut section: a u32 cut plane count C
 // after M, and u32[T+1] cut starts then C x 20 bytes of planes after the hull faces (version 3
 // then has R and the maps as version 4). A file with C > 0 is refused: its lighting was made to
-// be read through the cuts, which this build no longer applies.
+// be read through the cuts, which this build does not apply.
 namespace ps {
 
 namespace {

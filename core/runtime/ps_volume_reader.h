@@ -468,7 +468,7 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   std::memcpy(h, b + 8, 6 * 4);
   if (h[0] < 1 || h[0] > 4) return fail(error, "unsupported version " + std::to_string(h[0]));
   // Version 4: a visibility map size, then the probe flags and maps after the hull. Versions 2
-  // and 3 (no longer written): a leak-cut plane count C, then the cut starts and planes after
+  // and 3 (read, never written): a leak-cut plane count C, then the cut starts and planes after
   // the hull; version 3 also the map size and the maps after the cuts.
   const bool cuts = h[0] == 2 || h[0] == 3, maps = h[0] >= 3;
   const size_t kHeader = 8 + (6 + (cuts ? 1 : 0) + (maps ? 1 : 0)) * 4;

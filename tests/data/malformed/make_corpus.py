@@ -82,7 +82,7 @@ write("ps-locked-string.json", js(probe_set(probes=[probe(0, locked="yes")])))
 def volume(P=4, T=1, H=4, positions=None, tets=None, neighbors=None, order=2, version=1,
            magic=b"PSVOLUM1", fix_crc=True, counts=None, cut_start=None, cuts=None, maps=None):
     """Version 4 (visibility maps) when maps is given: (R, flags per probe, 2 R^2 P floats).
-    Version 2 (the leak-cut section, no longer written) when cuts is given: a list of
+    Version 2 (the leak-cut section, read but never written) when cuts is given: a list of
     (nx, ny, nz, d, hide mask); with maps too, or with version=3, version 3."""
     positions = positions or [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1][: 3 * P] + [0.5] * max(0, 3 * P - 12)
     tets = tets or [1, 2, 3, 0] * T
