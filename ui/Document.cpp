@@ -240,7 +240,7 @@ void Document::setVolume(std::shared_ptr<const ProbeVolume> volume, const QStrin
     const bool haveIds = size_t(ids.size()) == n;
     for (size_t i = 0; i < n; ++i) {
       const uint64_t id = haveIds ? uint64_t(ids[qsizetype(i)].toInteger()) : 0;
-      if (haveIds && id == 0) continue;  // leak refinement's: not in the set
+      if (haveIds && id == 0) continue;  // the volume's own probe: not in the set
       if (id != 0) volumeIds_[id] = volumeProbes_.size();
       volumeProbes_.emplace_back(id, Vec3(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]));
     }
@@ -317,10 +317,9 @@ QString Document::volumeStatusText() const {
   return tr("not baked yet");
 }
 
-QString Document::evaluationSource(bool leakCuts) const {
+QString Document::evaluationSource() const {
   if (volumeIsCurrent()) return tr("baked volume %1").arg(QFileInfo(volumePath_).fileName());
-  QString source =
-      leakCuts ? tr("preview (accepted probes, leak cuts)") : tr("preview (accepted probes)");
+  QString source = tr("preview (accepted probes)");
   if (volumeState_ == VolumeState::Stale)
     source += tr("; %1 is stale: %2").arg(QFileInfo(volumePath_).fileName(), volumeStaleReason_);
   return source;
@@ -797,8 +796,8 @@ struct JobPhase {
 
 /// The stages a method reports, in order, with rough shares of its time (a guide for the
 /// progress bar, not a measurement: the dense field dominates greedy and chajdas), after the
-/// covering. Leak refinement follows when asked for.
-std::vector<JobPhase> placementPhases(const std::string& method, bool refineLeaks) {
+/// covering.
+std::vector<JobPhase> placementPhases(const std::string& method) {
   std::vector<JobPhase> phases;
   if (method == "greedy")
     phases = {{"field", 0.5}, {"held-out", 0.05}, {"greedy", 0.45}};
@@ -813,10 +812,6 @@ std::vector<JobPhase> placementPhases(const std::string& method, bool refineLeak
   // The covering (core/placement/Coverage.h) runs first, in a few seconds at most.
   for (JobPhase& p : phases) p.share *= 0.95;
   phases.insert(phases.begin(), {"coverage", 0.05});
-  if (refineLeaks) {
-    for (JobPhase& p : phases) p.share *= 0.85;
-    phases.push_back({"leaks", 0.15});
-  }
   return phases;
 }
 
@@ -886,7 +881,6 @@ PlaceRequest PlacementRequest::toPlaceRequest() const {
   // The artist's accepted probes stay; the candidates unless they are replaced.
   r.keepAccepted = true;
   r.keepCandidates = !replaceCandidates;
-  r.refineLeaks = refineLeaks;
   r.cover = cover;
   r.newState = acceptNew ? ProbeState::Accepted : ProbeState::Candidate;
   r.domain.rule = domain;
@@ -926,7 +920,7 @@ bool Document::startPlacement(const PlacementRequest& request, const QString& ki
   const ProbeSet set = set_;
   std::shared_ptr<const Tracer> tracer = tracer_;
   const uint64_t sceneHash = sceneHash_;
-  const std::vector<JobPhase> phases = placementPhases(request.method, request.refineLeaks);
+  const std::vector<JobPhase> phases = placementPhases(request.method);
   const QString firstMessage =
       kind == QLatin1String("propose") ? tr("Proposing probes…") : tr("Placing probes…");
   startJob(kind, firstMessage, [=](JobResult& result, const auto& report) {
@@ -963,7 +957,6 @@ bool Document::addProbesWhereErrorIsWorst(int count, PlacementRequest settings) 
     throw ParameterError("probes to add: expected 1 or more, got " + std::to_string(count));
   settings.method = "greedy";
   settings.replaceCandidates = false;
-  settings.refineLeaks = false;
   // Exactly `count` more where the error is worst: the artist's set stays as it is, covered or
   // not (a covering around it would spend the count elsewhere).
   settings.cover = false;
@@ -1003,24 +996,13 @@ bool Document::bake(const BakeRequest& request) {
   startJob("bake", tr("Baking…"), [=](JobResult& result, const auto& report) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = request.samplesPerProbe;
-    bs.leakRefine = request.refineLeaks || request.leakCuts;
-    bs.leakRefineProbes = request.refineLeaks;
-    bs.leakCuts = request.leakCuts;
     if (request.fit) bs.fit = FitSettings{};
     BakeResult baked = bakeProbeSet(set, *tracer, bs, [&](double f) {
       return report(tr("Baking %1 probes…").arg(accepted), 0.97 * f);
     });
     saveVolume(baked.file, toPath(path));  // atomic
     result.bakedProbes = baked.probes;
-    result.notes << tr("Baked %1 probes: %2 accepted, %3 added by leak refinement")
-                        .arg(baked.probes)
-                        .arg(accepted)
-                        .arg(baked.leakProbesAdded);
-    if (baked.leakCuts)
-      result.notes << tr("Leak cuts: %1 planes in %2 tetrahedra (%3 s)")
-                          .arg(baked.leakCuts->planes)
-                          .arg(baked.leakCuts->tetsCut)
-                          .arg(baked.leakCuts->seconds, 0, 'f', 2);
+    result.notes << tr("Baked %1 accepted probes").arg(baked.probes);
     if (baked.fit)
       result.notes << tr("Values fitted by least squares to %1 points (%2 s)")
                           .arg(baked.fit->points)
@@ -1057,7 +1039,7 @@ bool Document::recapture(int samplesPerProbe) {
 bool Document::evaluate(const EvalRequest& request) {
   if (!tracer_ || busy_) return false;
   std::shared_ptr<const ProbeVolume> volume;
-  const QString source = evaluationSource(request.leakCuts);
+  const QString source = evaluationSource();
   if (volumeIsCurrent()) {
     volume = volume_;
   } else {
@@ -1072,7 +1054,6 @@ bool Document::evaluate(const EvalRequest& request) {
       throw ParameterError("evaluate: bake, or accept at least 4 captured probes, first");
     volume = std::make_shared<const ProbeVolume>(volumeFromProbes(positions, sh));  // throws
   }
-  const bool cutPreview = request.leakCuts && volume != volume_;
   const LightingRig rig = set_.rig;
   // The importance volumes: the queries go where probes are wanted.
   const std::vector<Bounds3> domain = importanceBoxes(set_.importanceVolumes);
@@ -1106,15 +1087,8 @@ bool Document::evaluate(const EvalRequest& request) {
     es.reachable = makeDomain(*tracer, domain, DomainSettings{}).reachable;
     es.cacheDir = cacheDir;
     es.sceneHash = sceneHash;
-    std::optional<ProbeVolume> cut;
-    QString evaluated = source;
-    if (cutPreview) {
-      cut = *volume;
-      if (previewLeakCuts(*tracer, *cut, domain).skipped)
-        evaluated = tr("preview (accepted probes; no leak cuts above %L1 tetrahedra)")
-                        .arg(qulonglong(kMaxPreviewCutTets));
-    }
-    const EvalResult r = evaluateVolume(*tracer, rig, cut ? *cut : *volume, es, [&](double f) {
+    const QString evaluated = source;
+    const EvalResult r = evaluateVolume(*tracer, rig, *volume, es, [&](double f) {
       return report(tr("Evaluating against the reference…"), f);
     });
     EvaluationPoint e;

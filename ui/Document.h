@@ -70,7 +70,6 @@ struct PlacementRequest {
   /// greedy: the error it lowers, "perceptual" (stops) or "energy" (rel_rmse)
   /// (GreedyMethodSettings::objective).
   std::string objective = greedyObjectiveName(GreedyMethodSettings{}.objective);
-  bool refineLeaks = false;                   ///< PlaceRequest::refineLeaks
   bool cover = true;                          ///< PlaceRequest::cover
   DomainRule domain = DomainRule::Reachable;  ///< PlaceRequest::domain's rule
   /// The new probes are accepted (PlaceRequest::newState) instead of candidates.
@@ -91,13 +90,6 @@ struct PlacementRequest {
 /// The bake's settings: the accepted probes captured at final quality.
 struct BakeRequest {
   int samplesPerProbe = 1024;
-  /// Leak refinement (Sukys 3.2.2) before the capture: probes added on both sides of walls
-  /// that tetrahedron edges cross; they are in the volume, not in the probe set. Off by default,
-  /// as `bake`'s (BakeSettings::leakRefine).
-  bool refineLeaks = false;
-  /// The leak cuts (core/placement/LeakRefine.h computeLeakCuts), with refineLeaks or without
-  /// it (`bake --leak-cuts-only`: the volume holds exactly the accepted probes). Off by default.
-  bool leakCuts = false;
   /// Least-squares probe values (core/bake/LeastSquaresFit.h, `bake --fit`) with its defaults.
   bool fit = false;
 };
@@ -106,9 +98,6 @@ struct BakeRequest {
 struct EvalRequest {
   int queries = 128;
   int referenceSpp = 256;
-  /// The preview (when there is no up-to-date baked volume) with the viewport's leak cuts
-  /// (LightingField.h previewLeakCuts), as it is drawn.
-  bool leakCuts = true;
 };
 
 /// One query of an evaluation where it is: the point and the normal its irradiance faces, the
@@ -137,7 +126,7 @@ struct EvaluationPoint {
   EvalStops stops;
   double stopsFloor = 0;
   std::vector<QueryError> queries;  ///< each query, in eval's order
-  QString source;                   ///< "baked volume" or "preview (accepted probes[, leak cuts])"
+  QString source;                   ///< "baked volume" or "preview (accepted probes)"
   bool referenceCached = false;     ///< the reference came from the eval reference cache
   double seconds = 0;               ///< wall time of the evaluation
 };
@@ -258,7 +247,7 @@ class Document : public QObject {
   /// Asks the running job to stop at its next progress report; jobFinished("cancelled") follows.
   /// Emits jobProgress("Cancelling…") at once, at the fraction last reported, so that the
   /// artist sees the request taken while the job runs on to its next report (the core's
-  /// stages without reports, as a bake's leak cuts, can take a minute).
+  /// stages without reports can take a minute).
   void requestCancel();
   /// A cancel was asked for and the job has not ended yet.
   bool isCancelling() const { return busy_ && jobCancel_ && jobCancel_->load(); }
@@ -273,7 +262,7 @@ class Document : public QObject {
   /// Greedy adds `count` probes where its error is worst: a placement (runPlacement) with
   /// `settings`' greedy options (objective, swap passes, preview samples), every non-rejected
   /// probe kept where it is and counted (PlaceRequest::keepAccepted, keepCandidates), a budget of
-  /// their count plus `count`, no leak refinement, and the new probes accepted (the evaluation
+  /// their count plus `count`, and the new probes accepted (the evaluation
   /// measures the accepted probes); one undo step adds them. Greedy adds fewer when it reaches
   /// its noise floor first or a new probe falls beside a rejected one. Returns false when busy
   /// or without a tracer; throws ParameterError for count < 1 or bad settings.
@@ -289,9 +278,10 @@ class Document : public QObject {
   QString volumePath() const { return volumePath_; }
   /// What volume() is to the probe set. Baked: its probes from the set (the volume file's
   /// "probe_ids"; by position for a file without them) are exactly the accepted probes, each
-  /// where the set has it, and the lighting did not change since it was baked or loaded (leak
-  /// refinement's probes, id 0, are the volume's own). Stale: it no longer matches. Updated at
-  /// every change of the probes, the lighting or the volume (volumeStateChanged).
+  /// where the set has it, and the lighting did not change since it was baked or loaded (probes
+  /// with id 0 are the volume's own, not in the set: a volume file may hold such probes). Stale: it
+  /// no longer matches. Updated at every change of the probes, the lighting or the volume
+  /// (volumeStateChanged).
   enum class VolumeState { None, Baked, Stale };
   VolumeState volumeState() const { return volumeState_; }
   bool volumeIsCurrent() const { return volumeState_ == VolumeState::Baked; }
@@ -302,9 +292,9 @@ class Document : public QObject {
   /// (reason)", or "not baked yet".
   QString volumeStatusText() const;
   /// What evaluate() measures now, named with its state: "baked volume X.psv", or
-  /// "preview (accepted probes[, leak cuts])" followed by "; X.psv is stale: reason" when a
+  /// "preview (accepted probes)" followed by "; X.psv is stale: reason" when a
   /// stale volume is left aside.
-  QString evaluationSource(bool leakCuts) const;
+  QString evaluationSource() const;
   /// Loads a volume file for the preview and the overlays. Throws ps::Error.
   void openVolume(const QString& path);
 
@@ -427,8 +417,8 @@ class Document : public QObject {
   std::shared_ptr<const ProbeVolume> volume_;
   QString volumePath_;
   /// The set's probes in the volume, in its order: id (0 when the file has no "probe_ids") and
-  /// position; volumeIds_ maps an id to its index. volumeExtra_: the volume's own probes (leak
-  /// refinement's) in a file without ids, which then match no accepted probe.
+  /// position; volumeIds_ maps an id to its index. volumeExtra_: the volume's own probes in a file
+  /// without ids (metadata "leak_probes_added"), which then match no accepted probe.
   std::vector<std::pair<uint64_t, Vec3>> volumeProbes_;
   std::unordered_map<uint64_t, size_t> volumeIds_;
   size_t volumeExtra_ = 0;

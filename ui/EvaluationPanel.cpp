@@ -162,7 +162,7 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
 void EvaluationPanel::refreshEvaluated() {
   const bool stale = doc_->volumeState() == Document::VolumeState::Stale;
   evaluated_->setText(
-      tr("Evaluates: %1").arg(doc_->evaluationSource(leakCuts_)) +
+      tr("Evaluates: %1").arg(doc_->evaluationSource()) +
       (stale ? tr(". Bake again (Ctrl+B) to evaluate the volume itself.") : QString()));
   evaluated_->setStyleSheet(stale ? QStringLiteral("color: #b35c00") : QString());
 }
@@ -198,7 +198,6 @@ bool EvaluationPanel::evaluate() {
   EvalRequest r;
   r.queries = queries_->value();
   r.referenceSpp = refSpp_->value();
-  r.leakCuts = leakCuts_;
   try {
     if (doc_->evaluate(r)) return true;
   } catch (const Error& e) {
@@ -315,7 +314,8 @@ void EvaluationPanel::refresh() {
         tr("Queries that interpolate a probe they cannot see (light through a wall): %1 %.\n"
            "Outside the probes' hull: %2 % (%3 % of all queries are outside it, where the "
            "volume extrapolates; probes near them end those leaks).\n"
-           "Inside: %4 % (tetrahedra across walls that the leak cuts did not split).")
+           "Inside: %4 % (tetrahedra across walls where no probe that sees the query takes "
+           "the weight).")
             .arg(100 * e.leakingFraction, 0, 'f', 2)
             .arg(100 * e.leakingOutsideHullFraction, 0, 'f', 2)
             .arg(100 * e.outsideHullFraction, 0, 'f', 2)

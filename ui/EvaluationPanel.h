@@ -35,11 +35,6 @@ class EvaluationPanel : public QWidget {
 
   /// Starts an evaluation; false (after emitting failed) when it could not start.
   bool evaluate();
-  /// Whether the preview is evaluated with leak cuts (the viewport's View > Leak cuts).
-  void setLeakCuts(bool on) {
-    leakCuts_ = on;
-    refreshEvaluated();
-  }
 
   QChart* chart() const { return chart_; }
   /// The plotted series: relative RMS error (%) and 95th percentile (%) against probe count.
@@ -102,7 +97,6 @@ class EvaluationPanel : public QWidget {
   QPushButton* greedyAdd_;
   QSpinBox* greedyAddCount_;
   std::function<PlacementRequest()> placementSettings_;
-  bool leakCuts_ = true;
 };
 
 }  // namespace ps::ui

@@ -50,25 +50,6 @@ std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
   }
 }
 
-LeakCutSettings previewLeakCutSettings() {
-  LeakCutSettings s;
-  s.samplesPerTet = 8;
-  s.samplesTotal = size_t(1) << 16;
-  return s;
-}
-
-PreviewCuts previewLeakCuts(const Tracer& tracer, ProbeVolume& volume,
-                            std::span<const Bounds3> domain) {
-  PreviewCuts c;
-  c.tets = volume.tets.size();
-  if (c.tets > kMaxPreviewCutTets) {
-    c.skipped = true;
-    return c;
-  }
-  c.result = computeLeakCuts(tracer, volume, domain, previewLeakCutSettings());
-  return c;
-}
-
 PreviewVolumeMirror::PreviewVolumeMirror() = default;
 PreviewVolumeMirror::~PreviewVolumeMirror() = default;
 

@@ -14,7 +14,6 @@
 #include <vector>
 
 #include "core/io/ProbeSet.h"
-#include "core/placement/LeakRefine.h"
 #include "core/traversal/ProbeVolume.h"
 
 namespace ps {
@@ -43,28 +42,6 @@ enum class PreviewSource {
 /// of them span 3D.
 std::optional<ProbeVolume> buildPreviewVolume(const std::vector<Probe>& probes,
                                               PreviewSource source);
-
-/// What the leak cuts did to a preview volume.
-struct PreviewCuts {
-  size_t tets = 0;       ///< the volume's tetrahedra
-  bool skipped = false;  ///< more than kMaxPreviewCutTets tetrahedra: none computed
-  LeakCutResult result;  ///< computeLeakCuts' (empty when skipped)
-};
-
-/// Above this many tetrahedra the preview gets no cuts: their time grows with the tetrahedra and
-/// the scene, and the fields wait for them after every edit, so the limit bounds that wait.
-inline constexpr size_t kMaxPreviewCutTets = 30000;
-
-/// Bake's leak-cut settings with a quarter of its points (8 per tetrahedron at least, 2^16 in
-/// all): the cuts' time grows with the points drawn, and the preview recomputes them after
-/// every edit. How many more leaking queries they leave than bake's cuts is not measured under
-/// today's defaults.
-LeakCutSettings previewLeakCutSettings();
-
-/// Cuts `volume` as bake would (computeLeakCuts with previewLeakCutSettings()) for queries in
-/// `domain` (the importance volumes' boxes; empty: the scene bounds), unless it is too large.
-PreviewCuts previewLeakCuts(const Tracer& tracer, ProbeVolume& volume,
-                            std::span<const Bounds3> domain);
 
 /// The preview volume kept in step with the document by local edits (EditableProbeVolume,
 /// Sukys 3.2.1 after Cupisz): sync() compares the probes with what the volume holds and inserts,

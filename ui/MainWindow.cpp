@@ -114,8 +114,6 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   sceneLabel_ = new QLabel(tr("No scene"));
   trianglesLabel_ = new QLabel;
   probesLabel_ = new QLabel;
-  cutsLabel_ = new QLabel;
-  cutsLabel_->setObjectName("leakCutsLabel");
   overlayReason_ = new QLabel;
   overlayReason_->setObjectName("overlayReason");
   overlayReason_->setStyleSheet("color: #b35c00");
@@ -134,7 +132,6 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   statusBar()->addWidget(sceneLabel_);
   statusBar()->addWidget(trianglesLabel_);
   statusBar()->addWidget(probesLabel_);
-  statusBar()->addWidget(cutsLabel_);
   statusBar()->addWidget(overlayReason_);
   statusBar()->addWidget(volumeState_);
   statusBar()->addPermanentWidget(jobLabel_);
@@ -160,7 +157,6 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
                                  .arg(seconds * 1e6, 0, 'f', 0),
                              3000);
   });
-  connect(viewport_, &Viewport::fieldsUpdated, this, &MainWindow::updateCutsLabel);
   // Why a shown overlay is empty, and what fixes it.
   connect(viewport_, &Viewport::fieldsUpdated, this, &MainWindow::updateOverlayReason);
   connect(viewport_, &Viewport::overlaysToggled, this, &MainWindow::updateOverlayReason);
@@ -392,16 +388,6 @@ void MainWindow::createActions() {
   a = view->addAction(tr("Glyphs at the probes (not the grid)"), viewport_,
                       &Viewport::setGlyphsAtProbes);
   a->setCheckable(true);
-  a = view->addAction(tr("&Leak cuts in the preview"), this, [this](bool on) {
-    viewport_->setLeakCuts(on);
-    evaluation_->setLeakCuts(on);
-  });
-  a->setObjectName("leakCutsAction");
-  a->setCheckable(true);
-  a->setChecked(viewport_->leakCuts());
-  a->setToolTip(
-      tr("Cut the preview volume's tetrahedra where a wall hides their probes, as the "
-         "bake does, so the preview shows the baked volume's light instead of leaks"));
   QMenu* slice = view->addMenu(tr("Slice"));
   auto* sliceModes = new QActionGroup(this);
   a = slice->addAction(tr("Luminance distance to the selected probe"), this,
@@ -802,37 +788,6 @@ void MainWindow::updateOverlayReason() {
   const QString reason = viewport_->emptyOverlayReason();
   overlayReason_->setText(reason);
   overlayReason_->setToolTip(reason);
-}
-
-void MainWindow::updateCutsLabel() {
-  const std::optional<PreviewCuts>& c = viewport_->previewCuts();
-  cutsLabel_->setToolTip(QString());
-  if (!c) {
-    cutsLabel_->setText(viewport_->leakCuts() || !doc_->hasScene()
-                            ? QString()
-                            : tr("Leak cuts off (View › Leak cuts in the preview)"));
-    return;
-  }
-  if (c->skipped) {
-    cutsLabel_->setText(tr("Leak cuts: none (%L1 tetrahedra, above %L2; fewer with View › "
-                           "Preview and overlays use › Accepted probes)")
-                            .arg(c->tets)
-                            .arg(qulonglong(kMaxPreviewCutTets)));
-    return;
-  }
-  const LeakCutResult& r = c->result;
-  const double before = r.samples ? double(r.hiddenSamplesBefore) / double(r.samples) : 0.0;
-  const double after = r.samples ? double(r.hiddenSamplesAfter) / double(r.samples) : 0.0;
-  cutsLabel_->setText(tr("Leak cuts: %L1 planes in %L2 tetrahedra, leaking %3 % -> %4 %")
-                          .arg(r.planes)
-                          .arg(r.tetsCut)
-                          .arg(100 * before, 0, 'f', 1)
-                          .arg(100 * after, 0, 'f', 1));
-  cutsLabel_->setToolTip(tr("Of %L1 points drawn in the preview volume's tetrahedra, the share "
-                            "that interpolates a probe it cannot see, before and after the cuts "
-                            "(%2 s)")
-                             .arg(r.samples)
-                             .arg(r.seconds, 0, 'f', 2));
 }
 
 std::vector<uint64_t> MainWindow::selectedIds() const {

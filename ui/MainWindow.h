@@ -117,8 +117,6 @@ class MainWindow : public QMainWindow {
   bool maybeSave();
   void updateTitle();
   void updateStatus();
-  /// The status bar's leak-cut figures, from the viewport's last fields.
-  void updateCutsLabel();
   /// The status bar's reason why a shown overlay is empty (Viewport::emptyOverlayReason).
   void updateOverlayReason();
   /// The status bar's volume label: shown while the volume is stale.
@@ -140,7 +138,6 @@ class MainWindow : public QMainWindow {
   QLabel* sceneLabel_;
   QLabel* trianglesLabel_;
   QLabel* probesLabel_;
-  QLabel* cutsLabel_;      ///< what the preview's leak cuts did (Viewport::previewCuts)
   QLabel* overlayReason_;  ///< why a shown overlay is empty, with the fixing action
   QLabel* volumeState_;    ///< a stale volume, named with why (Document::volumeStatusText)
   QLabel* jobLabel_;

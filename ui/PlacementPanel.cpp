@@ -103,13 +103,6 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   replace_->setChecked(defaults.replaceCandidates);
   replace_->setToolTip(tr("Off: keep the current candidates and only add new ones"));
   form->addRow(replace_);
-  placeLeakRefine_ = new QCheckBox(tr("Add probes against leaks"));
-  placeLeakRefine_->setChecked(defaults.refineLeaks);
-  placeLeakRefine_->setToolTip(
-      tr("After the method, add candidates (method \"leak\") on both sides of the walls that "
-         "tetrahedron edges cross (Sukys 3.2.2), beyond the budget. Off by default: the baked "
-         "volume's visibility maps keep light from crossing walls without them"));
-  form->addRow(placeLeakRefine_);
   domain_ = new QComboBox;
   domain_->addItem(tr("reachable"));
   domain_->setItemData(0,
@@ -169,20 +162,6 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   connect(bakeSpp_, &QSpinBox::valueChanged, this,
           [this](int n) { doc_->liveCaptureSettings().finalSamples = n; });
   doc_->liveCaptureSettings().finalSamples = bakeSpp_->value();
-  leakRefine_ = new QCheckBox(tr("Refine leaks"));
-  leakRefine_->setChecked(false);
-  leakRefine_->setToolTip(
-      tr("Add probes on both sides of the walls that tetrahedron edges cross (Sukys 3.2.2); they "
-         "go into the volume, not into the probe set. Off by default: the volume's visibility "
-         "maps keep light from crossing walls, and the volume holds exactly the accepted probes"));
-  bakeForm->addRow(leakRefine_);
-  leakCuts_ = new QCheckBox(tr("Cut leaks"));
-  leakCuts_->setChecked(false);
-  leakCuts_->setToolTip(
-      tr("Planes through the walls that hide a tetrahedron's probes from part of it; a query "
-         "there interpolates only the probes on its side (one dot product per plane in the "
-         "renderer). Off by default: on top of the visibility maps they do not lower the error"));
-  bakeForm->addRow(leakCuts_);
   fit_ = new QCheckBox(tr("Least-squares values"));
   fit_->setToolTip(
       tr("Fit the probes' values so that the volume's interpolation comes closest to captures at "
@@ -258,7 +237,6 @@ PlacementRequest PlacementPanel::placementRequest() const {
   r.aggressiveness = aggressiveness_->value();
   r.swapPasses = swapPasses_->value();
   r.objective = objective_->currentText().toStdString();
-  r.refineLeaks = placeLeakRefine_->isChecked();
   r.domain = domain_->currentIndex() == 1 ? DomainRule::Bounds : DomainRule::Reachable;
   return r;
 }
@@ -266,8 +244,6 @@ PlacementRequest PlacementPanel::placementRequest() const {
 BakeRequest PlacementPanel::bakeRequest() const {
   BakeRequest r;
   r.samplesPerProbe = bakeSpp_->value();
-  r.refineLeaks = leakRefine_->isChecked();
-  r.leakCuts = leakCuts_->isChecked();
   r.fit = fit_->isChecked();
   return r;
 }

@@ -66,10 +66,7 @@ class PlacementPanel : public QWidget {
   QComboBox* objectiveBox() const { return objective_; }
   QSpinBox* captureSamplesBox() const { return captureSpp_; }
   QCheckBox* replaceBox() const { return replace_; }
-  QCheckBox* placeLeakRefineBox() const { return placeLeakRefine_; }
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
-  QCheckBox* leakRefineBox() const { return leakRefine_; }
-  QCheckBox* leakCutsBox() const { return leakCuts_; }
   QCheckBox* fitBox() const { return fit_; }
   QPushButton* cancelButton() const { return cancel_; }
   /// The volume named with its state (Document::volumeStatusText).
@@ -102,10 +99,7 @@ class PlacementPanel : public QWidget {
   QComboBox* objective_ = nullptr;
   QSpinBox* captureSpp_;
   QCheckBox* replace_;
-  QCheckBox* placeLeakRefine_ = nullptr;
   QComboBox* domain_ = nullptr;
-  QCheckBox* leakRefine_ = nullptr;
-  QCheckBox* leakCuts_ = nullptr;
   QCheckBox* fit_ = nullptr;
   QSpinBox* bakeSpp_;
   QPushButton* run_;

@@ -348,7 +348,7 @@ Viewport::Viewport(Document* doc, QWidget* parent) : QOpenGLWidget(parent), doc_
     update();
   });
   connect(doc, &Document::importanceVolumesChanged, this, [this] {
-    fieldsDirty_ = true;  // the leak cuts draw their points in the importance volumes
+    fieldsDirty_ = true;
     update();
   });
   connect(doc, &Document::probeInserted, this, &Viewport::onProbesChanged);

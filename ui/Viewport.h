@@ -137,15 +137,6 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// Which probes the preview volume uses (accepted only, or all captured).
   void setPreviewSource(PreviewSource s);
   PreviewSource previewSource() const { return previewSource_; }
-  /// Leak cuts on the preview volume and, while the error slice is shown, on its reference
-  /// (previewLeakCuts in LightingField.h): the preview then shows what bake's cuts make of the
-  /// light behind a wall, instead of the leak. On by default; they need the scene's tracer, and
-  /// the baked volume has its own.
-  void setLeakCuts(bool on);
-  bool leakCuts() const { return leakCuts_; }
-  /// What the last fields' cuts did to the preview volume (nothing when there were none to
-  /// compute); does not bring the fields up to date.
-  const std::optional<PreviewCuts>& previewCuts() const { return previewCuts_; }
   /// Cells along the longest side of the glyph grid (one glyph per cell).
   void setGlyphResolution(int cells);
   int glyphResolution() const { return glyphResolution_; }
@@ -364,8 +355,6 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void applyFields(Fields&& f);
   /// glyphSamples() from the fields as they are (the frame does not wait for a rebuild).
   std::vector<GlyphSample> currentGlyphSamples(double* arrowMeters);
-  /// Whether the fields cut the error slice's reference too (only while that slice is shown).
-  bool cutsReference() const;
   /// Brings mirror_ up to date with the document (local edits); emits previewVolumeEdited.
   void syncMirror();
   /// syncMirror(), then a copy of its volume for the fields (nothing when there is none); the
@@ -407,8 +396,6 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   QSize meteredSize_;
   unsigned overlays_ = 0;
   PreviewSource previewSource_ = PreviewSource::AllCaptured;
-  bool leakCuts_ = true;
-  std::optional<PreviewCuts> previewCuts_;
   int glyphResolution_ = 20;
   bool glyphsAtProbes_ = false;
   int previewResolution_ = 40;

@@ -210,12 +210,10 @@ const ShGrid& Viewport::sceneLightGrid() {
 }
 
 void Viewport::setOverlay(Overlay o, bool on) {
-  const bool cut = cutsReference();
   if (on)
     overlays_ |= 1u << int(o);
   else
     overlays_ &= ~(1u << int(o));
-  if (cutsReference() != cut) fieldsDirty_ = true;
   overlaysDirty_ = true;
   update();
   emit overlaysToggled();
@@ -228,13 +226,6 @@ void Viewport::setPreviewSource(PreviewSource s) {
   emit overlaysToggled();
 }
 
-void Viewport::setLeakCuts(bool on) {
-  if (on == leakCuts_) return;
-  leakCuts_ = on;
-  fieldsDirty_ = true;
-  update();
-}
-
 void Viewport::setGlyphResolution(int cells) {
   glyphResolution_ = std::clamp(cells, 1, 256);
   fieldsDirty_ = true;
@@ -242,16 +233,10 @@ void Viewport::setGlyphResolution(int cells) {
 }
 
 void Viewport::setSliceMode(SliceMode m) {
-  const bool cut = cutsReference();
   sliceMode_ = m;
-  if (cutsReference() != cut) fieldsDirty_ = true;
   overlaysDirty_ = true;
   update();
   emit overlaysToggled();
-}
-
-bool Viewport::cutsReference() const {
-  return leakCuts_ && sliceMode_ == SliceMode::Error && overlay(Overlay::Slice);
 }
 
 void Viewport::setSliceAxis(int axis) {
@@ -382,7 +367,6 @@ struct Viewport::Fields {
   std::vector<std::array<int32_t, 2>> edges;
   std::vector<uint8_t> leaks;
   std::vector<float> edgeStops;
-  std::optional<PreviewCuts> cuts;
 };
 
 namespace {
@@ -393,8 +377,7 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 int glyphResolution, int previewResolution,
                                                 std::shared_ptr<const Tracer> tracer,
                                                 std::shared_ptr<const ProbeVolume> baked,
-                                                std::optional<ProbeVolume> preview, bool leakCuts,
-                                                bool cutReference, std::vector<Bounds3> domain);
+                                                std::optional<ProbeVolume> preview);
 }  // namespace
 
 namespace {
@@ -420,8 +403,7 @@ void Viewport::updateFields() {
   fieldsDirty_ = false;
   auto f = computeFields(doc_->probes(), previewSource_, scene ? scene->bounds : Bounds3(),
                          glyphResolution_, previewResolution_, doc_->tracerShared(), doc_->volume(),
-                         previewForFields(), leakCuts_, cutsReference(),
-                         importanceBoxes(doc_->probeSet().importanceVolumes));
+                         previewForFields());
   applyFields(std::move(*f));
 }
 
@@ -442,11 +424,10 @@ void Viewport::startFieldsRebuild() {
       update();  // shows the new fields; starts another rebuild if the probes moved meanwhile
     });
   }
-  fieldsWatcher_->setFuture(
-      QtConcurrent::run(computeFields, doc_->probes(), previewSource_,
-                        scene ? scene->bounds : Bounds3(), glyphResolution_, previewResolution_,
-                        doc_->tracerShared(), doc_->volume(), previewForFields(), leakCuts_,
-                        cutsReference(), importanceBoxes(doc_->probeSet().importanceVolumes)));
+  fieldsWatcher_->setFuture(QtConcurrent::run(computeFields, doc_->probes(), previewSource_,
+                                              scene ? scene->bounds : Bounds3(), glyphResolution_,
+                                              previewResolution_, doc_->tracerShared(),
+                                              doc_->volume(), previewForFields()));
 }
 
 void Viewport::applyFields(Fields&& f) {
@@ -460,7 +441,6 @@ void Viewport::applyFields(Fields&& f) {
   edges_ = std::move(f.edges);
   leaks_ = std::move(f.leaks);
   edgeStops_ = std::move(f.edgeStops);
-  previewCuts_ = std::move(f.cuts);
   glyphScale_ = -1;
   emit fieldsUpdated();
 }
@@ -487,24 +467,17 @@ std::shared_ptr<Viewport::Fields> computeFields(const std::vector<Probe>& probes
                                                 int glyphResolution, int previewResolution,
                                                 std::shared_ptr<const Tracer> tracer,
                                                 std::shared_ptr<const ProbeVolume> baked,
-                                                std::optional<ProbeVolume> preview, bool leakCuts,
-                                                bool cutReference, std::vector<Bounds3> domain) {
+                                                std::optional<ProbeVolume> preview) {
   auto f = std::make_shared<Viewport::Fields>();
-  const bool cut = leakCuts && tracer;
   if (source == PreviewSource::Baked) {
-    if (baked) f->preview = *baked;  // with the cuts it was baked with
+    if (baked) f->preview = *baked;
   } else {
     f->preview = std::move(preview);  // the mirror's copy, kept up to date by local edits
-    if (cut && f->preview) f->cuts = previewLeakCuts(*tracer, *f->preview, domain);
   }
-  if (source == PreviewSource::AllCaptured) {
+  if (source == PreviewSource::AllCaptured)
     f->reference = f->preview;
-  } else {
+  else
     f->reference = buildPreviewVolume(probes, PreviewSource::AllCaptured);
-    // The error slice's reference leaks no more than the preview (only while that slice is
-    // shown: it doubles the rebuild's time).
-    if (cut && cutReference && f->reference) previewLeakCuts(*tracer, *f->reference, domain);
-  }
   if (!f->preview || bounds.empty()) return f;
   f->glyphGrid = sampleGrid(*f->preview, bounds, glyphResolution);
   f->previewGrid = sampleGrid(*f->preview, bounds, previewResolution);

@@ -37,12 +37,6 @@ void registerBake(CLI::App& app) {
     uint64_t seed = 1;
     std::string cacheDir;
     bool noCache = false;
-    bool noLeakRefine = false;
-    bool leakRefine = false;
-    bool noLeakCuts = false;
-    bool leakCutProbes = false;
-    bool leakCutsOnly = false;
-    double overCutWeight = LeakCutSettings{}.overCutWeight;
     bool fit = false;
     FitSettings fitSettings;
     UnitOptions units;
@@ -60,30 +54,10 @@ void registerBake(CLI::App& app) {
                   "Capture cache folder (default: SET.capture-cache beside the probe set)");
   cmd->add_flag("--no-cache", o->noCache,
                 "Capture every probe, neither reading nor writing a cache");
-  cmd->add_flag("--leak-refine", o->leakRefine,
-                "Leak handling: add probes where the probe mesh's edges cross geometry (Sukys "
-                "3.2.2), then cut the tetrahedra that still span walls. Off by default: the "
-                "volume's visibility maps keep light from crossing walls, the volume holds "
-                "exactly the set's accepted probes, and neither lowers the error on top of the "
-                "maps (docs/leaks.md)");
-  cmd->add_flag("--no-leak-refine", o->noLeakRefine,
-                "No leak handling: the default, the volume holds the set's accepted probes");
-  cmd->add_flag("--no-leak-cuts", o->noLeakCuts,
-                "With --leak-refine, only Sukys's probes: no leak cuts (planes that keep a "
-                "query from interpolating probes behind the surfaces in its tetrahedron)");
-  cmd->add_flag("--leak-cuts-only", o->leakCutsOnly,
-                "Leak cuts without Sukys's probes: the volume holds exactly the set's accepted "
-                "probes, with cuts");
-  cmd->add_option("--over-cut-weight", o->overCutWeight,
-                  "What a leak cut costs, in leaking points, per unit of weight it moves at a "
-                  "point that sees every probe (a plane also cuts off probes in plain view; eval's "
-                  "over_cut_fraction): default 0.25, 0 counts the leaks alone")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_flag("--leak-cut-probes", o->leakCutProbes,
-                "Also add probes where the cuts cannot end a leak, at points they leave leaking "
-                "(fewer leaks, more probes; rel_rmse may rise at small probe counts). The cuts "
-                "then count the leaks alone (--over-cut-weight 0) unless "
-                "--over-cut-weight is given: fewer leaks are left for probes to end");
+  for (const char* flag : {"--leak-refine", "--no-leak-refine", "--no-leak-cuts",
+                           "--leak-cuts-only", "--leak-cut-probes"})
+    addRemovedOption(*cmd, flag, false, kLeakBakeReplacement);
+  addRemovedOption(*cmd, "--over-cut-weight", true, kLeakBakeReplacement);
   cmd->add_flag("--fit", o->fit,
                 "Least-squares probe values: fit the volume's interpolation to captures at random "
                 "points of the domain instead of keeping each probe's own capture (lower error, "
@@ -110,27 +84,6 @@ void registerBake(CLI::App& app) {
       if (flag.empty()) throw;
       throw ParameterError(flag, e.problem());
     }
-    if (!std::isfinite(o->overCutWeight))
-      throw ParameterError("--over-cut-weight: expected a finite number >= 0");
-    // Leak handling is on with --leak-refine, or with an option that only means something
-    // with the cuts.
-    const bool leakHandling = o->leakRefine || o->leakCutsOnly || o->leakCutProbes;
-    if (o->leakCutsOnly && (o->leakRefine || o->noLeakCuts || o->leakCutProbes))
-      throw ParameterError(
-          "--leak-cuts-only: cuts without Sukys's probes; it cannot go with --leak-refine, "
-          "--no-leak-cuts or --leak-cut-probes");
-    if (o->noLeakRefine && leakHandling)
-      throw ParameterError(
-          "--no-leak-refine: it cannot go with --leak-refine, --leak-cuts-only or "
-          "--leak-cut-probes");
-    if (o->noLeakCuts && !o->leakRefine)
-      throw ParameterError(
-          "--no-leak-cuts: it leaves Sukys's probes of --leak-refine alone; "
-          "expected --leak-refine with it");
-    if (cmd->count("--over-cut-weight") && (!leakHandling || o->noLeakCuts))
-      throw ParameterError(
-          "--over-cut-weight: it weighs the leak cuts, which need --leak-refine, "
-          "--leak-cuts-only or --leak-cut-probes, and --no-leak-cuts turns off");
     if (o->sampling.spp > kMaxSamplesPerProbe)
       throw ParameterError("--spp: " + std::to_string(o->sampling.spp) +
                            " samples per probe is above the " + "limit of " +
@@ -146,15 +99,6 @@ void registerBake(CLI::App& app) {
     o->sampling.apply(bs.capture);
     bs.capture.seed = o->seed;
     bs.sceneHash = sceneContentHash(set.scenePath, unit);
-    bs.leakRefine = leakHandling;
-    bs.leakCuts = !o->noLeakCuts;
-    bs.leakCutProbes = o->leakCutProbes;
-    bs.leakRefineProbes = !o->leakCutsOnly;
-    // With probes for what the cuts leave, cuts for the leaks alone: without the over-cut's cost
-    // they end more leaks and leave fewer for probes to end, so fewer probes are added (their
-    // effect on rel_rmse is not measured under today's defaults).
-    bs.leakCutSettings.overCutWeight =
-        o->leakCutProbes && !cmd->count("--over-cut-weight") ? 0.0 : o->overCutWeight;
     bs.domain = domainSettings;
     if (o->fit) {
       bs.fit = o->fitSettings;
@@ -180,24 +124,6 @@ void registerBake(CLI::App& app) {
         "%s, tetrahedralize %.3f s) -> %s\n",
         r.probes, r.captured, r.cacheHits, r.file.volume.tets.size(), r.captureSeconds,
         quality.c_str(), r.tetraSeconds, o->out.c_str());
-    if (bs.leakRefine)
-      std::printf(
-          "leak refinement added %zu probes (%.3f s): leaking edges %zu -> %zu, volume in "
-          "tetrahedra with a leaking edge %.2f %% -> %.2f %%\n",
-          r.leakProbesAdded, r.leakSeconds, r.leakingEdgesBefore, r.leakingEdgesAfter,
-          100 * r.leakingVolumeFractionBefore, 100 * r.leakingVolumeFractionAfter);
-    if (r.leakCuts) {
-      std::printf(
-          "leak cuts: %zu planes in %zu tetrahedra (%.3f s); of %zu valid points drawn in and "
-          "beyond the tetrahedra, %zu interpolated a probe they cannot see, %zu do after the "
-          "cuts (in %zu tetrahedra)\n",
-          r.leakCuts->planes, r.leakCuts->tetsCut, r.leakCuts->seconds, r.leakCuts->samples,
-          r.leakCuts->hiddenSamplesBefore, r.leakCuts->hiddenSamplesAfter,
-          r.leakCuts->tetsUnresolved);
-      if (bs.leakCutProbes)
-        std::printf("  of the probes leak refinement added, %zu are for the cuts\n",
-                    r.leakCutProbesAdded);
-    }
     if (r.fit)
       std::printf(
           "least-squares fit: %zu points at %d spp, %d iterations, misfit at the points %.4f -> "

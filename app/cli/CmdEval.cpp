@@ -95,7 +95,6 @@ ojson evalJson(const EvalResult& r, const EvalReport& report, int floorSpp) {
   j["leaking_fraction"] = r.leakingFraction;
   j["leaking_outside_hull_fraction"] = r.leakingOutsideHullFraction;
   j["outside_hull_fraction"] = r.outsideHullFraction;
-  j["over_cut_fraction"] = r.overCutFraction;
   j["seconds"] = r.seconds;
   j["reference_cached"] = r.referenceCached;
   j["light_clearance_m"] = r.lightClearanceMeters;
@@ -121,13 +120,13 @@ ojson evalJson(const EvalResult& r, const EvalReport& report, int floorSpp) {
 void printEval(const EvalResult& r, const EvalReport& report, int floorSpp) {
   std::printf(
       "probes %zu, queries %zu: relative RMS irradiance error %.4f, p95 %.4f, max %.4f, "
-      "leaking %.4f, over-cut %.4f (%.2f s%s%s)\n"
+      "leaking %.4f (%.2f s%s%s)\n"
       "rel_rmse's standard error from the queries drawn %.4f; reference noise %.4f (the "
       "relative RMS error of a perfect volume against this reference)\n"
       "outside the probes' hull (clamped to it) %.4f of the queries; leaking there %.4f, "
       "inside %.4f\n",
-      r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction,
-      r.overCutFraction, r.seconds, r.referenceCached ? ", reference from the cache" : "",
+      r.probes, r.queries, r.relRmse, r.p95RelError, r.maxRelError, r.leakingFraction, r.seconds,
+      r.referenceCached ? ", reference from the cache" : "",
       r.visibility ? ", visibility-aware interpolation" : "", r.relRmseStdError,
       r.referenceRelNoise, r.outsideHullFraction, r.leakingOutsideHullFraction,
       r.leakingFraction - r.leakingOutsideHullFraction);

@@ -32,20 +32,11 @@ void registerInfo(CLI::App& app) {
     if (isVolumePath(*file)) {
       const VolumeFile vf = loadVolume(*file);
       const VolumeSource src = volumeSource(vf, *file);
-      // The version saveVolume writes for this content (the loader accepts 1 to 3).
+      // The version saveVolume writes for this content (the loader accepts 1 to 4).
       std::printf("%s: probe volume, format version %d, SH order 2\n", file->c_str(),
-                  vf.volume.hasVisibility()     ? 3
-                  : vf.volume.cutPlanes.empty() ? 1
-                                                : 2);
+                  vf.volume.hasVisibility() ? 4 : 1);
       std::printf("  probes %zu, tetrahedra %zu, hull faces %zu\n", vf.volume.probeCount(),
                   vf.volume.tets.size(), vf.volume.hullFaces.size());
-      if (!vf.volume.cutPlanes.empty()) {
-        size_t cutTets = 0;
-        for (size_t t = 0; t < vf.volume.tets.size(); ++t)
-          cutTets += vf.volume.cutStart[t + 1] > vf.volume.cutStart[t];
-        std::printf("  leak cuts: %zu planes in %zu tetrahedra\n", vf.volume.cutPlanes.size(),
-                    cutTets);
-      }
       if (vf.volume.hasVisibility()) {
         size_t inside = 0;
         for (uint8_t f : vf.volume.probeInside) inside += f;

@@ -124,8 +124,6 @@ struct PlaceOpts {
   std::string scene, out, keep;
   PlaceRequest request;
   bool accept = false;
-  bool noLeakRefine = false;
-  bool leakRefine = false;
   RigOptions rig;
   DomainOptions domain;
   UnitOptions units;
@@ -186,12 +184,8 @@ void registerPlace(CLI::App& app) {
                   "Existing probe set whose locked probes are kept (with their ids) and built "
                   "around, and whose rejected probes stay rejected; its rig is used when no rig "
                   "option is given");
-  cmd->add_flag("--leak-refine", o->leakRefine,
-                "Also add probes (method \"leak\") where the mesh's edges cross geometry, "
-                "beyond the budget (off by default: with the baked volume's visibility maps "
-                "they do not lower the error at equal probe count)");
-  cmd->add_flag("--no-leak-refine", o->noLeakRefine,
-                "No leak refinement: the default, the set holds the budget's probes");
+  for (const char* flag : {"--leak-refine", "--no-leak-refine"})
+    addRemovedOption(*cmd, flag, false, kLeakPlaceReplacement);
   cmd->add_flag_function(
       "--no-coverage", [o](int64_t) { o->request.cover = false; },
       "Place with the method alone: no probes first for every room and the domain's hull (the "
@@ -206,9 +200,6 @@ void registerPlace(CLI::App& app) {
     const auto t0 = std::chrono::steady_clock::now();
     PlaceRequest& request = o->request;
     request.domain = o->domain.build();
-    if (o->leakRefine && o->noLeakRefine)
-      throw ParameterError("--leak-refine: it cannot go with --no-leak-refine");
-    request.refineLeaks = o->leakRefine;
     request.newState = o->accept ? ProbeState::Accepted : ProbeState::Candidate;
     ProbeSet set;
     set.scenePath = fs::absolute(o->scene).string();
@@ -242,7 +233,6 @@ void registerPlace(CLI::App& app) {
       std::printf("placed %zu probes (method %s, %zu covering, %zu kept) in %.2f s -> %s\n",
                   placed.placed, request.method.c_str(), placed.covered, placed.kept,
                   secondsSince(t0), o->out.c_str());
-      if (request.refineLeaks) std::printf("leak refinement added %zu probes\n", placed.leakAdded);
     } catch (const ParameterError& e) {
       throw asFlagError(e, request.method);
     }

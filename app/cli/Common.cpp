@@ -272,4 +272,15 @@ ProgressFn terminalProgress(const std::string& label) {
   };
 }
 
+void addRemovedOption(CLI::App& cmd, const std::string& name, bool takesValue,
+                      const std::string& replacement) {
+  const auto refuse = [name, replacement] {
+    throw ParameterError(name, "removed; " + replacement);
+  };
+  CLI::Option* o = takesValue ? cmd.add_option_function<std::string>(
+                                    name, [refuse](const std::string&) { refuse(); })
+                              : cmd.add_flag_function(name, [refuse](int64_t) { refuse(); });
+  o->group("");  // hidden from --help
+}
+
 }  // namespace ps::cli

@@ -104,6 +104,25 @@ struct VolumeSource {
 /// Throws ps::FileError naming the volume and the metadata field.
 VolumeSource volumeSource(const VolumeFile& vf, const std::filesystem::path& volumePath);
 
+/// A removed option, still parsed (a flag, or with `takesValue` an option with
+/// one value; hidden from --help) so that an old command fails saying what replaced it rather
+/// than "unrecognised". Giving it throws ps::ParameterError(name, "removed; " + replacement)
+/// before the subcommand runs: exit code 1, as for any bad parameter.
+void addRemovedOption(CLI::App& cmd, const std::string& name, bool takesValue,
+                      const std::string& replacement);
+
+/// What replaced bake's leak refinement and leak cuts, for addRemovedOption.
+inline constexpr const char* kLeakBakeReplacement =
+    "the baked volume's visibility maps weigh each probe by whether it sees the query, and a "
+    "query whose tetrahedron's probes are all hidden takes its light from the neighbouring "
+    "tetrahedra's probes that see it (docs/leaks.md); the volume holds exactly the accepted "
+    "probes";
+/// What replaced place's leak refinement, for addRemovedOption.
+inline constexpr const char* kLeakPlaceReplacement =
+    "coverage-first placement puts probes in every room and the budget is the set's probe "
+    "count; the baked volume's visibility maps and their neighbour search keep light from "
+    "crossing walls (docs/leaks.md)";
+
 void registerPlace(CLI::App& app);
 void registerBake(CLI::App& app);
 void registerCapture(CLI::App& app);

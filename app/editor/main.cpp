@@ -185,8 +185,9 @@ int main(int argc, char** argv) {
   const QCommandLineOption windowShotOpt(
       "window-screenshot", "With --screenshot: also write the whole window to this PNG.",
       "WIN.png");
-  const QCommandLineOption noCutsOpt(
-      "no-leak-cuts", "Preview without the leak cuts (View > Leak cuts in the preview, off).");
+  // Removed: parsed only to be refused with what replaced it.
+  QCommandLineOption noCutsOpt("no-leak-cuts", "Removed (the preview has no leak cuts).");
+  noCutsOpt.setFlags(QCommandLineOption::HiddenFromHelp);
   const QCommandLineOption recoverOpt(
       "recover", "With --screenshot: recover the newest crashed session's work first.");
   const QCommandLineOption acceptOpt(
@@ -221,6 +222,12 @@ int main(int argc, char** argv) {
     metresPerUnit = *unit;
   }
   const QString probesPath = argumentIsSet ? argument : parser.value(probesOpt);
+  if (parser.isSet(noCutsOpt)) {
+    fail(QStringLiteral(
+        "--no-leak-cuts: removed; the preview has no leak cuts: the baked volume's visibility "
+        "maps and their neighbour search keep light from crossing walls (docs/leaks.md)"));
+    return 1;
+  }
 
   const auto m = QRegularExpression("^(\\d+)x(\\d+)$").match(parser.value(sizeOpt));
   if (!m.hasMatch() || m.captured(1).toInt() < 16 || m.captured(2).toInt() < 16) {
@@ -258,9 +265,6 @@ int main(int argc, char** argv) {
         return 1;
       }
     }
-    if (parser.isSet(noCutsOpt))
-      if (auto* cuts = w.findChild<QAction*>("leakCutsAction"); cuts && cuts->isChecked())
-        cuts->trigger();
     if (screenshot) w.viewport()->setFixedSize(size);
     ps::ui::Document* doc = w.document();
     doc->setAutoPropose(probesPath.isEmpty());

@@ -55,35 +55,6 @@ BakeProbes gatherAcceptedProbes(const ProbeSet& set) {
   return b;
 }
 
-void leakRefineStage(BakeProbes& probes, const Tracer& tracer, const BakeSettings& settings,
-                     const LightingRig& rig, std::span<const Bounds3> domain, BakeResult& r) {
-  if (!settings.leakRefine) return;
-  const auto start = std::chrono::steady_clock::now();
-  auto append = [&](const std::vector<Vec3>& added) {
-    for (const Vec3& p : added) {
-      probes.positions.push_back(p);
-      probes.ids.push_back(0);
-    }
-  };
-  LeakRefineSettings sukys = settings.leakRefineSettings;
-  if (!settings.leakRefineProbes) sukys.maxIterations = 0;  // trace and count, add nothing
-  const LeakRefineResult leak = refineLeaks(tracer, probes.positions, sukys);
-  append(leak.added);
-  // The cuts' probes after Sukys's refinement: the edges they make are the cuts'.
-  LeakCutRefineResult forCuts;
-  if (settings.leakCuts && settings.leakCutProbes) {
-    forCuts = refineForLeakCuts(tracer, rig, probes.positions, domain, settings.leakCutSettings);
-    append(forCuts.added);
-  }
-  r.leakProbesAdded = leak.added.size() + forCuts.added.size();
-  r.leakCutProbesAdded = forCuts.added.size();
-  r.leakingEdgesBefore = leak.leakingEdgesBefore;
-  r.leakingEdgesAfter = leak.leakingEdgesAfter;
-  r.leakingVolumeFractionBefore = leak.leakingVolumeFractionBefore;
-  r.leakingVolumeFractionAfter = leak.leakingVolumeFractionAfter;
-  r.leakSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 void captureStage(BakeProbes& probes, const LightingRig& rig, const Tracer& tracer,
                   const BakeSettings& settings, const ProgressFn& progress, BakeResult& r) {
   const size_t n = probes.positions.size();
@@ -147,15 +118,12 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
     fitDomain = makeDomain(tracer, importanceBoxes(set.importanceVolumes), settings.domain);
     checkFitDomain(tracer, set.rig, fitDomain, *fit);
   }
-  leakRefineStage(probes, tracer, settings, set.rig, importanceBoxes(set.importanceVolumes), r);
-  if (fit) checkFitSettings(*fit, probes.positions.size());  // with the added probes
   r.probes = probes.positions.size();
   auto t0 = std::chrono::steady_clock::now();
-  // Progress: the capture, the leak cuts (when asked; on real scenes they can take longer than
-  // the capture) and the fit (when asked), each a share of it, so that each also cancels.
-  const bool cuts = settings.leakRefine && settings.leakCuts;
-  const double fitShare = fit ? 0.5 : 0.0, cutsShare = cuts ? 0.45 : 0.0;
-  const double captureShare = 0.95 - fitShare - cutsShare;
+  // Progress: the capture and the fit (when asked), each a share of it, so that each also
+  // cancels.
+  const double fitShare = fit ? 0.5 : 0.0;
+  const double captureShare = 0.95 - fitShare;
   auto share = [&](double from, double width) -> ProgressFn {
     if (!progress) return {};
     return [&progress, from, width](double f) { return progress(from + width * f); };
@@ -165,15 +133,11 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   auto t1 = std::chrono::steady_clock::now();
   r.file.volume = volumeFromProbes(probes.positions, probes.sh, probes.visibility);
   auto t2 = std::chrono::steady_clock::now();
-  // Before the fit, which then fits the values that the cut interpolation reads.
-  if (cuts)
-    r.leakCuts = computeLeakCuts(tracer, r.file.volume, importanceBoxes(set.importanceVolumes),
-                                 settings.leakCutSettings, share(captureShare, cutsShare));
   r.captureSeconds = std::chrono::duration<double>(t1 - t0).count();
   r.tetraSeconds = std::chrono::duration<double>(t2 - t1).count();
   if (fit) {
     r.fit = fitProbeValues(tracer, set.rig, r.file.volume, fitDomain, *fit,
-                           share(captureShare + cutsShare, fitShare));
+                           share(captureShare, fitShare));
   }
 
   nlohmann::ordered_json meta;
@@ -186,11 +150,6 @@ BakeResult bakeProbeSet(const ProbeSet& set, const Tracer& tracer, const BakeSet
   meta["rig"] = rigToJson(scaledRig(set.rig, unitsPerMetre));
   meta["capture_spp"] = settings.capture.samplesPerProbe;
   meta["probe_ids"] = probes.ids;
-  meta["leak_probes_added"] = r.leakProbesAdded;
-  if (r.leakCuts) {
-    meta["leak_cut_planes"] = r.leakCuts->planes;
-    meta["leak_cut_over_cut_weight"] = settings.leakCutSettings.overCutWeight;
-  }
   if (fit)
     meta["fit"] = {{"method", "least-squares"},
                    {"points_per_probe", fit->pointsPerProbe},

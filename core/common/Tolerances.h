@@ -31,11 +31,6 @@ inline constexpr double kFlatTetRelativeVolume = 1e-12;
 /// would have stopped in the same tet.
 inline constexpr double kFastPathMargin = double(kBarycentricSlack);
 
-/// Leak refinement (Sukys 3.2.2): an edge that meets a surface at |cos| below this (runs along
-/// it, e.g. between two probes on a floor) does not cross it. The paper's check is the sign of
-/// the dot product of the ray direction and the surface normal; this leaves out grazing hits.
-inline constexpr double kLeakGrazingCos = 1e-3;
-
 /// sinCos2Pi (core/math/SinCos.h) is within this of the exact sin and cos of 2 pi v: the table's
 /// rounding (half an ulp), the rounding of the remainder angle (<= 2e-18) and of the final sums
 /// (1.1e-16 measured over 1e7 random v; std::sin and std::cos of the rounded 2 pi v: 6.9e-16).

@@ -193,62 +193,52 @@ struct QueryMeasures {
   std::vector<double> ref;    ///< luminance of the reference irradiance (W/m^2)
   std::vector<double> got;    ///< luminance of the volume's irradiance (W/m^2)
   std::vector<char> leaking;  ///< 1: interpolates, with weight, a probe the query cannot see
-  /// 1: sees every probe its tet interpolates without the cuts, and the cuts move more than
-  /// kOverCutWeightChange of its weight
-  std::vector<char> overCut;
   std::vector<char> outside;  ///< 1: outside the probes' hull, clamped to it
 };
 
 /// Query q of `reference` in `volume`: writes entry q of each of m's vectors (sized M by the
-/// caller; no other entry, so queries may run in parallel). `uncut`: the volume without its leak
-/// cuts, or null when it has none. `visibility`: interpolate with the visibility-aware weights
-/// (the volume has maps), with the query's normal for their normal term when `normalTerm`. One
-/// ray per probe of the query's tet.
-void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVolume* uncut,
-                  bool visibility, bool normalTerm, const EvalReference& reference, size_t q,
-                  QueryMeasures& m) {
+/// caller; no other entry, so queries may run in parallel). `visibility`: interpolate with the
+/// visibility-aware weights (the volume has maps), with the query's normal for their normal term
+/// when `normalTerm`. One ray per probe the query's weights blend.
+void measureQuery(const Tracer& tracer, const ProbeVolume& volume, bool visibility, bool normalTerm,
+                  const EvalReference& reference, size_t q, QueryMeasures& m) {
   const Vec3 point = reference.points[q];
   m.ref[q] = luminance(reference.irradiance[q]);
-  // locate() is the uncut location with the cuts applied: the same tet for both.
-  const VolumeLocation before = locate(uncut ? *uncut : volume, point);
-  VolumeLocation loc = before;
-  if (uncut && loc.tet >= 0) applyCuts(volume, point, loc);
-  // The weights the query is read with: the location's, or the visibility-aware ones.
-  std::array<double, 4> weights{};
+  const VolumeLocation loc = locate(volume, point);
+  // The probes and weights the query is read with: the location's, or the visibility-aware
+  // ones (the tet's four, or the neighbour search's).
+  std::array<int32_t, kMaxVisibleProbes> probes{};
+  std::array<double, kMaxVisibleProbes> weights{};
+  int count = 0;
   if (visibility) {
     // The query is a point in the air: its normal picks the irradiance's direction, not a side
     // of a surface, so the normal term is off unless asked for (docs/leaks.md measures both).
     const VisibleWeights w = visibleWeights(
         volume, loc, point, normalTerm ? std::optional<Vec3>(reference.normals[q]) : std::nullopt);
     m.got[q] = luminance(interpolate(volume, w).irradiance(reference.normals[q]));
+    probes = w.probes;
     weights = w.weights;
+    count = w.count;
   } else {
     m.got[q] = luminance(interpolate(volume, loc).irradiance(reference.normals[q]));
-    for (int k = 0; k < 4; ++k) weights[k] = loc.weights[k];
+    if (loc.tet >= 0) count = 4;
+    for (int k = 0; k < count; ++k) {
+      probes[size_t(k)] = volume.tets[size_t(loc.tet)][k];
+      weights[size_t(k)] = loc.weights[k];
+    }
   }
   m.outside[q] = loc.outside ? 1 : 0;
   if (loc.tet < 0) return;
   // Sukys 3.2.2: the query interpolates a probe it cannot see (light leaking). A probe with
-  // weight 0 (cut off by a leak cut, or opposite the face a query outside the hull is
-  // clamped to) is not interpolated.
-  bool seesAll = true;  // every probe it interpolates without the cuts
-  for (int k = 0; k < 4; ++k) {
-    if (!(weights[k] > 0) && !(before.weights[k] > 0)) continue;
-    const int32_t vi = volume.tets[size_t(loc.tet)][k];
-    const Vec3 d = volume.position(vi) - point;
+  // weight 0 (opposite the face a query outside the hull is clamped to, or unseen by the
+  // visibility maps) is not interpolated.
+  for (int k = 0; k < count; ++k) {
+    if (!(weights[size_t(k)] > 0)) continue;
+    const Vec3 d = volume.position(probes[size_t(k)]) - point;
     const double len = length(d);
     if (len <= 2 * tracer.rayEpsilon()) continue;
-    if (tracer.occluded(
-            Ray{point, d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len})) {
-      if (weights[k] > 0) m.leaking[q] = 1;
-      if (before.weights[k] > 0) seesAll = false;
-    }
-  }
-  // A cut is a plane: it can take weight from probes in plain view (over-cut).
-  if (uncut && seesAll) {
-    double moved = 0;
-    for (int k = 0; k < 4; ++k) moved += std::abs(double(loc.weights[k]) - before.weights[k]);
-    m.overCut[q] = 0.5 * moved > kOverCutWeightChange;
+    if (tracer.occluded(Ray{point, d, tracer.rayEpsilon() / len, 1.0 - tracer.rayEpsilon() / len}))
+      m.leaking[q] = 1;
   }
 }
 
@@ -257,18 +247,10 @@ void measureQuery(const Tracer& tracer, const ProbeVolume& volume, const ProbeVo
 QueryMeasures measureQueries(const Tracer& tracer, const ProbeVolume& volume, bool visibility,
                              bool normalTerm, const EvalReference& reference) {
   const size_t M = reference.points.size();
-  // With leak cuts, also the weights without them (the same tet), to see what the cuts moved.
-  std::optional<ProbeVolume> uncut;
-  if (!volume.cutPlanes.empty()) {
-    uncut = volume;
-    uncut->cutStart.clear();
-    uncut->cutPlanes.clear();
-  }
   QueryMeasures m{std::vector<double>(M), std::vector<double>(M), std::vector<char>(M, 0),
-                  std::vector<char>(M, 0), std::vector<char>(M, 0)};
+                  std::vector<char>(M, 0)};
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
-    measureQuery(tracer, volume, uncut ? &*uncut : nullptr, visibility, normalTerm, reference, q,
-                 m);
+    measureQuery(tracer, volume, visibility, normalTerm, reference, q, m);
   });
   return m;
 }
@@ -330,8 +312,8 @@ void setRelativeErrors(const ErrorSums& e, const QueryMeasures& m,
 }
 
 /// Sets r.perQuery (in the reference's order), the per-query relative error's percentiles
-/// (r.maxRelError, r.p95RelError) and the fractions of the M >= 1 queries that leak, are
-/// over-cut, lie outside the hull, and both leak and lie outside. `mean`: the reference's mean
+/// (r.maxRelError, r.p95RelError) and the fractions of the M >= 1 queries that leak, lie
+/// outside the hull, and both leak and lie outside. `mean`: the reference's mean
 /// luminance (W/m^2). O(M log M).
 void setPerQuery(const QueryMeasures& m, const EvalReference& reference, double mean,
                  EvalResult& r) {
@@ -361,7 +343,6 @@ void setPerQuery(const QueryMeasures& m, const EvalReference& reference, double 
     return double(std::count(flags.begin(), flags.end(), 1)) / double(M);
   };
   r.leakingFraction = fraction(m.leaking);
-  r.overCutFraction = fraction(m.overCut);
   r.outsideHullFraction = fraction(m.outside);
   size_t leakingOutside = 0;
   for (size_t q = 0; q < M; ++q) leakingOutside += m.leaking[q] && m.outside[q] ? 1 : 0;

@@ -65,10 +65,6 @@ struct EvalReference {
   bool operator==(const EvalReference&) const = default;
 };
 
-/// A query's weights count as moved by the leak cuts (EvalResult::overCutFraction) when they
-/// change by more than this in total variation (half the sum of |change|, 0 to 1).
-inline constexpr double kOverCutWeightChange = 0.05;
-
 /// One query of an evaluation: where it was, what the reference and the volume gave.
 struct EvalQuery {
   Vec3 point, normal;
@@ -122,15 +118,11 @@ struct EvalResult {
   /// the nearest hull face and extrapolates, and of the queries that are outside and leak (a
   /// part of leakingFraction). Leaks outside the hull come from too few probes near the
   /// domain's edge, where a probe placed there ends them; leaks inside, from tetrahedra across
-  /// walls that no leak cut splits. leakingFraction and outsideHullFraction on dream-apartment:
-  /// BENCHMARKS.md, "Placement quality under the default pipeline".
+  /// walls whose probes on the query's side the visibility maps do not find. leakingFraction and
+  /// outsideHullFraction on dream-apartment: BENCHMARKS.md, "Placement quality under the default
+  /// pipeline".
   double outsideHullFraction = 0;
   double leakingOutsideHullFraction = 0;
-  /// Fraction of the queries that see every probe their tetrahedron would interpolate without
-  /// the leak cuts, but whose weights the cuts move by more than kOverCutWeightChange (half the
-  /// sum of |change|): a cut is a plane, and can take weight from probes in plain view. 0 for a
-  /// volume without cuts. LeakCutSettings::overCutWeight trades it against leakingFraction.
-  double overCutFraction = 0;
   double seconds = 0;
   double lightClearanceMeters = 0;  ///< the clearance kept from punctual lights (0: none)
   /// The reference came from the cache (nothing was traced for it).

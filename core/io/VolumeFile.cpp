@@ -10,39 +10,39 @@
 #include "core/io/JsonFields.h"
 #include "core/io/ProbeSetFile.h"
 
-// Layout (docs/formats.md, "Probe volume"), all little-endian:
+// Layout (docs/formats.md, "Probe volume"), all little-endian, as written (versions 1 and 4):
 //   char[8]  magic "PSVOLUM1"
-//   u32      version (1; 2 with leak cuts; 3 with visibility maps, cuts or not)
+//   u32      version (1 without visibility maps; 4 with them)
 //   u32      sh order (2 = 9 coefficients)
 //   u32      probe count P, tet count T, hull face count H, metadata byte count M
-//   u32      cut plane count C (versions 2 and 3)
-//   u32      visibility map size R, texels per side (version 3 only)
+//   u32      visibility map size R, texels per side (version 4 only)
 //   f32[3P]  positions        f32[27P] SH (probe-major, coefficient-major, RGB)
 //   i32[4T]  tets             i32[4T]  neighbours (-1 on the hull)
 //   f32[9T]  barycentric matrices (row-major)
 //   i32[2H]  hull faces (tet, local vertex opposite the face)
-//   u32[T+1] first cut plane of each tet, then C (versions 2 and 3)
-//   C x (f32 nx, ny, nz, d, u32 hide mask) cut planes (versions 2 and 3)
-//   u8[P]    probe flags: bit 0 set when the probe is inside geometry (version 3 only)
+//   u8[P]    probe flags: bit 0 set when the probe is inside geometry (version 4 only)
 //   f32[2 R^2 P] visibility maps: per probe, per texel, mean and mean square of the first-hit
-//            distance (version 3 only)
+//            distance (version 4 only)
 //   u8[M]    metadata (UTF-8 JSON)
 //   u32      CRC-32 (IEEE) of every byte before it
+// Versions 2 and 3 (read, never written) also hold a leak-cut section: a u32 cut plane count C
+// after M, and u32[T+1] cut starts then C x 20 bytes of planes after the hull faces (version 3
+// then has R and the maps as version 4). A file with C > 0 is refused: its lighting was made to
+// be read through the cuts, which this build does not apply.
 namespace ps {
 
 namespace {
 
 constexpr char kMagic[8] = {'P', 'S', 'V', 'O', 'L', 'U', 'M', '1'};
-// Version 1 has no leak cuts; a volume without them is still written as version 1, so that
-// readers of version 1 read it.
-constexpr uint32_t kVersionNoCuts = 1;
-constexpr uint32_t kVersionCuts = 2;
-constexpr uint32_t kVersionVisibility = 3;
+// A volume without maps is written as version 1, so that every reader of version 1 reads it.
+constexpr uint32_t kVersionPlain = 1;
+constexpr uint32_t kVersionCuts = 2;         // read only
+constexpr uint32_t kVersionCutsAndMaps = 3;  // read only
+constexpr uint32_t kVersionVisibility = 4;
 constexpr uint32_t kMaxVisibilityMapSize = 64;
 constexpr uint32_t kShOrder = 2;
-constexpr size_t kHeaderBytes = 8 + 6 * 4;  // version 1; version 2 adds the cut plane count
-
-static_assert(sizeof(ProbeVolume::CutPlane) == 20, "cut planes are stored as 4 floats and a u32");
+constexpr size_t kHeaderBytes = 8 + 6 * 4;  // version 1; the others add their counts
+constexpr size_t kCutPlaneBytes = 20;       // versions 2 and 3: f32 nx, ny, nz, d, u32 hide
 static_assert(std::endian::native == std::endian::little,
               "the volume writer assumes a little-endian host");
 
@@ -128,21 +128,17 @@ void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
   }
   const ProbeVolume& v = metres ? vf.volume : scaled;
   const bool maps = v.hasVisibility();
-  // Version 3 always holds the cut section (empty when there are no cuts).
-  const bool cutSection = maps || !v.cutPlanes.empty();
-  PS_CHECK(v.cutPlanes.empty() || v.cutStart.size() == v.tets.size() + 1);
   const size_t R = size_t(v.visibilityMapSize);
   PS_CHECK(!maps || (v.visibility.size() == 2 * R * R * v.probeCount() &&
                      v.probeInside.size() == v.probeCount()));
   Writer w;
   w.bytes(kMagic, 8);
-  w.u32(maps ? kVersionVisibility : !v.cutPlanes.empty() ? kVersionCuts : kVersionNoCuts);
+  w.u32(maps ? kVersionVisibility : kVersionPlain);
   w.u32(kShOrder);
   w.u32(static_cast<uint32_t>(v.probeCount()));
   w.u32(static_cast<uint32_t>(v.tets.size()));
   w.u32(static_cast<uint32_t>(v.hullFaces.size()));
   w.u32(static_cast<uint32_t>(metadata.size()));
-  if (cutSection) w.u32(static_cast<uint32_t>(v.cutPlanes.size()));
   if (maps) w.u32(static_cast<uint32_t>(R));
   w.array(v.positions);
   w.array(v.sh);
@@ -150,13 +146,6 @@ void saveVolume(const VolumeFile& vf, const std::filesystem::path& path) {
   w.array(v.neighbors);
   w.array(v.matrices);
   w.array(v.hullFaces);
-  if (cutSection) {
-    if (v.cutPlanes.empty())
-      w.array(std::vector<uint32_t>(v.tets.size() + 1, 0));
-    else
-      w.array(v.cutStart);
-    w.array(v.cutPlanes);
-  }
   if (maps) {
     w.array(v.probeInside);
     w.array(v.visibility);
@@ -177,12 +166,12 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
     r.fail("magic", "not a ProbeStudio volume (expected magic \"PSVOLUM1\")");
   r.skip(8);
   const uint32_t version = r.u32("version");
-  if (version != kVersionNoCuts && version != kVersionCuts && version != kVersionVisibility)
+  if (version < kVersionPlain || version > kVersionVisibility)
     r.fail("version", "unsupported version " + std::to_string(version) + " (this build reads " +
-                          std::to_string(kVersionNoCuts) + " to " +
+                          std::to_string(kVersionPlain) + " to " +
                           std::to_string(kVersionVisibility) + ")");
-  const bool cuts = version >= kVersionCuts;
-  const bool maps = version == kVersionVisibility;
+  const bool cuts = version == kVersionCuts || version == kVersionCutsAndMaps;
+  const bool maps = version == kVersionCutsAndMaps || version == kVersionVisibility;
   const uint32_t order = r.u32("sh_order");
   if (order != kShOrder) r.fail("sh_order", "expected SH order 2, got " + std::to_string(order));
   const uint64_t P = r.u32("probe_count"), T = r.u32("tet_count"), H = r.u32("hull_face_count"),
@@ -195,8 +184,8 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
   // Refuse counts the file cannot hold before allocating anything.
   const uint64_t header = kHeaderBytes + (cuts ? 4 : 0) + (maps ? 4 : 0);
   const uint64_t body = P * (3 + 27) * 4 + T * (4 + 4 + 9) * 4 + H * 2 * 4 +
-                        (cuts ? (T + 1) * 4 + C * 20 : 0) + (maps ? P * (1 + 2 * R * R * 4) : 0) +
-                        M + 4;
+                        (cuts ? (T + 1) * 4 + C * kCutPlaneBytes : 0) +
+                        (maps ? P * (1 + 2 * R * R * 4) : 0) + M + 4;
   if (header + body != data.size())
     r.fail("header", "counts (" + std::to_string(P) + " probes, " + std::to_string(T) + " tets, " +
                          std::to_string(H) + " hull faces, " +
@@ -211,6 +200,15 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
   if (crc32(data.data(), data.size() - 4) != stored)
     r.fail("crc32", "checksum mismatch: the file is corrupted");
   if (P < 4 || T < 1) r.fail("header", "a volume needs at least 4 probes and 1 tetrahedron");
+  // Leak cuts changed the weights the volume's lighting was checked with; reading it without
+  // them would change that lighting unannounced, so the file is refused with what to do.
+  if (C > 0)
+    r.fail("cut_plane_count",
+           "the volume holds " + std::to_string(C) + " leak cut planes (format version " +
+               std::to_string(version) +
+               "), which this build no longer applies: the visibility maps and their neighbour "
+               "search replace them (docs/leaks.md). Re-bake the volume from its probe set with "
+               "`probestudio bake`");
 
   VolumeFile vf;
   ProbeVolume& v = vf.volume;
@@ -220,9 +218,13 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
   r.array(v.neighbors, T, "neighbors");
   r.array(v.matrices, T, "matrices");
   r.array(v.hullFaces, H, "hull_faces");
-  if (cuts) {
-    r.array(v.cutStart, T + 1, "cut_start");
-    r.array(v.cutPlanes, C, "cut_planes");
+  if (cuts) {  // C = 0: every entry must be 0
+    std::vector<uint32_t> cutStart;
+    r.array(cutStart, T + 1, "cut_start");
+    for (size_t t = 0; t <= T; ++t)
+      if (cutStart[t] != 0)
+        r.fail("cut_start[" + std::to_string(t) + "]",
+               "is " + std::to_string(cutStart[t]) + ", expected 0 (the cut plane count is 0)");
   }
   if (maps) {
     r.array(v.probeInside, P, "probe_flags");
@@ -249,27 +251,6 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
     if (v.hullFaces[h][0] < 0 || static_cast<uint64_t>(v.hullFaces[h][0]) >= T ||
         v.hullFaces[h][1] < 0 || v.hullFaces[h][1] > 3)
       r.fail("hull_faces[" + std::to_string(h) + "]", "index out of range");
-  if (cuts) {
-    if (v.cutStart[0] != 0 || v.cutStart[T] != C)
-      r.fail("cut_start", "must run from 0 to the cut plane count " + std::to_string(C));
-    for (size_t t = 0; t < T; ++t)
-      if (v.cutStart[t + 1] < v.cutStart[t] ||
-          v.cutStart[t + 1] - v.cutStart[t] > ProbeVolume::kMaxCutsPerTet)
-        r.fail("cut_start[" + std::to_string(t) + "]",
-               "not non-decreasing, or more than " + std::to_string(ProbeVolume::kMaxCutsPerTet) +
-                   " planes in one tetrahedron");
-    for (size_t c = 0; c < C; ++c) {
-      const auto& q = v.cutPlanes[c].plane;
-      if (!(std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2]) &&
-            std::isfinite(q[3])) ||
-          !(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] > 0.5))
-        r.fail("cut_planes[" + std::to_string(c) + "]",
-               "expected a finite plane with a unit normal");
-      if (v.cutPlanes[c].hide > 0xFF)
-        r.fail("cut_planes[" + std::to_string(c) + "]",
-               "hide mask " + std::to_string(v.cutPlanes[c].hide) + " has bits above 8");
-    }
-  }
   if (maps) {
     for (size_t i = 0; i < P; ++i)
       if (v.probeInside[i] > 1)
@@ -289,7 +270,6 @@ VolumeFile parseVolume(const std::string& data, const std::string& file) {
                           std::to_string(mu2));
     }
   }
-  if (cuts && C == 0) v.cutStart.clear();  // version 3 without cuts: no cut section in memory
   // The file's unit (metadata "units"; metres without it): the volume in memory is in metres.
   const auto meta = nlohmann::ordered_json::parse(vf.metadataJson, nullptr, false);
   if (meta.is_object() && meta.contains("units"))

@@ -3,7 +3,6 @@
 #include <algorithm>
 
 #include "core/common/Error.h"
-#include "core/placement/LeakRefine.h"
 
 namespace ps {
 
@@ -144,34 +143,6 @@ PlaceResult placeProbeSet(const Tracer& tracer, const ProbeSet& set, const Place
         formatNote("%zu proposed probes dropped within half the spacing of a "
                    "rejected one",
                    out.nearRejected));
-  if (!r.refineLeaks) return out;
-
-  // Leak refinement (Sukys 3.2.2) of the kept and new probes: probes with provenance "leak",
-  // score = the edge crossings that asked for them.
-  std::vector<Vec3> points;
-  for (const Probe& p : out.set.probes)
-    if (p.state != ProbeState::Rejected) points.push_back(p.position);
-  if (points.size() < 4) {
-    out.notes.push_back("leak refinement skipped: fewer than 4 probes");
-    return out;
-  }
-  LeakRefineSettings ls;
-  ls.seed = r.seed;
-  try {
-    const LeakRefineResult leak =
-        refineLeaks(tracer, points, ls, progress ? progress("leaks") : nullptr);
-    for (size_t i = 0; i < leak.added.size(); ++i) {
-      Probe probe;
-      probe.position = leak.added[i];
-      probe.state = r.newState;
-      probe.method = "leak";
-      probe.score = leak.addedScore[i];
-      out.set.add(probe);
-    }
-    out.leakAdded = leak.added.size();
-  } catch (const ParameterError& e) {  // a flat set: nothing to tetrahedralize
-    out.notes.push_back(std::string("leak refinement skipped: ") + e.what());
-  }
   return out;
 }
 

@@ -1,8 +1,8 @@
 #pragma once
 // The whole `place` step, called alike by the command line (`probestudio place`) and the
 // editor's placement panel, so that both give the same probe set for the same request: which
-// probes of the existing set stay, the method (core/placement/PlacementMethod.h), leak
-// refinement (Sukys 3.2.2, core/placement/LeakRefine.h) and the provenance the set records.
+// probes of the existing set stay, the method (core/placement/PlacementMethod.h) and the
+// provenance the set records.
 
 #include <functional>
 #include <string>
@@ -30,11 +30,6 @@ struct PlaceRequest {
   /// half the method's spacing of one (the artist rejected that spot). The rest are replaced.
   bool keepAccepted = false;
   bool keepCandidates = false;
-  /// Leak refinement of the kept and new probes: probes (method "leak") added where the
-  /// tetrahedra's edges cross geometry, beyond the budget. Off by default: with the volume's
-  /// visibility maps it does not lower the error at equal probe count (docs/leaks.md), and the
-  /// budget is then the volume's probe count.
-  bool refineLeaks = false;
   /// Coverage first (core/placement/Coverage.h): probes that give every room of the domain
   /// probes of its own and put the domain inside the probes' hull, placed around the kept
   /// probes before the method and kept by it (method "coverage"). With a budget, the method
@@ -49,16 +44,15 @@ struct PlaceRequest {
 
 struct PlaceResult {
   /// The existing set with the probes that stay (in their order, with their ids), then the new
-  /// probes, then the leak probes (new ids from the set's nextId); placement provenance set.
+  /// probes (new ids from the set's nextId); placement provenance set.
   ProbeSet set;
-  std::vector<std::string> notes;  ///< what the method and the refinement did, one line each
+  std::vector<std::string> notes;  ///< what the method did, one line each
   size_t kept = 0;                 ///< probes placed around
   size_t covered = 0;              ///< new probes of the covering (PlaceRequest::cover)
   /// Kept plus covering probes: the smallest budget that covers the scene (0 without cover).
   size_t minimumBudget = 0;
   size_t placed = 0;        ///< new probes of the method
   size_t nearRejected = 0;  ///< the method's probes dropped beside a rejected one
-  size_t leakAdded = 0;     ///< probes added by leak refinement
 };
 
 /// The probes of `set` that `request` keeps and places around (PlaceRequest::keepAccepted).
@@ -69,17 +63,16 @@ std::vector<Probe> keptProbes(const ProbeSet& set, const PlaceRequest& request);
 /// "budget", or one of the method's).
 void checkPlaceRequest(const PlaceRequest& request, const ProbeSet& set);
 
-/// Reports progress per stage ("place", "field", "greedy", "leaks", ...): returns the
+/// Reports progress per stage ("place", "field", "greedy", ...): returns the
 /// ProgressFn for a stage, or an empty one.
 using StageProgress = std::function<ProgressFn(const std::string& stage)>;
 
 /// Places probes in `set`'s scene (traced by `tracer`) with `set`'s rig and importance volumes:
 /// keeps the probes PlaceRequest says, runs the method around them, drops its probes beside
-/// rejected ones, refines leaks, and records the method, budget and spacing in the result's
+/// rejected ones, and records the method, budget and spacing in the result's
 /// PlacementSettings. Deterministic for request.seed. Throws ps::ParameterError as
 /// checkPlaceRequest does (before any tracing) or for what only the scene can tell;
-/// ps::Cancelled when a progress callback returns false. Leak refinement that cannot run (fewer
-/// than 4 probes, or a flat set) is skipped with a note.
+/// ps::Cancelled when a progress callback returns false.
 PlaceResult placeProbeSet(const Tracer& tracer, const ProbeSet& set, const PlaceRequest& request,
                           const StageProgress& progress = {});
 

@@ -20,7 +20,7 @@
 // OUT OF OR IN CONNECTION WITH THE SOFTWARE OR THE USE OR OTHER DEALINGS IN THE SOFTWARE.
 //
 // ps_volume_reader.h: a dependency-free, header-only C++17 reader for ProbeStudio probe volumes
-// (.psv, format versions 1 to 3, docs/formats.md "Probe volume"). Copy this one file into an
+// (.psv, format versions 1 to 4, docs/formats.md "Probe volume"). Copy this one file into an
 // engine.
 //
 //   ps_runtime::Volume vol;
@@ -31,7 +31,7 @@
 //   ps_runtime::interpolate(vol, loc, sh);
 //   lastTet = loc.tet;  // coherent queries then walk a few steps
 //
-// A version 3 volume carries a visibility map per probe; query it with a surface normal (or
+// A version 4 volume carries a visibility map per probe; query it with a surface normal (or
 // nullptr for a point in the air) for the visibility-aware weights:
 //
 //   const double n[3] = {nx, ny, nz};
@@ -44,15 +44,18 @@
 // float matrices (double orientations in thin tetrahedra), and clamp a point outside the hull to
 // the nearest point of the hull surface. A query clearly inside its hint tetrahedron is answered
 // from that tetrahedron's double-precision matrix without a walk. The answers equal the core's
-// (tests/runtime). In a tetrahedron with leak cuts (version 2), a query interpolates only the
-// probes on its own side of the cut planes (applyCuts below). With visibility maps (version 3),
-// visibleWeights() multiplies each probe's barycentric weight by DDGI's visibility and normal
-// terms (Majercik et al. 2019, "Dynamic Diffuse Global Illumination with Ray-Traced Irradiance
-// Probes", JCGT 8(2), sec. 5.2), as core/traversal/VisibleInterpolation.h states and computes.
+// (tests/runtime). With visibility maps (version 4), visibleWeights() multiplies each probe's
+// barycentric weight by DDGI's visibility and normal terms (Majercik et al. 2019, "Dynamic Diffuse
+// Global Illumination with Ray-Traced Irradiance Probes", JCGT 8(2), sec. 5.2), as
+// core/traversal/VisibleInterpolation.h states and computes; where no probe of the query's
+// tetrahedron sees it, the probes of the tetrahedra around it that do (the neighbour search,
+// from the stored face neighbours alone).
 //
 // Loading validates everything before allocating: the header's counts must match the file's
 // size exactly, the CRC-32 must match, and every index must be in range; a bad file gives
-// false and a one-line reason, never a crash. Needs a little-endian host.
+// false and a one-line reason, never a crash. A version 2 or 3 file with leak cut planes is
+// refused (its lighting was made to be read through the cuts, which this reader does not
+// apply): re-bake it. Needs a little-endian host.
 #ifndef PS_VOLUME_READER_H
 #define PS_VOLUME_READER_H
 
@@ -75,17 +78,7 @@ struct Volume {
   std::vector<std::array<int32_t, 4>> neighbors;  // opposite vertex i; -1 on the hull
   std::vector<std::array<float, 9>> matrices;     // (w0, w1, w2) = M (p - v3)
   std::vector<std::array<int32_t, 2>> hullFaces;  // (tet, local vertex opposite the face)
-  // Leak cuts (version 2; empty otherwise): tet t's planes are cutPlanes[cutStart[t] ..
-  // cutStart[t + 1]). p is on a plane's positive side when n.p >= d; bit k of `hide` hides
-  // vertex k from a query on the positive side, bit 4 + k from one on the negative side.
-  struct CutPlane {
-    float plane[4];  // nx, ny, nz, d
-    uint32_t hide;
-  };
-  static_assert(sizeof(CutPlane) == 20, "cut planes are read as 4 floats and a u32");
-  std::vector<uint32_t> cutStart;
-  std::vector<CutPlane> cutPlanes;
-  // Visibility maps (version 3; 0 and empty otherwise): visibilityMapSize texels per side of an
+  // Visibility maps (version 4; 0 and empty otherwise): visibilityMapSize texels per side of an
   // octahedral map per probe, each texel the mean and mean square of the distance (m, m^2) from
   // the probe to the first surface in its directions (2 R^2 floats per probe, texel i + R j at
   // octahedral (u, v) in [-1 + 2 i / R, -1 + 2 (i + 1) / R] x ...); probeFlags bit 0: the probe
@@ -112,7 +105,7 @@ struct Volume {
 
 struct Location {
   int32_t tet = -1;
-  float weights[4] = {0, 0, 0, 0};  // barycentric (cut to the query's side), in [0, 1], sum 1
+  float weights[4] = {0, 0, 0, 0};  // barycentric, in [0, 1], sum 1
   bool outside = false;             // clamped to the hull
 };
 
@@ -473,13 +466,15 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   if (std::memcmp(b, "PSVOLUM1", 8) != 0) return fail(error, "not a ProbeStudio volume");
   uint32_t h[8] = {0, 0, 0, 0, 0, 0, 0, 0};
   std::memcpy(h, b + 8, 6 * 4);
-  if (h[0] < 1 || h[0] > 3) return fail(error, "unsupported version " + std::to_string(h[0]));
-  // Version 2: a cut plane count, then the cuts after the hull; version 3: also a visibility
-  // map size, then the probe flags and maps after the cuts.
-  const bool cuts = h[0] >= 2, maps = h[0] == 3;
-  const size_t kHeader = 8 + (maps ? 8 : cuts ? 7 : 6) * 4;
+  if (h[0] < 1 || h[0] > 4) return fail(error, "unsupported version " + std::to_string(h[0]));
+  // Version 4: a visibility map size, then the probe flags and maps after the hull. Versions 2
+  // and 3 (read, never written): a leak-cut plane count C, then the cut starts and planes after
+  // the hull; version 3 also the map size and the maps after the cuts.
+  const bool cuts = h[0] == 2 || h[0] == 3, maps = h[0] >= 3;
+  const size_t kHeader = 8 + (6 + (cuts ? 1 : 0) + (maps ? 1 : 0)) * 4;
   if (size < kHeader + 4) return fail(error, "truncated: " + std::to_string(size) + " bytes");
-  if (cuts) std::memcpy(h + 6, b + 8 + 6 * 4, maps ? 8 : 4);
+  if (cuts) std::memcpy(h + 6, b + 8 + 6 * 4, 4);
+  if (maps) std::memcpy(h + 7, b + kHeader - 4, 4);
   if (h[1] != 2) return fail(error, "unsupported SH order " + std::to_string(h[1]));
   const uint64_t P = h[2], T = h[3], H = h[4], M = h[5], C = h[6], R = h[7];
   if (maps && (R < 1 || R > 64))
@@ -494,6 +489,10 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   std::memcpy(&crc, b + size - 4, 4);
   if (detail::crc32(b, size - 4) != crc) return fail(error, "CRC-32 mismatch: corrupted file");
   if (P < 4 || T < 1) return fail(error, "a volume needs at least 4 probes and 1 tetrahedron");
+  if (C > 0)
+    return fail(error, "cut_plane_count: " + std::to_string(C) +
+                           " leak cut planes, which this reader does not apply (the visibility "
+                           "maps and their neighbour search replace them): re-bake the volume");
   const uint8_t* p = b + kHeader;
   detail::readArray(p, out.positions, size_t(P) * 3);
   detail::readArray(p, out.sh, size_t(P) * 27);
@@ -501,11 +500,11 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
   detail::readArray(p, out.neighbors, size_t(T));
   detail::readArray(p, out.matrices, size_t(T));
   detail::readArray(p, out.hullFaces, size_t(H));
-  out.cutStart.clear();
-  out.cutPlanes.clear();
-  if (cuts) {
-    detail::readArray(p, out.cutStart, size_t(T) + 1);
-    detail::readArray(p, out.cutPlanes, size_t(C));
+  if (cuts) {  // C = 0: T + 1 cut starts, each 0
+    std::vector<uint32_t> cutStart;
+    detail::readArray(p, cutStart, size_t(T) + 1);
+    for (size_t t = 0; t <= T; ++t)
+      if (cutStart[t] != 0) return fail(error, "cut_start[" + std::to_string(t) + "]: expected 0");
   }
   out.visibilityMapSize = int32_t(R);
   out.probeFlags.clear();
@@ -533,23 +532,6 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
     if (out.hullFaces[k][0] < 0 || uint64_t(out.hullFaces[k][0]) >= T || out.hullFaces[k][1] < 0 ||
         out.hullFaces[k][1] > 3)
       return fail(error, "hull_faces[" + std::to_string(k) + "]: index out of range");
-  if (cuts) {
-    if (out.cutStart[0] != 0 || out.cutStart[size_t(T)] != C)
-      return fail(error, "cut_start: must run from 0 to the cut plane count");
-    for (size_t t = 0; t < T; ++t)
-      if (out.cutStart[t + 1] < out.cutStart[t] || out.cutStart[t + 1] - out.cutStart[t] > 8)
-        return fail(error, "cut_start[" + std::to_string(t) +
-                               "]: not non-decreasing, or more than 8 planes in one tetrahedron");
-    for (size_t c = 0; c < C; ++c) {
-      const float* q = out.cutPlanes[c].plane;
-      if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2]) ||
-          !std::isfinite(q[3]) ||
-          !(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] > 0.5) ||
-          out.cutPlanes[c].hide > 0xFF)
-        return fail(error, "cut_planes[" + std::to_string(c) +
-                               "]: not a finite unit-normal plane with an 8-bit hide mask");
-    }
-  }
   for (size_t i = 0; i < out.probeFlags.size(); ++i)
     if (out.probeFlags[i] > 1)
       return fail(error, "probe flag " + std::to_string(i) + ": expected 0 or 1");
@@ -562,7 +544,6 @@ inline bool loadVolumeMemory(const void* data, size_t size, Volume& out,
       return fail(error, "visibility of probe " + std::to_string(k / size_t(2 * R * R)) +
                              ": negative variance (mean squared exceeds mean square)");
   }
-  if (maps && C == 0) out.cutStart.clear();
   detail::buildLocator(out);
   return true;
 }
@@ -621,43 +602,10 @@ inline Location locateBarycentric(const Volume& v, double x, double y, double z,
 
 }  // namespace detail
 
-/// Leak cuts: each cut plane of the query's tetrahedron hides the probes its mask names for the
-/// query's side of it. The kept probes' weights are renormalised (shared equally when they sum
-/// to 0), the hidden ones get 0; when every probe is hidden the weights stay as they were.
-/// (x, y, z) is the query point, before any clamp to the hull.
-inline void applyCuts(const Volume& v, double x, double y, double z, Location& loc) {
-  if (loc.tet < 0 || v.cutStart.empty()) return;
-  const uint32_t first = v.cutStart[size_t(loc.tet)], last = v.cutStart[size_t(loc.tet) + 1];
-  uint32_t kept = 0xF;
-  for (uint32_t c = first; c < last; ++c) {
-    const Volume::CutPlane& cp = v.cutPlanes[c];
-    const bool positive =
-        double(cp.plane[0]) * x + double(cp.plane[1]) * y + double(cp.plane[2]) * z >=
-        double(cp.plane[3]);
-    kept &= ~(positive ? cp.hide : cp.hide >> 4) & 0xFu;
-  }
-  if (kept == 0xF || kept == 0) return;
-  double sum = 0;
-  int count = 0;
-  for (int k = 0; k < 4; ++k)
-    if (kept >> k & 1) {
-      sum += loc.weights[k];
-      ++count;
-    }
-  for (int k = 0; k < 4; ++k)
-    loc.weights[k] = !(kept >> k & 1) ? 0.0f
-                     : sum > 0        ? float(loc.weights[k] / sum)
-                                      : 1.0f / float(count);
-}
-
-/// The tetrahedron containing (x, y, z) and its barycentric weights (cut to the query's side,
-/// above), walking from `hintTet` (the previous query's tet, or -1). Outside the hull: the
-/// nearest hull point (outside = true).
+/// The tetrahedron containing (x, y, z) and its barycentric weights, walking from `hintTet` (the
+/// previous query's tet, or -1). Outside the hull: the nearest hull point (outside = true).
 inline Location locate(const Volume& v, double x, double y, double z, int32_t hintTet = -1) {
-  Location loc = detail::locateBarycentric(v, x, y, z, hintTet);
-  if (!v.cutStart.empty() && std::isfinite(x) && std::isfinite(y) && std::isfinite(z))
-    applyCuts(v, x, y, z, loc);
-  return loc;
+  return detail::locateBarycentric(v, x, y, z, hintTet);
 }
 
 /// The SH (27 floats: 9 coefficients x RGB) blended with the location's weights.
@@ -671,34 +619,34 @@ inline void interpolate(const Volume& v, const Location& loc, float out[27]) {
   for (int k = 0; k < 27; ++k) out[k] = static_cast<float>(acc[k]);
 }
 
-/// The four probes of a query and their visibility-aware weights (visibleWeights).
+/// The most probes one query's visibility-aware weights blend (the neighbour search's).
+constexpr int kMaxWeightedProbes = 16;
+
+/// The probes of a query and their visibility-aware weights (visibleWeights): the four of its
+/// tetrahedron, or those of the neighbour search that see it (fallback 3).
 struct Weights {
-  int32_t tet = -1;
-  int32_t probes[4] = {0, 0, 0, 0};
-  double weights[4] = {0, 0, 0, 0};  // non-negative, sum 1
-  bool outside = false;              // clamped to the hull
-  int fallback = 0;  // 0: barycentric x visibility; 1: visibility alone; 2: barycentric alone
+  int32_t tet = -1;   // the query's tetrahedron
+  int32_t count = 0;  // entries in use: 4, or 1 to kMaxWeightedProbes with fallback 3
+  int32_t probes[kMaxWeightedProbes] = {};
+  double weights[kMaxWeightedProbes] = {};  // non-negative, sum 1
+  bool outside = false;                     // clamped to the hull
+  // 0: barycentric x visibility; 1: visibility alone; 2: barycentric alone; 3: the neighbour
+  // search
+  int fallback = 0;
 };
 
 namespace detail {
 
-// Octahedral map of the sphere (Cigolle et al. 2014): (u, v) in [-1, 1]^2, lower hemisphere
-// folded onto the corners.
-inline void octEncode(double x, double y, double z, double& u, double& v) {
-  const double s = std::abs(x) + std::abs(y) + std::abs(z);
-  u = x / s;
-  v = y / s;
-  if (z < 0) {
-    const double fu = (1.0 - std::abs(v)) * (u >= 0 ? 1.0 : -1.0);
-    const double fv = (1.0 - std::abs(u)) * (v >= 0 ? 1.0 : -1.0);
-    u = fu;
-    v = fv;
-  }
-  u = std::min(1.0, std::max(-1.0, u));
-  v = std::min(1.0, std::max(-1.0, v));
+// Asks the cache for the line holding p (no effect on results).
+inline void prefetch(const void* p) {
+#if defined(__GNUC__) || defined(__clang__)
+  __builtin_prefetch(p);
+#else
+  (void)p;
+#endif
 }
 
-// Texel (i, j), i and j in [-1, R], a step beyond an edge mirrored across the seam.
+// Texel i + R j, i and j in [-1, R], a step beyond an edge mirrored across the seam.
 inline int octWrappedTexel(int i, int j, int R) {
   if (i < 0) {
     i = 0;
@@ -720,45 +668,167 @@ inline int octWrappedTexel(int i, int j, int R) {
 constexpr double kVisibilityVarianceBias = 0.05;
 constexpr double kVisibilityMinFactor = 1e-3;
 
-// DDGI's chebyshev visibility (sec. 5.2), sharpened to its cube, of probe `probe` for p, with
-// d = p - probe (r = |d| > 1e-6).
-inline double probeVisibility(const Volume& v, int32_t probe, V3 d, double r) {
-  const int R = v.visibilityMapSize;
-  const float* map = v.visibility.data() + size_t(probe) * size_t(2 * R * R);
-  double u, w;
-  octEncode(d.x / r, d.y / r, d.z / r, u, w);
-  const double x = (u + 1.0) * 0.5 * R - 0.5;
-  const double y = (w + 1.0) * 0.5 * R - 0.5;
-  const double fx0 = std::floor(x), fy0 = std::floor(y);
-  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
-  const double ax = x - fx0, ay = y - fy0;
-  const int t00 = octWrappedTexel(x0, y0, R), t10 = octWrappedTexel(x0 + 1, y0, R);
-  const int t01 = octWrappedTexel(x0, y0 + 1, R), t11 = octWrappedTexel(x0 + 1, y0 + 1, R);
-  const double w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
-  const double mu =
-      w00 * map[2 * t00] + w10 * map[2 * t10] + w01 * map[2 * t01] + w11 * map[2 * t11];
-  const double mu2 = w00 * map[2 * t00 + 1] + w10 * map[2 * t10 + 1] + w01 * map[2 * t01 + 1] +
-                     w11 * map[2 * t11 + 1];
-  if (r <= mu) return 1.0;
+// The visibility steps, as the core's (core/traversal/VisibleInterpolation.cpp), operation for
+// operation: the same IEEE results.
+
+// Texel coordinates of direction (dx, dy, dz) (any length > 0) in an R x R map, half = R / 2,
+// offset = R / 2 - 1/2: the octahedral encoding (Cigolle et al. 2014) of d / |d|_1 (that of
+// d / |d|), the lower hemisphere folded onto the corners, then (u + 1) R / 2 - 1/2.
+inline void texelCoords(double dx, double dy, double dz, double half, double offset, double& x,
+                        double& y) {
+  const double is = 1.0 / (std::abs(dx) + std::abs(dy) + std::abs(dz));
+  const double u0 = dx * is, v0 = dy * is;
+  const double fu = (1.0 - std::abs(v0)) * std::copysign(1.0, u0 + 0.0);
+  const double fv = (1.0 - std::abs(u0)) * std::copysign(1.0, v0 + 0.0);
+  const bool lower = dz < 0;
+  const double u = std::min(1.0, std::max(-1.0, lower ? fu : u0));
+  const double v = std::min(1.0, std::max(-1.0, lower ? fv : v0));
+  x = u * half + offset;
+  y = v * half + offset;
+}
+
+// The bilinear tap at texel coordinates (x, y) >= -1/2: four texels (seams wrapped) and their
+// weights; floor(x) as the truncation of x + 1, as the core takes it.
+struct MapTap {
+  int t00, t10, t01, t11;
+  double w00, w10, w01, w11;
+};
+inline MapTap tapAt(double x, double y, int R) {
+  const int x0 = static_cast<int>(x + 1.0) - 1, y0 = static_cast<int>(y + 1.0) - 1;
+  const double ax = x - x0, ay = y - y0;
+  MapTap t;
+  if (x0 >= 0 && y0 >= 0 && x0 < R - 1 && y0 < R - 1) {
+    t.t00 = x0 + R * y0;
+    t.t10 = t.t00 + 1;
+    t.t01 = t.t00 + R;
+    t.t11 = t.t01 + 1;
+  } else {
+    t.t00 = octWrappedTexel(x0, y0, R);
+    t.t10 = octWrappedTexel(x0 + 1, y0, R);
+    t.t01 = octWrappedTexel(x0, y0 + 1, R);
+    t.t11 = octWrappedTexel(x0 + 1, y0 + 1, R);
+  }
+  t.w00 = (1 - ax) * (1 - ay);
+  t.w10 = ax * (1 - ay);
+  t.w01 = (1 - ax) * ay;
+  t.w11 = ax * ay;
+  return t;
+}
+
+inline void tapMoments(const float* map, const MapTap& t, double& mu, double& mu2) {
+  mu = t.w00 * map[2 * t.t00] + t.w10 * map[2 * t.t10] + t.w01 * map[2 * t.t01] +
+       t.w11 * map[2 * t.t11];
+  mu2 = t.w00 * map[2 * t.t00 + 1] + t.w10 * map[2 * t.t10 + 1] + t.w01 * map[2 * t.t01 + 1] +
+        t.w11 * map[2 * t.t11 + 1];
+}
+
+// DDGI's Chebyshev visibility (sec. 5.2), cubed; both sides computed, one selected.
+inline double chebyshev(double mu, double mu2, double r) {
   const double bias = kVisibilityVarianceBias * mu;
   const double var = std::max(0.0, mu2 - mu * mu) + bias * bias;
   const double c = var / (var + (r - mu) * (r - mu));
-  return c * c * c;
+  return r <= mu ? 1.0 : c * c * c;
 }
 
-// The probe's factor: visibility times the smooth-backface normal term, tiny values crushed.
+// The smooth-backface normal term (dn = dot(p - probe, n)), the crush (f^3 / 0.04 below 0.2)
+// and the floor.
+inline double finish(double f, bool hasNormal, double dn, double r) {
+  if (hasNormal) {
+    const double s = (-dn / r + 1.0) * 0.5;
+    f *= s * s + 0.2;
+  }
+  const double crushed = f * f * f * 25.0;
+  f = f < 0.2 ? crushed : f;
+  return f < kVisibilityMinFactor ? 0.0 : f;
+}
+
+inline const float* probeMap(const Volume& v, int32_t probe) {
+  const int R = v.visibilityMapSize;
+  return v.visibility.data() + size_t(probe) * size_t(2 * R * R);
+}
+
+// One probe's factor for p (n: the unit normal, or nullptr).
 inline double probeFactor(const Volume& v, int32_t probe, V3 p, const double* n) {
   if (v.probeFlags[size_t(probe)] & 1) return 0.0;
   const V3 d = p - pos(v, probe);
   const double r = std::sqrt(dot(d, d));
   if (!(r > 1e-6)) return 1.0;
-  double f = probeVisibility(v, probe, d, r);
-  if (n) {
-    const double s = ((-(d.x / r)) * n[0] + (-(d.y / r)) * n[1] + (-(d.z / r)) * n[2] + 1.0) * 0.5;
-    f *= s * s + 0.2;
+  const int R = v.visibilityMapSize;
+  double x, y, mu, mu2;
+  texelCoords(d.x, d.y, d.z, 0.5 * R, 0.5 * R - 0.5, x, y);
+  tapMoments(probeMap(v, probe), tapAt(x, y, R), mu, mu2);
+  return finish(chebyshev(mu, mu2, r), n != nullptr, n ? d.x * n[0] + d.y * n[1] + d.z * n[2] : 0.0,
+                r);
+}
+
+// The four factors of a tetrahedron's probes q for p, side by side, each probe's lines asked
+// for before any is read (as the core's tetFactors).
+inline void tetFactors(const Volume& v, const std::array<int32_t, 4>& q, V3 p, const double* n,
+                       double f[4]) {
+  const int R = v.visibilityMapSize;
+  const double half = 0.5 * R, offset = 0.5 * R - 0.5;
+  double dx[4], dy[4], dz[4], r[4], x[4], y[4], dn[4], mu[4], mu2[4];
+  for (int i = 0; i < 4; ++i) {
+    const size_t qi = size_t(q[size_t(i)]);
+    prefetch(&v.probeFlags[qi]);
+    for (size_t k = 0; k < 27; k += 13) prefetch(v.sh.data() + 27 * qi + k);
+    const float* xi = v.positions.data() + 3 * qi;
+    dx[i] = p.x - double(xi[0]);
+    dy[i] = p.y - double(xi[1]);
+    dz[i] = p.z - double(xi[2]);
   }
-  if (f < 0.2) f = f * f * f / 0.04;
-  return f < kVisibilityMinFactor ? 0.0 : f;
+  for (int i = 0; i < 4; ++i) r[i] = std::sqrt(dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]);
+  for (int i = 0; i < 4; ++i) texelCoords(dx[i], dy[i], dz[i], half, offset, x[i], y[i]);
+  for (int i = 0; i < 4; ++i) dn[i] = n ? dx[i] * n[0] + dy[i] * n[1] + dz[i] * n[2] : 0.0;
+  MapTap taps[4];
+  const float* maps[4];
+  for (int i = 0; i < 4; ++i) {
+    maps[i] = probeMap(v, q[size_t(i)]);
+    if (!(r[i] > 1e-6)) continue;
+    taps[i] = tapAt(x[i], y[i], R);
+    prefetch(maps[i] + 2 * taps[i].t00);
+    prefetch(maps[i] + 2 * taps[i].t10 + 1);
+    prefetch(maps[i] + 2 * taps[i].t01);
+    prefetch(maps[i] + 2 * taps[i].t11 + 1);
+  }
+  for (int i = 0; i < 4; ++i) {
+    mu[i] = mu2[i] = 0;
+    if (r[i] > 1e-6) tapMoments(maps[i], taps[i], mu[i], mu2[i]);
+  }
+  for (int i = 0; i < 4; ++i) {
+    const double fi = finish(chebyshev(mu[i], mu2[i], r[i]), n != nullptr, dn[i], r[i]);
+    f[i] = (v.probeFlags[size_t(q[size_t(i)])] & 1) ? 0.0 : !(r[i] > 1e-6) ? 1.0 : fi;
+  }
+}
+
+// The neighbour search's candidates (as the core's neighbourCandidates): the tetrahedra within
+// two face steps of `tet`, breadth first through `neighbors` (each in local order), and their
+// vertices not in `tet`, in that order, without repeats, at most kMaxWeightedProbes.
+inline int neighbourCandidates(const Volume& v, int32_t tet, int32_t out[kMaxWeightedProbes]) {
+  int32_t tets[1 + 4 + 12];
+  int nt = 0, begin = 0;
+  tets[nt++] = tet;
+  for (int depth = 0; depth < 2; ++depth) {
+    const int end = nt;
+    for (int i = begin; i < end; ++i)
+      for (int k = 0; k < 4; ++k) {
+        const int32_t n = v.neighbors[size_t(tets[i])][k];
+        if (n < 0 || std::find(tets, tets + nt, n) != tets + nt) continue;
+        tets[nt++] = n;
+      }
+    begin = end;
+  }
+  const auto& own = v.tets[size_t(tet)];
+  int count = 0;
+  for (int i = 1; i < nt && count < kMaxWeightedProbes; ++i)
+    for (int k = 0; k < 4 && count < kMaxWeightedProbes; ++k) {
+      const int32_t q = v.tets[size_t(tets[i])][k];
+      if (std::find(own.begin(), own.end(), q) != own.end() ||
+          std::find(out, out + count, q) != out + count)
+        continue;
+      out[count++] = q;
+    }
+  return count;
 }
 
 }  // namespace detail
@@ -767,14 +837,19 @@ inline double probeFactor(const Volume& v, int32_t probe, V3 p, const double* n)
 /// the unit surface normal there (3 doubles) or nullptr. Per probe i: w_i = b_i f_i with f_i
 /// DDGI's chebyshev visibility (variance bias 0.05 mean, cubed) times the smooth-backface term
 /// ((dot(dir to probe, n) + 1) / 2)^2 + 0.2, crushed below 0.2 to f^3 / 0.04 and 0 below 1e-3
-/// (0 for a probe inside geometry), renormalised. When every w_i is 0: f_i alone, renormalised;
-/// when every f_i is 0 too: the barycentric weights. Without maps: the barycentric weights.
+/// (0 for a probe inside geometry), renormalised. When every w_i is 0: f_i alone, renormalised.
+/// When every f_i is 0 too (no probe of the tetrahedron sees the point): the neighbour search,
+/// the vertices of the tetrahedra within two face steps (breadth first, each tetrahedron's
+/// neighbours in local order) that are not the tetrahedron's, the first 16, each with f_j > 0
+/// weighing f_j / d_j^2 (d_j its distance to the point), renormalised (fallback 3); when none of
+/// them sees the point either: the barycentric weights. Without maps: the barycentric weights.
 inline Weights visibleWeights(const Volume& v, const Location& loc, double x, double y, double z,
                               const double* normal) {
   Weights w;
   w.tet = loc.tet;
   w.outside = loc.outside;
   if (loc.tet < 0) return w;
+  w.count = 4;
   for (int i = 0; i < 4; ++i) {
     w.probes[i] = v.tets[size_t(loc.tet)][i];
     w.weights[i] = loc.weights[i];
@@ -782,28 +857,47 @@ inline Weights visibleWeights(const Volume& v, const Location& loc, double x, do
   if (v.visibilityMapSize <= 0) return w;
   const detail::V3 p = {x, y, z};
   double f[4], raw[4], sum = 0, factorSum = 0;
+  detail::tetFactors(v, v.tets[size_t(loc.tet)], p, normal, f);
   for (int i = 0; i < 4; ++i) {
-    f[i] = detail::probeFactor(v, w.probes[i], p, normal);
     raw[i] = double(loc.weights[i]) * f[i];
     sum += raw[i];
     factorSum += f[i];
   }
   if (sum > 0) {
-    for (int i = 0; i < 4; ++i) w.weights[i] = raw[i] / sum;
+    const double inv = 1.0 / sum;
+    for (int i = 0; i < 4; ++i) w.weights[i] = raw[i] * inv;
   } else if (factorSum > 0) {
     w.fallback = 1;
-    for (int i = 0; i < 4; ++i) w.weights[i] = f[i] / factorSum;
+    const double inv = 1.0 / factorSum;
+    for (int i = 0; i < 4; ++i) w.weights[i] = f[i] * inv;
   } else {
     w.fallback = 2;
   }
-  return w;
+  if (w.fallback != 2) return w;
+  Weights n;
+  n.tet = w.tet;
+  n.outside = w.outside;
+  n.count = detail::neighbourCandidates(v, loc.tet, n.probes);
+  double nsum = 0;
+  for (int j = 0; j < n.count; ++j) {
+    const double fj = detail::probeFactor(v, n.probes[j], p, normal);
+    const detail::V3 d = p - detail::pos(v, n.probes[j]);
+    n.weights[j] =
+        fj > 0 ? fj / std::max(detail::dot(d, d), std::numeric_limits<double>::min()) : 0;
+    nsum += n.weights[j];
+  }
+  if (!(nsum > 0)) return w;
+  const double inv = 1.0 / nsum;
+  for (int j = 0; j < n.count; ++j) n.weights[j] *= inv;
+  n.fallback = 3;
+  return n;
 }
 
 /// The SH (27 floats) blended with visibility-aware weights.
 inline void interpolate(const Volume& v, const Weights& w, float out[27]) {
   double acc[27] = {};
   if (w.tet >= 0)
-    for (int i = 0; i < 4; ++i) {
+    for (int i = 0; i < w.count; ++i) {
       const float* s = v.sh.data() + size_t(27) * size_t(w.probes[i]);
       for (int k = 0; k < 27; ++k) acc[k] += w.weights[i] * s[k];
     }

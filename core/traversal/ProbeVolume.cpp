@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -383,8 +382,6 @@ void scaleVolume(ProbeVolume& v, double factor) {
   if (factor == 1.0) return;
   for (float& x : v.positions) x = static_cast<float>(double(x) * factor);
   for (size_t k = 0; k < v.tets.size(); ++k) v.matrices[k] = tetMatrix(v, static_cast<int32_t>(k));
-  for (ProbeVolume::CutPlane& c : v.cutPlanes)
-    c.plane[3] = static_cast<float>(double(c.plane[3]) * factor);
   for (size_t k = 0; k + 1 < v.visibility.size(); k += 2) {
     v.visibility[k] = static_cast<float>(double(v.visibility[k]) * factor);
     v.visibility[k + 1] = static_cast<float>(double(v.visibility[k + 1]) * factor * factor);
@@ -475,23 +472,8 @@ VolumeLocation locateBarycentric(const ProbeVolume& v, Vec3 p, int32_t hintTet,
 }
 }  // namespace
 
-void applyCuts(const ProbeVolume& v, Vec3 p, VolumeLocation& loc) {
-  if (loc.tet < 0 || v.cutStart.empty()) return;
-  const uint32_t first = v.cutStart[size_t(loc.tet)], last = v.cutStart[size_t(loc.tet) + 1];
-  const uint32_t kept = detail::cutKeptVertices(v.cutPlanes.data() + first, last - first, p);
-  if (kept == 0xF || kept == 0) return;
-  double sum = 0;
-  for (int k = 0; k < 4; ++k)
-    if (kept >> k & 1) sum += loc.weights[k];
-  const float share = 1.0f / float(std::popcount(kept));
-  for (int k = 0; k < 4; ++k)
-    loc.weights[k] = !(kept >> k & 1) ? 0.0f : sum > 0 ? float(loc.weights[k] / sum) : share;
-}
-
 VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet, const HullClamp* clamp) {
-  VolumeLocation loc = locateBarycentric(v, p, hintTet, clamp);
-  if (!v.cutStart.empty() && isFinite(p)) applyCuts(v, p, loc);
-  return loc;
+  return locateBarycentric(v, p, hintTet, clamp);
 }
 
 VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet) {
@@ -625,27 +607,26 @@ void locateBatch(const ProbeVolume& v, std::span<const Vec3> points,
 ShRgb interpolate(const ProbeVolume& v, const VolumeLocation& loc) {
   ShRgb out;
   if (loc.tet < 0) return out;
+  // Per stored value (coefficient-major, RGB), the sum over the probes in their order.
+  const auto& t = v.tets[size_t(loc.tet)];
+  const float* s[4];
+  double w[4];
   for (int i = 0; i < 4; ++i) {
-    const float* s = v.sh.data() + size_t(27) * v.tets[loc.tet][i];
-    const double w = loc.weights[i];
-    for (int k = 0; k < kShCoeffCount; ++k)
-      for (int ch = 0; ch < 3; ++ch) out.c[k][ch] += w * s[3 * k + ch];
+    s[i] = v.sh.data() + size_t(27) * size_t(t[i]);
+    w[i] = loc.weights[i];
   }
+  double acc[27];
+  for (int k = 0; k < 27; ++k) {
+    double a = 0;
+    for (int i = 0; i < 4; ++i) a += w[i] * s[i][k];
+    acc[k] = a;
+  }
+  for (int k = 0; k < kShCoeffCount; ++k)
+    out.c[k] = Rgb(acc[3 * k], acc[3 * k + 1], acc[3 * k + 2]);
   return out;
 }
 
 namespace detail {
-bool cutSide(const std::array<float, 4>& c, Vec3 p) {
-  return double(c[0]) * p.x + double(c[1]) * p.y + double(c[2]) * p.z >= double(c[3]);
-}
-
-uint32_t cutKeptVertices(const ProbeVolume::CutPlane* planes, size_t count, Vec3 p) {
-  uint32_t kept = 0xF;
-  for (size_t c = 0; c < count; ++c)
-    kept &= ~(cutSide(planes[c].plane, p) ? planes[c].hide : planes[c].hide >> 4) & 0xFu;
-  return kept;
-}
-
 bool fastWeights(const ProbeVolume& v, int32_t t, Vec3 p, std::array<float, 4>& weights) {
   return t >= 0 && t < static_cast<int32_t>(v.tets.size()) && frameWeights(v, t, p, weights);
 }

@@ -25,20 +25,6 @@ struct ProbeVolume {
   std::vector<std::array<float, 9>> matrices;
   /// Hull faces: tet index and the local index of the vertex opposite the hull face.
   std::vector<std::array<int32_t, 2>> hullFaces;
-  /// Leak cuts (computeLeakCuts in core/placement/LeakRefine.h): tet t's planes are
-  /// cutPlanes[cutStart[t] .. cutStart[t + 1]), at most kMaxCutsPerTet. Each hides some of the
-  /// tet's vertices from the queries on one side of it (applyCuts). Both empty for a volume
-  /// without cuts; otherwise cutStart has tets.size() + 1 non-decreasing entries from 0 to
-  /// cutPlanes.size().
-  struct CutPlane {
-    std::array<float, 4> plane;  ///< (nx, ny, nz, d): p is on the positive side when n.p >= d
-    /// Bit k (0..3): vertex k is hidden from a query on the positive side; bit 4 + k: from one
-    /// on the negative side. No other bit is set.
-    uint32_t hide = 0;
-  };
-  std::vector<uint32_t> cutStart;
-  std::vector<CutPlane> cutPlanes;
-  static constexpr uint32_t kMaxCutsPerTet = 8;
   /// Visibility maps (DDGI, Majercik et al. 2019, sec. 4; layout in core/capture/Capture.h):
   /// visibilityMapSize texels per side, 0 for a volume without maps. Per probe,
   /// 2 visibilityMapSize^2 floats in `visibility` (mean and mean square of the first-hit
@@ -84,8 +70,8 @@ struct ProbeVolume {
 /// Builds the runtime volume. `shOfVertex` has one entry per tetrahedralization vertex.
 ProbeVolume buildProbeVolume(const Tetrahedralization& t, std::span<const ShRgb> shOfVertex);
 
-/// Every length of `v` times `factor` (> 0, finite): a change of unit. Positions, cut planes'
-/// offsets and visibility distances (mean times factor, mean square times factor^2) scale; the
+/// Every length of `v` times `factor` (> 0, finite): a change of unit. Positions and visibility
+/// distances (mean times factor, mean square times factor^2) scale; the
 /// matrices are recomputed from the scaled float positions, and the locator rebuilt. Every
 /// query of the scaled volume at factor * p gives the weights of p in `v` (the interpolant is
 /// scale-free), up to float rounding. O(probes + tets + map texels).
@@ -97,10 +83,8 @@ void buildLocator(ProbeVolume& v);
 
 struct VolumeLocation {
   int32_t tet = -1;
-  /// Barycentric, sum to 1, in [0, 1]; in a tet with leak cuts, restricted to the query's side
-  /// (applyCuts).
-  std::array<float, 4> weights{};
-  bool outside = false;  ///< the query was outside the hull and was clamped to it
+  std::array<float, 4> weights{};  ///< barycentric, in [0, 1], sum to 1
+  bool outside = false;            ///< the query was outside the hull and was clamped to it
 };
 
 /// Finds the tetrahedron containing p by walking from `hintTet` (the caller's last one, or -1
@@ -148,24 +132,10 @@ VolumeLocation locate(const ProbeVolume& v, Vec3 p, int32_t hintTet, const HullC
 /// `points.size()`.
 void locateBatch(const ProbeVolume& v, std::span<const Vec3> points, std::span<VolumeLocation> out);
 
-/// Leak cuts (Sukys 3.2.2 finds the edges that cross geometry; the cut keeps a query from
-/// interpolating across it): when tet `loc.tet` has cut planes, each plane hides the vertices
-/// its mask names for p's side of it (cutKeptVertices). The weights of the hidden vertices are
-/// set to 0 and the rest renormalised; when those sum to 0 (p lies on the face opposite them,
-/// or outside the hull beyond it), the kept vertices share the weight equally. When every
-/// vertex is hidden, the weights are left as they were. locate() calls it; p is the query point
-/// (outside the hull, the point before the clamp).
-void applyCuts(const ProbeVolume& v, Vec3 p, VolumeLocation& loc);
-
 /// SH blended with the location's barycentric weights (zero for tet = -1).
 ShRgb interpolate(const ProbeVolume& v, const VolumeLocation& loc);
 
 namespace detail {
-/// The vertices applyCuts() keeps for a query at p (bit k for vertex k): those no plane hides
-/// from p's side of it.
-uint32_t cutKeptVertices(const ProbeVolume::CutPlane* planes, size_t count, Vec3 p);
-/// True when p is on the positive side of `plane` (n.p >= d, in double).
-bool cutSide(const std::array<float, 4>& plane, Vec3 p);
 /// locate()'s fast path on its own: true, with the weights, when p is inside tet t by at least
 /// tol::kFastPathMargin in every barycentric of t's frame; false otherwise (also when the
 /// frames are not built, or t is thin or flat). For tests.

@@ -11,10 +11,10 @@ tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 scene="$root/resources/scenes/cornell.gltf"
 eval_opts=(--queries 48 --reference-spp 64 --json)
 
-"$cli" place "$scene" --budget 16 --accept --no-leak-refine -o "$tmp/uniform.json"
-"$cli" place "$scene" --method greedy --budget 16 --accept --no-leak-refine -o "$tmp/greedy.json"
-"$cli" bake "$tmp/uniform.json" -o "$tmp/uniform.psv" --spp 64 --no-leak-refine --no-cache
-"$cli" bake "$tmp/greedy.json" -o "$tmp/greedy.psv" --spp 64 --no-leak-refine --no-cache
+"$cli" place "$scene" --budget 16 --accept -o "$tmp/uniform.json"
+"$cli" place "$scene" --method greedy --budget 16 --accept -o "$tmp/greedy.json"
+"$cli" bake "$tmp/uniform.json" -o "$tmp/uniform.psv" --spp 64 --no-cache
+"$cli" bake "$tmp/greedy.json" -o "$tmp/greedy.psv" --spp 64 --no-cache
 "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" >"$tmp/first.json"
 ls "$tmp/eval-reference-cache/"*.psref >/dev/null
 "$cli" eval "$tmp/uniform.psv" "${eval_opts[@]}" >"$tmp/second.json"
@@ -69,7 +69,7 @@ fi
 grep -q "a-file/cache: cannot create the eval reference cache folder" "$tmp/bad.err"
 # The default folder is a convenience: where it cannot be made, eval goes on without it.
 mkdir "$tmp/blocked"
-"$cli" bake "$tmp/uniform.json" -o "$tmp/blocked/uniform.psv" --spp 64 --no-leak-refine --no-cache
+"$cli" bake "$tmp/uniform.json" -o "$tmp/blocked/uniform.psv" --spp 64 --no-cache
 echo x >"$tmp/blocked/eval-reference-cache"
 "$cli" eval "$tmp/blocked/uniform.psv" "${eval_opts[@]}" >"$tmp/blocked.json" 2>"$tmp/blocked.err"
 grep -q "note: cannot create the reference cache folder" "$tmp/blocked.err"
@@ -86,7 +86,7 @@ s["scene"] = os.path.relpath(os.path.join(os.path.dirname(sys.argv[1]), s["scene
 json.dump(s, open(sys.argv[2], "w"))
 PY
 "$cli" eval "$tmp/boxed/boxed.json" "${eval_opts[@]}" --spp 64 >"$tmp/boxed-set.json"
-"$cli" bake "$tmp/boxed/boxed.json" -o "$tmp/boxed/boxed.psv" --spp 64 --no-leak-refine --no-cache
+"$cli" bake "$tmp/boxed/boxed.json" -o "$tmp/boxed/boxed.psv" --spp 64 --no-cache
 "$cli" eval "$tmp/boxed/boxed.psv" "${eval_opts[@]}" >"$tmp/boxed-volume.json"
 # A hand-edited volume whose domain box is inside out is refused, naming the file and the field.
 python3 - "$tmp/boxed/boxed.psv" "$tmp/boxed/bad-domain.psv" <<'PY'

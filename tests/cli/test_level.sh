@@ -130,12 +130,12 @@ assert corridor["validity"] > 0.9 and corridor["irradiance"]["+y"][0] > 0, corri
 assert wall["validity"] < 0.5, wall
 PY
 
-# Place (greedy), bake (leak refinement, no cuts) and eval of the small level (the time is printed;
+# Place (greedy), bake and eval of the small level (the time is printed;
 # speed is measured in benchmarks, not here).
 start=$SECONDS
 "$cli" place "$tmp/a.glb" --method greedy --budget 32 --field-depth 1 --field-spp 32 \
   --probe-spp 32 --held-out 32 --accept "${sky[@]}" -o "$tmp/set.json" | tee "$tmp/place.out"
-"$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128 --leak-refine --no-leak-cuts
+"$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128
 "$cli" eval "$tmp/v.psv" --queries 128 --reference-spp 256 --json >"$tmp/eval.json"
 took=$((SECONDS - start))
 echo "small level: place, bake and eval in $took s"
@@ -169,7 +169,7 @@ PY
 start=$SECONDS
 for run in 1 2; do
   "$cli" place "$tmp/a.glb" --method greedy --budget 48 --regions 4 --field-depth 1 \
-    --field-spp 32 --probe-spp 32 --held-out 32 --swap-passes 1 --no-leak-refine "${sky[@]}" \
+    --field-spp 32 --probe-spp 32 --held-out 32 --swap-passes 1 "${sky[@]}" \
     -o "$tmp/regional$run.json" >"$tmp/regional$run.out" 2>&1
 done
 took=$((SECONDS - start))
@@ -225,7 +225,7 @@ test ! -e "$tmp/x.json" || { echo "FAIL: a refused place wrote its output"; fail
 # trial, naming them.
 expect_error "--budget: expected at most 185 probes: the dense field has 169 samples to place new probes on" \
   "$cli" place "$tmp/a.glb" --method greedy --budget 400 --field-depth 0 --field-spp 16 \
-  --held-out 0 --probe-spp 16 --swap-passes 0 --no-leak-refine "${sky[@]}" -o "$tmp/over.json"
+  --held-out 0 --probe-spp 16 --swap-passes 0 "${sky[@]}" -o "$tmp/over.json"
 test ! -e "$tmp/over.json" || { echo "FAIL: a refused budget wrote its output"; fail=1; }
 expect_error '--regions: expected auto, off or a region count from 2 to 4096, got "many"' \
   "$cli" place "$tmp/a.glb" --method greedy --budget 64 --regions many "${sky[@]}" -o "$tmp/over.json"

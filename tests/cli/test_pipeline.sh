@@ -7,28 +7,28 @@ cli="$1"; root="$2"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 scene="$root/resources/scenes/cornell.gltf"
 
-"$cli" place "$scene" --budget 40 --accept --no-leak-refine -o "$tmp/set.json"
-"$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128 --no-leak-refine
+"$cli" place "$scene" --budget 40 --accept -o "$tmp/set.json"
+"$cli" bake "$tmp/set.json" -o "$tmp/v.psv" --spp 128
 # Re-baking the unchanged set takes every probe from the capture cache and gives the same volume.
-"$cli" bake "$tmp/set.json" -o "$tmp/v2.psv" --spp 128 --no-leak-refine | grep -q "(0 captured, "
+"$cli" bake "$tmp/set.json" -o "$tmp/v2.psv" --spp 128 | grep -q "(0 captured, "
 cmp "$tmp/v.psv" "$tmp/v2.psv"
 # Adaptive bake: a target error instead of a fixed count; not the fixed bake's cache entries.
-"$cli" bake "$tmp/set.json" -o "$tmp/v3.psv" --target-error 0.1 --max-spp 1024 --no-leak-refine |
+"$cli" bake "$tmp/set.json" -o "$tmp/v3.psv" --target-error 0.1 --max-spp 1024 |
   grep -q "([0-9]* captured, 0 from the cache).*target error 0.1 (at most 1024 spp)"
 "$cli" info "$tmp/set.json" | grep -q "matches the scene"
-# The bake records a visibility map per probe (volume format version 3); eval reads the volume
+# The bake records a visibility map per probe (volume format version 4); eval reads the volume
 # through them unless --no-visibility.
-"$cli" info "$tmp/v.psv" | grep -q "format version 3"
+"$cli" info "$tmp/v.psv" | grep -q "format version 4"
 "$cli" info "$tmp/v.psv" | grep -q "visibility maps: 16x16 texels per probe"
 "$cli" eval "$tmp/v.psv" --queries 64 --reference-spp 16 --no-cache --json | grep -q '"visibility": true'
 "$cli" eval "$tmp/v.psv" --queries 64 --reference-spp 16 --no-cache --json --no-visibility |
   grep -q '"visibility": false'
 # Least-squares fit: the same probes and tetrahedra, other values, said on stdout and recorded
 # in the volume's metadata; the same bake twice gives the same file.
-"$cli" bake "$tmp/set.json" -o "$tmp/vfit.psv" --spp 128 --no-leak-refine --fit --fit-points 16 \
+"$cli" bake "$tmp/set.json" -o "$tmp/vfit.psv" --spp 128 --fit --fit-points 16 \
   --fit-spp 32 >"$tmp/fit.log"
 grep -q "least-squares fit: [0-9]* points at 32 spp" "$tmp/fit.log"
-"$cli" bake "$tmp/set.json" -o "$tmp/vfit2.psv" --spp 128 --no-leak-refine --fit --fit-points 16 \
+"$cli" bake "$tmp/set.json" -o "$tmp/vfit2.psv" --spp 128 --fit --fit-points 16 \
   --fit-spp 32 >/dev/null
 cmp "$tmp/vfit.psv" "$tmp/vfit2.psv"
 # Same probes, tetrahedra and hull; other irradiance at a point inside.
@@ -130,8 +130,8 @@ PY
 
 # Rooms told apart without importance volumes: two-rooms' two rooms, each with its own error.
 two="$root/resources/scenes/two-rooms.gltf"
-"$cli" place "$two" --budget 32 --accept --no-leak-refine -o "$tmp/two.json" >/dev/null
-"$cli" bake "$tmp/two.json" -o "$tmp/two.psv" --spp 16 --no-leak-refine --no-cache >/dev/null
+"$cli" place "$two" --budget 32 --accept -o "$tmp/two.json" >/dev/null
+"$cli" bake "$tmp/two.json" -o "$tmp/two.psv" --spp 16 --no-cache >/dev/null
 "$cli" eval "$tmp/two.psv" --queries 256 --reference-spp 16 --json --per-query "$tmp/two.csv" \
   >"$tmp/two-eval.json"
 "$cli" eval "$tmp/two.psv" --queries 256 --reference-spp 16 | grep -q "^  room 2: "

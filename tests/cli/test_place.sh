@@ -6,7 +6,7 @@ set -euo pipefail
 cli="$1"; root="$2"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 scene="$root/resources/scenes/pillar-room.gltf"
-field=(--field-depth 1 --field-spp 32 --no-leak-refine)
+field=(--field-depth 1 --field-spp 32)
 
 "$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g.json" | tee "$tmp/g.txt"
 "$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 -o "$tmp/g2.json"
@@ -16,8 +16,8 @@ grep -Eq "greedy: [0-9]+ swap pass(es)? took out [0-9]+ probes and made [0-9]+ m
 "$cli" place "$scene" --method greedy --budget 24 "${field[@]}" --env 0.1,0.1,0.1 --swap-passes 0 -o "$tmp/g0.json" | tee "$tmp/g0.txt"
 if grep -q "swap pass" "$tmp/g0.txt"; then echo "swaps with --swap-passes 0" >&2; exit 1; fi
 "$cli" place "$scene" --method greedy --max-error 0.3 "${field[@]}" -o "$tmp/e.json"
-"$cli" place "$scene" --method ascent --budget 32 --field-spp 32 --no-leak-refine -o "$tmp/a.json"
-"$cli" place "$scene" --method spawn-merge --budget 40 --field-spp 32 --no-leak-refine -o "$tmp/sm.json"
+"$cli" place "$scene" --method ascent --budget 32 --field-spp 32 -o "$tmp/a.json"
+"$cli" place "$scene" --method spawn-merge --budget 40 --field-spp 32 -o "$tmp/sm.json"
 # Lock two probes, then place around them.
 python3 - "$tmp" <<'PY'
 import json, sys
@@ -41,12 +41,12 @@ s["probes"][7]["state"] = "accepted"
 json.dump(s, open(f"{tmp}/locked.json", "w"))
 PY
 "$cli" place "$scene" --method greedy --budget 20 "${field[@]}" --keep "$tmp/locked.json" -o "$tmp/k.json"
-"$cli" place "$scene" --method uniform --budget 20 --no-leak-refine --keep "$tmp/locked.json" -o "$tmp/ku.json"
+"$cli" place "$scene" --method uniform --budget 20 --keep "$tmp/locked.json" -o "$tmp/ku.json"
 # A uniform budget no grid meets within 10 % says so (two-rooms at 20: its 10 covering probes and
 # a grid of 16); one met does not.
-"$cli" place "$root/resources/scenes/two-rooms.gltf" --method uniform --budget 20 --no-leak-refine -o "$tmp/u20.json" | tee "$tmp/u20.txt"
+"$cli" place "$root/resources/scenes/two-rooms.gltf" --method uniform --budget 20 -o "$tmp/u20.json" | tee "$tmp/u20.txt"
 grep -q "uniform: no grid of the search gives 20 probes within 10 % (kept and covering probes included); the closest gives 26" "$tmp/u20.txt"
-"$cli" place "$scene" --method uniform --budget 64 --no-leak-refine -o "$tmp/u64.json" | tee "$tmp/u64.txt"
+"$cli" place "$scene" --method uniform --budget 64 -o "$tmp/u64.json" | tee "$tmp/u64.txt"
 if grep -q "within 10 %" "$tmp/u64.txt"; then echo "a note for a budget the grid meets" >&2; exit 1; fi
 python3 - "$tmp" <<'PY'
 import json, sys
@@ -84,9 +84,9 @@ PY
 # The Cornell box is lit by a small emissive panel that cheap captures mostly miss: greedy's
 # perceptual objective warns that it would measure their noise; pillar-room's sky does not.
 "$cli" place "$root/resources/scenes/cornell.gltf" --method greedy --budget 32 --swap-passes 0 \
-  --held-out 16 --no-leak-refine -o "$tmp/c.json" | grep -q "resolve no light"
+  --held-out 16 -o "$tmp/c.json" | grep -q "resolve no light"
 if "$cli" place "$scene" --method greedy --budget 32 --swap-passes 0 --held-out 16 \
-    --no-leak-refine --env 0.1,0.1,0.1 -o "$tmp/c.json" | grep -q "resolve no light"; then
+    --env 0.1,0.1,0.1 -o "$tmp/c.json" | grep -q "resolve no light"; then
   echo "FAIL: the unresolved-light warning on a sky-lit room" >&2
   exit 1
 fi

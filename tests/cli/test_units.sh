@@ -33,8 +33,8 @@ if grep -q "units" "$tmp/level.txt"; then echo "FAIL: the level in metres is fla
 "$cli" capture "$mm" --units mm --at -3000,1200,500 --spp 64 --seed 3 >"$tmp/cap-mm.json"
 
 # place: uniform and greedy with a small budget, in metres, mm (also as --units 0.001) and cm.
-uni=(--method uniform --budget 64 --no-leak-refine --accept)
-gre=(--method greedy --budget 12 --field-depth 1 --field-spp 32 --held-out 32 --swap-passes 0 --no-leak-refine --accept)
+uni=(--method uniform --budget 64 --accept)
+gre=(--method greedy --budget 12 --field-depth 1 --field-spp 32 --held-out 32 --swap-passes 0 --accept)
 "$cli" place "$m" "${uni[@]}" -o "$tmp/u-m.json" >/dev/null
 "$cli" place "$mm" --units mm "${uni[@]}" -o "$tmp/u-mm.json" >/dev/null
 "$cli" place "$mm" --units 0.001 "${uni[@]}" -o "$tmp/u-mm2.json" >/dev/null
@@ -86,11 +86,11 @@ print(f"eval rel_rmse m {e['m']['rel_rmse']:.6f}, mm {e['mm']['rel_rmse']:.6f}; 
 assert abs(e["m"]["rel_rmse"] - e["mm"]["rel_rmse"]) <= 1e-3 * e["m"]["rel_rmse"], e
 assert abs(e["m"]["stops"]["rms"] - e["mm"]["stops"]["rms"]) <= 1e-3 * e["m"]["stops"]["rms"]
 assert len(e["m"]["rooms"]) == len(e["mm"]["rooms"]) == 2, (e["m"]["rooms"], e["mm"]["rooms"])
-# The volume file holds positions in the scene's unit (version 3 header: 40 bytes).
+# The volume file holds positions in the scene's unit (version 4 header: 36 bytes).
 def psv_positions(name):
     b = open(f"{tmp}/{name}.psv", "rb").read()
     P = struct.unpack_from("<I", b, 16)[0]
-    return struct.unpack_from(f"<{3 * P}f", b, 40)
+    return struct.unpack_from(f"<{3 * P}f", b, 36)
 pm, pmm = psv_positions("m"), psv_positions("mm")
 dev = max(abs(y - 1000 * x) / max(abs(1000 * x), 1000) for x, y in zip(pm, pmm))
 print(f"volume positions mm vs m x 1000: max relative deviation {dev:.3g}")

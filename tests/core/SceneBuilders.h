@@ -2,6 +2,7 @@
 // Small analytic scenes for the capture tests: quads, boxes (rooms or solids) and an
 // "infinite" floor, built straight into a ps::Scene.
 #include <cstdint>
+#include <initializer_list>
 
 #include "core/scene/Scene.h"
 
@@ -59,6 +60,17 @@ inline void addBox(Scene& s, Vec3 lo, Vec3 hi, uint32_t material, bool inward) {
   for (const Face& f : faces)
     inward ? addQuad(s, f.corner, f.e1, f.e2, material)
            : addQuad(s, f.corner, f.e2, f.e1, material);
+}
+
+/// Rooms in a row along x: a grey (albedo 0.5) room box from the origin to `hi`, parted by solid
+/// walls 0.1 m thick, full height and depth, centred at each of `wallXs`, lit by one point light.
+inline Scene roomsAlongX(Vec3 hi, std::initializer_list<double> wallXs, Light light) {
+  Scene s;
+  const uint32_t grey = addMaterial(s, {0.5, 0.5, 0.5});
+  addBox(s, {0, 0, 0}, hi, grey, /*inward=*/true);
+  for (double x : wallXs) addBox(s, {x - 0.05, 0, 0}, {x + 0.05, hi.y, hi.z}, grey, false);
+  s.lights.push_back(light);
+  return s;
 }
 
 /// A black (or given albedo), single-sided, up-facing floor of half-size 1000 at y = 0: an

@@ -295,7 +295,6 @@ TEST(Domain, EvalQueriesAndGreedyProbesLieInIt) {
   PlaceRequest r;
   r.method = "greedy";
   r.budget = 24;
-  r.refineLeaks = false;
   r.parameters.set("fieldSamplesPerProbe", 16);
   r.parameters.set("fieldDepth", 1);
   r.parameters.set("heldOutPerProbe", 4);
@@ -307,7 +306,6 @@ TEST(Domain, EvalQueriesAndGreedyProbesLieInIt) {
     EXPECT_TRUE(domain.reachable->contains(p.position)) << p.position;
   PlaceRequest u;
   u.budget = 24;
-  u.refineLeaks = false;
   for (const Probe& p : placeProbeSet(tracer, set, u).set.probes)
     EXPECT_TRUE(domain.reachable->contains(p.position)) << p.position;
 }

@@ -185,7 +185,6 @@ TEST(Fit, BadSettingsAreRefusedBeforeTheCapture) {
   // The bake checks before it traces anything: a cancelled progress would throw Cancelled.
   const ProbeSet set = acceptedSet(grid(2, {-1, 1, -1}, {1, 3, 1}));
   BakeSettings bs;
-  bs.leakRefine = false;
   bs.fit = FitSettings{};
   bs.fit->regularization = -1;
   EXPECT_THROW(bakeProbeSet(set, cornell().tracer, bs, [](double) { return false; }),
@@ -202,7 +201,6 @@ TEST(Fit, BadSettingsAreRefusedBeforeTheCapture) {
 TEST(Fit, TheBakeRecordsTheFitInTheVolume) {
   const ProbeSet set = acceptedSet(grid(3, {-2.5, 0.3, -2.5}, {2.5, 5.2, 2.5}));
   BakeSettings bs;
-  bs.leakRefine = false;
   bs.capture.samplesPerProbe = 64;
   const BakeResult plain = bakeProbeSet(set, cornell().tracer, bs);
   EXPECT_FALSE(plain.fit);

@@ -231,6 +231,31 @@ TEST(ProbeSetFile, AHugeFileIsRefusedBeforeItIsRead) {
   fs::remove(dir / "huge.json");
 }
 
+// Sets placed with leak refinement hold probes of method "leak": they load as any other probe
+// (their provenance kept), and so does a placement block naming the setting.
+TEST(ProbeSetFile, LeakProbesAndTheRefinementSettingStillLoad) {
+  const fs::path dir = tempDir();
+  ProbeSet set;
+  set.scenePath = (dir / "room.gltf").string();
+  for (int i = 0; i < 3; ++i) {
+    Probe p;
+    p.position = Vec3(i, 1, 0);
+    p.state = ProbeState::Accepted;
+    p.method = i == 2 ? "leak" : "uniform";
+    p.score = i == 2 ? 3 : 0;
+    set.add(p);
+  }
+  saveProbeSet(set, dir / "set.json");
+  auto j = nlohmann::ordered_json::parse(readText(dir / "set.json"));
+  j["placement"]["refine_leaks"] = true;
+  writeText(dir / "set.json", j.dump(2));
+  const ProbeSet r = loadProbeSet(dir / "set.json");
+  ASSERT_EQ(r.probes.size(), 3u);
+  EXPECT_EQ(r.probes[2].method, "leak");
+  EXPECT_EQ(r.probes[2].state, ProbeState::Accepted);
+  EXPECT_EQ(r.probes[2].score, 3);
+}
+
 TEST(ProbeSetFile, NewerVersionIsRefusedWithAClearMessage) {
   const fs::path dir = tempDir();
   writeText(dir / "v9.json", R"({"format": "probestudio.probeset", "version": 9, "probes": []})");
@@ -327,6 +352,19 @@ VolumeFile oneTetVolume() {
   return vf;
 }
 
+/// Every array `saveVolume` writes, and the metadata, read back equal.
+void expectSameVolume(const VolumeFile& r, const VolumeFile& vf) {
+  EXPECT_EQ(r.volume.positions, vf.volume.positions);
+  EXPECT_EQ(r.volume.sh, vf.volume.sh);
+  EXPECT_EQ(r.volume.tets, vf.volume.tets);
+  EXPECT_EQ(r.volume.neighbors, vf.volume.neighbors);
+  EXPECT_EQ(r.volume.matrices, vf.volume.matrices);
+  EXPECT_EQ(r.volume.hullFaces, vf.volume.hullFaces);
+  EXPECT_EQ(r.volume.visibility, vf.volume.visibility);
+  EXPECT_EQ(r.volume.probeInside, vf.volume.probeInside);
+  EXPECT_EQ(r.metadataJson, vf.metadataJson);
+}
+
 std::string volumeError(const fs::path& p) {
   try {
     loadVolume(p);
@@ -342,14 +380,7 @@ TEST(VolumeFile, RoundTripIsBitExact) {
   const fs::path dir = tempDir();
   const VolumeFile vf = oneTetVolume();
   saveVolume(vf, dir / "v.psv");
-  const VolumeFile r = loadVolume(dir / "v.psv");
-  EXPECT_EQ(r.volume.positions, vf.volume.positions);
-  EXPECT_EQ(r.volume.sh, vf.volume.sh);
-  EXPECT_EQ(r.volume.tets, vf.volume.tets);
-  EXPECT_EQ(r.volume.neighbors, vf.volume.neighbors);
-  EXPECT_EQ(r.volume.matrices, vf.volume.matrices);
-  EXPECT_EQ(r.volume.hullFaces, vf.volume.hullFaces);
-  EXPECT_EQ(r.metadataJson, vf.metadataJson);
+  expectSameVolume(loadVolume(dir / "v.psv"), vf);
 }
 
 // A volume of a scene in millimetres: the file holds its lengths in mm (what an engine reads),
@@ -385,28 +416,94 @@ TEST(VolumeFile, SceneUnitScalesTheFileAndReadsBackInMetres) {
                                               kSceneUnitExpected + ", got \"furlong\"");
 }
 
-// A volume without leak cuts is written as version 1 (readers of version 1 read it); one with
-// cuts as version 2, and both read back exactly.
-TEST(VolumeFile, LeakCutsRoundTripAsVersion2) {
-  const fs::path dir = tempDir();
-  VolumeFile vf = oneTetVolume();
-  saveVolume(vf, dir / "plain.psv");
-  EXPECT_EQ(readText(dir / "plain.psv")[8], 1);
-  vf.volume.cutStart = {0, 2};
-  vf.volume.cutPlanes = {{{1, 0, 0, 0.25f}, 0x21}, {{0, -1, 0, -0.5f}, 0x4}};
-  saveVolume(vf, dir / "cut.psv");
-  const std::string bytes = readText(dir / "cut.psv");
-  EXPECT_EQ(bytes[8], 2);
-  EXPECT_EQ(bytes.size(), readText(dir / "plain.psv").size() + 4 + 2 * 4 + 2 * 20);
-  const VolumeFile r = loadVolume(dir / "cut.psv");
-  EXPECT_EQ(r.volume.cutStart, vf.volume.cutStart);
-  ASSERT_EQ(r.volume.cutPlanes.size(), 2u);
-  for (size_t c = 0; c < 2; ++c) {
-    EXPECT_EQ(r.volume.cutPlanes[c].plane, vf.volume.cutPlanes[c].plane);
-    EXPECT_EQ(r.volume.cutPlanes[c].hide, vf.volume.cutPlanes[c].hide);
+namespace {
+
+/// `bytes` (a version 1 or 4 file of P probes, T tets, H hull faces) rewritten with the leak-cut
+/// section of versions 2 and 3 (the layout docs/formats.md keeps for them): version 2 from 1,
+/// 3 from 4, the cut plane count C after the metadata count, then after the hull faces T + 1
+/// cut starts (0, then C for every tet after the first) and C planes x = 0.25 hiding vertex 0
+/// on their positive side. The CRC is recomputed.
+std::string withCutSection(std::string bytes, uint32_t C) {
+  uint32_t version, P, T, H;
+  std::memcpy(&version, bytes.data() + 8, 4);
+  std::memcpy(&P, bytes.data() + 16, 4);
+  std::memcpy(&T, bytes.data() + 20, 4);
+  std::memcpy(&H, bytes.data() + 24, 4);
+  const bool maps = version == 4;
+  const uint32_t old = maps ? 3 : 2;
+  std::memcpy(bytes.data() + 8, &old, 4);
+  const size_t header = 8 + 6 * 4 + (maps ? 4 : 0);
+  const size_t hullEnd = header + size_t(P) * 120 + size_t(T) * 68 + size_t(H) * 8;
+  std::string cuts;
+  for (uint32_t t = 0; t <= T; ++t) {
+    const uint32_t start = t == 0 ? 0 : C;
+    cuts.append(reinterpret_cast<const char*>(&start), 4);
   }
-  EXPECT_EQ(r.volume.tets, vf.volume.tets);
-  EXPECT_EQ(r.metadataJson, vf.metadataJson);
+  for (uint32_t c = 0; c < C; ++c) {
+    const float plane[4] = {1, 0, 0, 0.25f};
+    const uint32_t hide = 0x1;
+    cuts.append(reinterpret_cast<const char*>(plane), 16);
+    cuts.append(reinterpret_cast<const char*>(&hide), 4);
+  }
+  bytes.insert(hullEnd, cuts);
+  bytes.insert(8 + 6 * 4, std::string(reinterpret_cast<const char*>(&C), 4));
+  const uint32_t crc = crc32(bytes.data(), bytes.size() - 4);
+  std::memcpy(bytes.data() + bytes.size() - 4, &crc, 4);
+  return bytes;
+}
+
+/// oneTetVolume() with 1 x 1 visibility maps (each probe sees a surface 2 m away).
+VolumeFile oneTetVolumeWithMaps() {
+  VolumeFile vf = oneTetVolume();
+  vf.volume.visibilityMapSize = 1;
+  vf.volume.visibility = {2, 4, 2, 4, 2, 4, 2, 4};
+  vf.volume.probeInside = {0, 0, 0, 0};
+  return vf;
+}
+
+}  // namespace
+
+// The written versions: 1 without visibility maps (every reader of version 1 reads it), 4 with
+// them; both read back exactly.
+TEST(VolumeFile, WritesVersion1WithoutMapsAnd4WithThem) {
+  const fs::path dir = tempDir();
+  for (const VolumeFile& vf : {oneTetVolume(), oneTetVolumeWithMaps()}) {
+    saveVolume(vf, dir / "v.psv");
+    const std::string bytes = readText(dir / "v.psv");
+    EXPECT_EQ(bytes[8], vf.volume.hasVisibility() ? 4 : 1);
+    // 32-byte header (36 with maps), 120 per probe, 68 per tet, 8 per hull face, the maps.
+    const size_t mapBytes = vf.volume.hasVisibility() ? 4 + 4 * (1 + 8) : 0;
+    EXPECT_EQ(bytes.size(), 32 + 4 * 120 + 68 + 4 * 8 + mapBytes + vf.metadataJson.size() + 4);
+    expectSameVolume(loadVolume(dir / "v.psv"), vf);
+  }
+}
+
+// Versions 2 and 3 hold a leak-cut section. Without planes (C = 0: every volume baked without
+// the cuts) they read as the same volume; with planes the file is refused, naming the file and
+// the field and saying to re-bake, by the core and by the runtime reader alike.
+TEST(VolumeFile, OldVersionsReadWithoutCutsAndAreRefusedWithThem) {
+  const fs::path dir = tempDir();
+  for (const VolumeFile& vf : {oneTetVolume(), oneTetVolumeWithMaps()}) {
+    saveVolume(vf, dir / "v.psv");
+    const std::string current = readText(dir / "v.psv");
+    writeText(dir / "uncut.psv", withCutSection(current, 0));
+    EXPECT_EQ(readText(dir / "uncut.psv")[8], vf.volume.hasVisibility() ? 3 : 2);
+    expectSameVolume(loadVolume(dir / "uncut.psv"), vf);
+    ps_runtime::Volume rv;
+    std::string why;
+    EXPECT_TRUE(ps_runtime::loadVolumeFile((dir / "uncut.psv").string().c_str(), rv, &why)) << why;
+
+    writeText(dir / "cut.psv", withCutSection(current, 2));
+    const std::string error = volumeError(dir / "cut.psv");
+    EXPECT_NE(error.find((dir / "cut.psv").string() + ": cut_plane_count: the volume holds 2 "
+                                                      "leak cut planes"),
+              std::string::npos)
+        << error;
+    EXPECT_NE(error.find("Re-bake the volume"), std::string::npos) << error;
+    EXPECT_FALSE(ps_runtime::loadVolumeFile((dir / "cut.psv").string().c_str(), rv, &why));
+    EXPECT_NE(why.find("cut.psv: cut_plane_count: 2 leak cut planes"), std::string::npos) << why;
+    EXPECT_NE(why.find("re-bake"), std::string::npos) << why;
+  }
 }
 
 TEST(VolumeFile, Crc32MatchesTheStandardCheckValue) {

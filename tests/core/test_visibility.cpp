@@ -1,6 +1,6 @@
 // Visibility per probe (DDGI, Majercik et al. 2019, sec. 4-5): the capture's distance maps, the
 // visibility-aware interpolant (core/traversal/VisibleInterpolation.h) and the volume file's
-// version 3, which carries the maps.
+// version 4, which carries the maps.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -23,8 +23,6 @@
 
 namespace fs = std::filesystem;
 using namespace ps;
-using ps::testing::addBox;
-using ps::testing::addMaterial;
 using ps::testing::pointLight;
 
 namespace {
@@ -32,12 +30,7 @@ namespace {
 /// Two rooms side by side, x in [0, 1.95] (room A, dark) and [2.05, 4] (room B, a point light
 /// at (3, 1, 1)), y and z in [0, 2], parted by a solid single-sided wall 0.1 m thick.
 Scene twoRooms() {
-  Scene s;
-  const uint32_t grey = addMaterial(s, {0.5, 0.5, 0.5});
-  addBox(s, {0, 0, 0}, {4, 2, 2}, grey, /*inward=*/true);
-  addBox(s, {1.95, 0, 0}, {2.05, 2, 2}, grey, /*inward=*/false);
-  s.lights.push_back(pointLight({3, 1, 1}, {5, 5, 5}));
-  return s;
+  return ps::testing::roomsAlongX({4, 2, 2}, {2.0}, pointLight({3, 1, 1}, {5, 5, 5}));
 }
 
 struct Captured {
@@ -152,7 +145,7 @@ TEST(Visibility, NoLightCrossesTheWallAndAProbeInsideItGetsNoWeight) {
       ++tried;
       checked += w.fallback != VisibleFallback::Barycentric;
       double sum = 0;
-      for (int k = 0; k < 4; ++k) {
+      for (int k = 0; k < w.count; ++k) {
         ASSERT_TRUE(std::isfinite(w.weights[k]));
         ASSERT_GE(w.weights[k], 0);
         sum += w.weights[k];
@@ -242,11 +235,11 @@ TEST(Visibility, EvalUsesTheInterpolantAndItLowersLeaks) {
   EXPECT_LT(with.relRmse, without.relRmse);
 }
 
-// ---- Volume file version 3 ----------------------------------------------------------------
+// ---- Volume file version 4 ----------------------------------------------------------------
 
 namespace {
 
-/// A small volume with maps, saved as version 3; its bytes.
+/// A small volume with maps, saved as version 4; its bytes.
 std::string volumeBytes(const fs::path& path) {
   const Scene s = twoRooms();
   const Tracer tracer(s);
@@ -285,16 +278,15 @@ std::string readerError(const std::string& bytes) {
 
 }  // namespace
 
-TEST(VolumeFileV3, RoundTripsTheMaps) {
+TEST(VolumeFileV4, RoundTripsTheMaps) {
   const fs::path dir = ps::test::testTempDir("ps_test_visibility_");
   const std::string bytes = volumeBytes(dir / "v.psv");
   uint32_t version;
   std::memcpy(&version, bytes.data() + 8, 4);
-  EXPECT_EQ(version, 3u);
+  EXPECT_EQ(version, 4u);
   const VolumeFile vf = loadVolume(dir / "v.psv");
   EXPECT_EQ(vf.volume.visibilityMapSize, kVisibilityMapSize);
   EXPECT_EQ(vf.volume.visibility.size(), vf.volume.probeCount() * size_t(kVisibilityFloats));
-  EXPECT_TRUE(vf.volume.cutStart.empty());
   // Written again, byte for byte the same.
   saveVolume(vf, dir / "w.psv");
   std::ifstream in(dir / "w.psv", std::ios::binary);
@@ -302,7 +294,7 @@ TEST(VolumeFileV3, RoundTripsTheMaps) {
   EXPECT_EQ(readerError(bytes), "ok");
 }
 
-TEST(VolumeFileV3, BadMapsAreRefusedNamingTheField) {
+TEST(VolumeFileV4, BadMapsAreRefusedNamingTheField) {
   const fs::path dir = ps::test::testTempDir("ps_test_visibility_");
   const std::string good = volumeBytes(dir / "v.psv");
   const VolumeFile vf = parseVolume(good, "v.psv");
@@ -322,12 +314,12 @@ TEST(VolumeFileV3, BadMapsAreRefusedNamingTheField) {
   {
     std::string b = good;
     const uint32_t r = 0;
-    std::memcpy(b.data() + 8 + 7 * 4, &r, 4);
+    std::memcpy(b.data() + 8 + 6 * 4, &r, 4);
     b = withCrc(b);
     EXPECT_NE(coreError(b).find("visibility_map_size"), std::string::npos) << coreError(b);
     EXPECT_NE(readerError(b).find("visibility map size"), std::string::npos) << readerError(b);
     const uint32_t half = kVisibilityMapSize / 2;
-    std::memcpy(b.data() + 8 + 7 * 4, &half, 4);
+    std::memcpy(b.data() + 8 + 6 * 4, &half, 4);
     b = withCrc(b);
     EXPECT_NE(coreError(b).find("need"), std::string::npos) << coreError(b);
     EXPECT_NE(readerError(b), "ok");
@@ -359,8 +351,9 @@ TEST(VolumeFileV3, BadMapsAreRefusedNamingTheField) {
   EXPECT_NE(readerError(flag).find("probe flag"), std::string::npos) << readerError(flag);
 }
 
-// The fuzzer's version 3 seed (tests/fuzz/seeds/volume) is a valid volume for both readers.
-TEST(VolumeFileV3, TheFuzzSeedLoads) {
+// The fuzzer's version 3 seed (tests/fuzz/seeds/volume, no cut planes) is a valid volume for
+// both readers.
+TEST(VolumeFileV4, TheVersion3FuzzSeedLoads) {
   const fs::path seed = fs::path(PS_SOURCE_DIR) / "tests/fuzz/seeds/volume/one-tet-visibility.psv";
   const VolumeFile vf = loadVolume(seed);
   EXPECT_EQ(vf.volume.visibilityMapSize, 1);
@@ -369,10 +362,17 @@ TEST(VolumeFileV3, TheFuzzSeedLoads) {
   EXPECT_EQ(readerError(std::string((std::istreambuf_iterator<char>(in)), {})), "ok");
 }
 
-// Volumes of versions 1 and 2 still load, without maps, and the interpolant answers with their
-// barycentric weights, as before.
-TEST(VolumeFileV3, OlderVersionsLoadAndAnswerAsBefore) {
-  for (const char* name : {"one-tet.psv", "one-tet-cut.psv", "two-tets.psv"}) {
+// Volumes of version 1 still load, without maps, and the interpolant answers with their
+// barycentric weights, as before. A version 2 volume with cut planes is refused by both readers.
+TEST(VolumeFileV4, OlderVersionsLoadAndAnswerAsBefore) {
+  {
+    const fs::path file = fs::path(PS_SOURCE_DIR) / "tests/fuzz/seeds/volume/one-tet-cut.psv";
+    std::ifstream in(file, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    EXPECT_NE(coreError(bytes).find("cut_plane_count"), std::string::npos) << coreError(bytes);
+    EXPECT_NE(readerError(bytes).find("re-bake"), std::string::npos) << readerError(bytes);
+  }
+  for (const char* name : {"one-tet.psv", "two-tets.psv"}) {
     const fs::path file = fs::path(PS_SOURCE_DIR) / "tests/fuzz/seeds/volume" / name;
     const VolumeFile vf = loadVolume(file);
     EXPECT_FALSE(vf.volume.hasVisibility()) << name;

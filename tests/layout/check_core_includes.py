@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
-"""Checks that the include graph of core/'s folders (one folder per stage) has no cycle and
-that no core file includes Qt. Prints each folder's dependencies, and a cycle if there is one.
-Usage: check_core_includes.py REPO_ROOT. Exit status 1 on a cycle or a Qt include."""
+"""Checks that the include graph of core/'s folders (one folder per stage) has no cycle, that no
+core file includes Qt, and that no folder includes one that FORBIDDEN keeps it from. Prints each
+folder's dependencies, and a cycle if there is one.
+Usage: check_core_includes.py REPO_ROOT. Exit status 1 on a cycle, a Qt include or a forbidden
+dependency."""
 import os
 import re
 import sys
@@ -10,6 +12,12 @@ root = os.path.join(sys.argv[1], "core")
 include = re.compile(r'^\s*#\s*include\s+[<"]([^">]+)[">]', re.M)
 graph = {}
 bad = []
+# Dependencies that must not exist, with the reason. Bake turns any accepted probe set into a
+# volume, whatever placed it; the runtime reader is one file an engine copies.
+FORBIDDEN = {
+    "bake": ({"placement"}, "bake works on any probe set, whatever method placed it"),
+    "runtime": (None, "the runtime reader is self-contained (an engine copies the one file)"),
+}
 for folder in sorted(os.listdir(root)):
     path = os.path.join(root, folder)
     if not os.path.isdir(path):
@@ -26,6 +34,11 @@ for folder in sorted(os.listdir(root)):
 
 for folder, deps in sorted(graph.items()):
     print(f"{folder} -> {', '.join(sorted(deps)) or '(nothing)'}")
+    if folder in FORBIDDEN:
+        banned, why = FORBIDDEN[folder]
+        for dep in sorted(deps):
+            if banned is None or dep in banned:
+                bad.append(f"core/{folder} depends on core/{dep}: {why}")
 
 # Depth-first search for a back edge.
 state = {}

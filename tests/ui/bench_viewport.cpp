@@ -14,7 +14,6 @@
 #include <memory>
 #include <random>
 
-#include "core/placement/LeakRefine.h"
 #include "core/scene/Scene.h"
 #include "core/trace/Tracer.h"
 #include "ui/Document.h"
@@ -197,59 +196,6 @@ void BM_PreviewVolumeAfterMove10k(benchmark::State& state) {
   }
 }
 
-/// The preview's leak cuts (LightingField.h previewLeakCuts, which the fields rebuild runs on
-/// its worker thread) over the preview volume of N random captured probes in two-rooms, against
-/// bake's settings (computeLeakCuts with LeakCutSettings{}) on the same volume. Args: N, then
-/// 0 for the preview's settings, 1 for bake's. No GL.
-void BM_PreviewLeakCuts(benchmark::State& state) {
-  Document doc;
-  doc.setAutoPropose(false);
-  doc.openScene(kScene);
-  const Bounds3 b = doc.scene()->bounds;
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::vector<Probe> probes;
-  for (int i = 0; i < int(state.range(0)); ++i) {
-    Probe p;
-    p.id = uint64_t(i + 1);
-    p.position = b.lo + Vec3(u(rng) * b.extent().x, u(rng) * b.extent().y, u(rng) * b.extent().z);
-    ShRgb sh;
-    sh.c[0] = Rgb(1, 1, 1) * (0.5 + u(rng));
-    p.sh = sh;
-    probes.push_back(p);
-  }
-  const std::optional<ProbeVolume> volume = buildPreviewVolume(probes, PreviewSource::AllCaptured);
-  const std::shared_ptr<const Tracer> tracer = doc.tracerShared();
-  if (!volume || !tracer) {
-    state.SkipWithError("no preview volume or no tracer");
-    return;
-  }
-  const bool bakeSettings = state.range(1) == 1;
-  size_t planes = 0, before = 0, after = 0, samples = 0;
-  for (auto _ : state) {
-    ProbeVolume v = *volume;
-    if (bakeSettings) {
-      const LeakCutResult r = computeLeakCuts(*tracer, v, {});
-      planes = r.planes, before = r.hiddenSamplesBefore, after = r.hiddenSamplesAfter;
-      samples = r.samples;
-    } else {
-      const PreviewCuts c = previewLeakCuts(*tracer, v, {});
-      if (c.skipped) state.SkipWithError("above kMaxPreviewCutTets");
-      planes = c.result.planes, before = c.result.hiddenSamplesBefore,
-      after = c.result.hiddenSamplesAfter, samples = c.result.samples;
-    }
-  }
-  state.counters["tets"] = double(volume->tets.size());
-  state.counters["planes"] = double(planes);
-  state.counters["leaking_before"] = double(before) / double(std::max<size_t>(samples, 1));
-  state.counters["leaking_after"] = double(after) / double(std::max<size_t>(samples, 1));
-}
-
-BENCHMARK(BM_PreviewLeakCuts)
-    ->ArgsProduct({{100, 1000, 4000}, {0, 1}})
-    ->Unit(benchmark::kMillisecond)
-    ->Iterations(3)
-    ->UseRealTime();
 BENCHMARK(BM_PreviewVolumeAfterMove10k)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ViewportFrameSceneOnly)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
 BENCHMARK(BM_ViewportFrame1kProbes)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();

@@ -36,9 +36,7 @@
 #include <QJsonArray>
 #include <QJsonDocument>
 #include <QJsonObject>
-#include <QMatrix4x4>
 #include <QRectF>
-#include <QVector4D>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -219,116 +217,6 @@ int checkDomain(const char* shotPath, const char* basePath) {
   return 0;
 }
 
-namespace {
-/// Which room of the two-rooms scene a pixel shows (scripts/make_scenes.py: the shared wall at
-/// x = 0 with a doorway, room A at -x lit by its lamp, room B at +x by the sun through its
-/// window), from the sidecar's camera: the side of the wall's outline, its top edge (at the
-/// cut-away height, else the ceiling) and the vertical edge of the outer south wall's face, but
-/// through the doorway the room beyond it.
-struct WallSplit {
-  QPointF top0, top1, foot;  // (0, top, z0), (0, top, z1 + t), (0, -t, z1 + t) projected
-  QPointF door[4];           // the doorway's outline in the plane x = 0, projected
-  bool roomAIsLeft = true, cameraInA = false;
-  /// Image x of the wall's outline at row y (its segments extended above and below).
-  double xAt(double y) const {
-    const bool upper = y < top1.y();
-    const QPointF a = upper ? top0 : top1, b = upper ? top1 : foot;
-    return a.x() + (b.x() - a.x()) * (y - a.y()) / (b.y() - a.y());
-  }
-  bool inDoor(QPointF p) const {
-    int sign = 0;
-    for (int i = 0; i < 4; ++i) {
-      const QPointF a = door[i], b = door[(i + 1) % 4];
-      const double c = (b.x() - a.x()) * (p.y() - a.y()) - (b.y() - a.y()) * (p.x() - a.x());
-      const int s = c > 0 ? 1 : -1;
-      if (sign != 0 && s != sign) return false;
-      sign = s;
-    }
-    return true;
-  }
-  bool inRoomA(int x, int y) const {
-    const QPointF p(x + 0.5, y + 0.5);
-    if (inDoor(p)) return !cameraInA;
-    return (p.x() < xAt(p.y())) == roomAIsLeft;
-  }
-};
-const char* wallSplit(const Pair& p, WallSplit& split) {
-  const QJsonArray m = p.root["viewProjection"].toArray();
-  if (m.size() != 16) return "no camera in the sidecar";
-  QMatrix4x4 vp;
-  for (int i = 0; i < 16; ++i) vp(i / 4, i % 4) = float(m[i].toDouble());
-  const double w = p.shot.width(), h = p.shot.height();
-  bool behind = false;
-  auto project = [&](double x, double y, double z) {
-    const QVector4D c = vp * QVector4D(float(x), float(y), float(z), 1.0f);
-    behind = behind || c.w() <= 0;
-    return QPointF((c.x() / c.w() * 0.5 + 0.5) * w, (0.5 - c.y() / c.w() * 0.5) * h);
-  };
-  // make_scenes.py two_rooms(): outer wall thickness, room and doorway extents.
-  const double wallT = 0.2, z0 = -3.0, z1 = 3.0, ceiling = 3.0, doorZ = 0.5, doorTop = 2.1;
-  const QJsonValue cut = p.root["cutHeight"];
-  const double top = cut.isDouble() ? std::min(cut.toDouble(), ceiling) : ceiling;
-  split.top0 = project(0, top, z0);
-  split.top1 = project(0, top, z1 + wallT);
-  split.foot = project(0, -wallT, z1 + wallT);
-  const double doorH = std::min(top, doorTop);
-  split.door[0] = project(0, 0, -doorZ);
-  split.door[1] = project(0, 0, doorZ);
-  split.door[2] = project(0, doorH, doorZ);
-  split.door[3] = project(0, doorH, -doorZ);
-  if (behind) return "the shared wall is behind the camera";
-  if (!(split.top0.y() < split.top1.y() && split.top1.y() < split.foot.y()))
-    return "the shared wall does not run down the image";
-  const QPointF a = project(-3, 0, 0);  // room A's floor
-  split.roomAIsLeft = a.x() < split.xAt(a.y());
-  // The eye is the point the view-projection maps to clip (0, 0, z, 0).
-  const QVector4D eye = vp.inverted() * QVector4D(0, 0, 1, 0);
-  split.cameraInA = eye.x() / eye.w() < 0;
-  return "";
-}
-}  // namespace
-
-/// --cuts: CUT shows the two-rooms probe-lighting preview with the leak cuts, NOCUT without. In
-/// the preview room A is the bright room and B the dark one; without the cuts the lighting by
-/// the shared wall blends in the other room's. Of the pixels that differ by more than 12 in some
-/// channel, split by the room they show (WallSplit): room B's turn darker (A's light no longer
-/// leaks in), room A's turn brighter (B's darkness no longer leaks in).
-int checkCuts(const char* cutPath, const char* noCutPath) {
-  Pair pair;
-  if (const char* why = loadPair(cutPath, noCutPath, pair); *why) return fail(why);
-  const QImage &cut = pair.shot, &noCut = pair.base;
-  WallSplit split;
-  if (const char* why = wallSplit(pair, split); *why) return fail(why);
-  auto luma = [](QRgb c) { return 0.2126 * qRed(c) + 0.7152 * qGreen(c) + 0.0722 * qBlue(c); };
-  long changed[2] = {0, 0}, darker[2] = {0, 0};  // [0] room A's side, [1] room B's
-  for (int y = 0; y < cut.height(); ++y)
-    for (int x = 0; x < cut.width(); ++x) {
-      const QRgb a = cut.pixel(x, y), b = noCut.pixel(x, y);
-      if (channelDiff(a, b) <= 12) continue;
-      const int side = split.inRoomA(x, y) ? 0 : 1;
-      ++changed[side];
-      darker[side] += luma(a) < luma(b);
-    }
-  const double frame = double(cut.width()) * cut.height();
-  const long total = changed[0] + changed[1];
-  auto share = [&](int side) { return changed[side] ? double(darker[side]) / changed[side] : 0.0; };
-  std::printf(
-      "leak cuts: %ld pixels changed (%.2f %% of the frame); room A's side %ld, %.3f of them "
-      "darker; room B's side %ld, %.3f of them darker\n",
-      total, 100.0 * total / frame, changed[0], share(0), changed[1], share(1));
-  // Thresholds from the figures measured at viewport sizes 640x480 ... 1280x960.
-  // Changed in room B: measured 2.12-2.23 % of the frame; at least 1 %.
-  if (changed[1] < 0.01 * frame) return fail("the leak cuts change little of the dark room");
-  // Changed in room A: measured 0.61-0.68 % of the frame; at least 0.25 %.
-  if (changed[0] < 0.0025 * frame) return fail("the leak cuts change little of the bright room");
-  // Darker share in room B: measured 0.968-0.974; at least 0.85.
-  if (share(1) < 0.85) return fail("the leak cuts do not darken the dark room by the wall");
-  // Darker share in room A: measured 0.041-0.056; at most 0.25.
-  if (share(0) > 0.25) return fail("the leak cuts darken the bright room by the wall");
-  std::printf("check_screenshot --cuts: OK\n");
-  return 0;
-}
-
 int checkMinRadius(double minPx, const char* shotPath, const char* basePath) {
   Pair pair;
   if (const char* why = loadPair(shotPath, basePath, pair); *why) return fail(why);
@@ -372,14 +260,12 @@ int main(int argc, char** argv) {
     return checkOverlays(argv[2], argv[3]);
   if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--volumes"))
     return checkVolumes(argv[2], argv[3]);
-  if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--cuts"))
-    return checkCuts(argv[2], argv[3]);
   if (argc == 4 && QString::fromLatin1(argv[1]) == QLatin1String("--domain"))
     return checkDomain(argv[2], argv[3]);
   if (argc != 3)
     return fail(
         "usage: check_screenshot SHOT.png NOPROBES.png | --overlays SHOT.png BASE.png | "
-        "--volumes SHOT.png BASE.png | --cuts CUT.png NOCUT.png | --domain SHOT.png BASE.png");
+        "--volumes SHOT.png BASE.png | --domain SHOT.png BASE.png");
   const QImage shot = QImage(argv[1]).convertToFormat(QImage::Format_RGB32);
   const QImage bare = QImage(argv[2]).convertToFormat(QImage::Format_RGB32);
   if (shot.isNull() || bare.isNull()) return fail("cannot read the images");

@@ -143,7 +143,6 @@ class TestPanels : public QObject {
       const ProbeSet fromCli = loadProbeSet(out.toStdString());
       const std::vector<Probe>& fromEditor = doc->probes();
       QCOMPARE(fromEditor.size(), fromCli.probes.size());
-      size_t leak = 0;
       for (size_t i = 0; i < fromEditor.size(); ++i) {
         const Probe &a = fromEditor[i], &b = fromCli.probes[i];
         QCOMPARE(a.id, b.id);
@@ -153,9 +152,7 @@ class TestPanels : public QObject {
         QVERIFY(std::memcmp(&a.score, &b.score, sizeof a.score) == 0);
         QVERIFY2(std::memcmp(&a.position, &b.position, sizeof a.position) == 0,
                  qPrintable(QStringLiteral("%1 probe %2").arg(c.method).arg(i)));
-        leak += a.method == "leak";
       }
-      QVERIFY(fromEditor.size() > leak);
       QCOMPARE(doc->probeSet().placement.method, fromCli.placement.method);
       QCOMPARE(doc->probeSet().placement.spacingMeters, fromCli.placement.spacingMeters);
     }
@@ -253,7 +250,7 @@ class TestPanels : public QObject {
     doc->deleteProbes({ids[0], ids[1], ids[2], ids[3], ids[4]});
     QVERIFY(panel->run());
     QCOMPARE(waitForJob(doc), QString());
-    // The grid's probes (leak refinement adds "leak" probes beside them).
+    // The grid's probes.
     double n = 0;
     for (const Probe& p : doc->probes()) n += p.method == "uniform" ? 1 : 0;
     QVERIFY2(n >= 30 && n <= 50, qPrintable(QString::number(n)));
@@ -562,7 +559,6 @@ class TestPanels : public QObject {
     accepted.push_back(
         doc->addManualProbe(doc->probes()[0].position + Vec3(0.1, 0.6, 0.05), "Add"));
     panel->bakeSamplesBox()->setValue(16);
-    panel->leakRefineBox()->setChecked(false);  // exactly the accepted probes
     QSignalSpy volumeChanged(doc, &Document::volumeChanged);
     QVERIFY(panel->bake());
     QCOMPARE(waitForJob(doc), QString());
@@ -580,35 +576,9 @@ class TestPanels : public QObject {
     vp->setPreviewSource(PreviewSource::Baked);
     QVERIFY(vp->previewVolume().has_value());
     QCOMPARE(vp->previewVolume()->probeCount(), accepted.size());
-    // With leak refinement (the default) the volume holds the accepted probes plus the ones it
-    // added, and the panel's notes say how many.
-    panel->leakRefineBox()->setChecked(true);
-    QVERIFY(panel->bake());
-    QCOMPARE(waitForJob(doc), QString());
-    QVERIFY(doc->volume()->probeCount() >= accepted.size());
     const QString note = doc->lastJobNotes().join(' ');
-    QVERIFY2(note.contains(QStringLiteral("%1 added by leak refinement")
-                               .arg(doc->volume()->probeCount() - accepted.size())),
+    QVERIFY2(note.contains(QStringLiteral("Baked %1 accepted probes").arg(accepted.size())),
              qPrintable(note));
-    QCOMPARE(vp->previewVolume()->tets.size(), doc->volume()->tets.size());
-    // With it and the leak cuts (off by default): the notes give their planes, the volume
-    // has them.
-    QVERIFY(!panel->leakCutsBox()->isChecked());
-    panel->leakCutsBox()->setChecked(true);
-    QVERIFY(panel->bake());
-    QCOMPARE(waitForJob(doc), QString());
-    const size_t planes = doc->volume()->cutPlanes.size();
-    const QString cutNote = doc->lastJobNotes().join(' ');
-    QVERIFY2(cutNote.contains(QStringLiteral("Leak cuts: %1 planes").arg(planes)),
-             qPrintable(cutNote));
-    // Without them: the same probes and tets, no planes, no word of them.
-    panel->leakCutsBox()->setChecked(false);
-    QVERIFY(panel->bake());
-    QCOMPARE(waitForJob(doc), QString());
-    QVERIFY(doc->volume()->cutPlanes.empty());
-    QVERIFY(doc->volume()->cutStart.empty());
-    QVERIFY(!doc->lastJobNotes().join(' ').contains("Leak cuts"));
-    panel->leakCutsBox()->setChecked(true);
     // Least-squares values: the same mesh, other values, and the notes and the file say so.
     QVERIFY(!panel->fitBox()->isChecked());
     const ProbeVolume captured = *doc->volume();
@@ -621,14 +591,6 @@ class TestPanels : public QObject {
     QVERIFY(loadVolume(psv.toStdString()).metadataJson.find("\"least-squares\"") !=
             std::string::npos);
     panel->fitBox()->setChecked(false);
-    // The cuts without refinement: exactly the accepted probes, and planes.
-    panel->leakRefineBox()->setChecked(false);
-    QVERIFY(panel->bake());
-    QCOMPARE(waitForJob(doc), QString());
-    QCOMPARE(doc->volume()->probeCount(), accepted.size());
-    QVERIFY(doc->lastJobNotes().join(' ').contains("0 added by leak refinement"));
-    QVERIFY(doc->lastJobNotes().join(' ').contains("Leak cuts: "));
-    panel->leakRefineBox()->setChecked(true);
   }
 
   void evaluationsArePlottedAgainstProbeCount() {
@@ -709,15 +671,8 @@ class TestPanels : public QObject {
     QVERIFY(QFileInfo(dir.filePath("eval-reference-cache")).isDir());
     QVERIFY(panel->table()->item(0, 5)->text().startsWith("traced"));
     QVERIFY(panel->table()->item(1, 5)->text().startsWith("cached"));
-    // The preview is evaluated as it is drawn: with the leak cuts, unless View turns them off.
-    QCOMPARE(evals[1].source, QStringLiteral("preview (accepted probes, leak cuts)"));
-    QAction* cuts = win.w.findChild<QAction*>("leakCutsAction");
-    QVERIFY(cuts);
-    cuts->trigger();
-    QVERIFY(panel->evaluate());
-    QCOMPARE(waitForJob(doc), QString());
-    QCOMPARE(doc->evaluations().back().source, QStringLiteral("preview (accepted probes)"));
-    cuts->trigger();
+    // The preview is evaluated as it is drawn.
+    QCOMPARE(evals[1].source, QStringLiteral("preview (accepted probes)"));
     // A new scene starts a new plot.
     QVERIFY(win.w.openScene(QStringLiteral(PS_SOURCE_DIR "/resources/scenes/cornell.gltf")));
     QCOMPARE(panel->rmseSeries()->count(), 0);
@@ -932,31 +887,6 @@ class TestPanels : public QObject {
       QVERIFY2(viewport >= 0.6 * window,
                qPrintable(QStringLiteral("%1 of %2 px").arg(viewport).arg(window)));
     }
-  }
-
-  void statusBarNamesTheControlThatTurnsTheLeakCutsBackOn() {
-    Window win;
-    QVERIFY(win.w.openScene(kScene));
-    Document* doc = win.doc;
-    win.w.placementPanel()->methodBox()->setCurrentText(QStringLiteral("uniform"));
-    win.w.placementPanel()->budgetBox()->setValue(16);
-    win.w.placementPanel()->captureSamplesBox()->setValue(4);
-    QVERIFY(win.w.placementPanel()->run());
-    QCOMPARE(waitForJob(doc), QString());
-    Viewport* vp = win.w.viewport();
-    vp->setPreviewLighting(true);
-    QAction* cuts = win.w.findChild<QAction*>("leakCutsAction");
-    QVERIFY(cuts && cuts->isChecked());
-    cuts->trigger();
-    QSignalSpy updated(vp, &Viewport::fieldsUpdated);
-    vp->startFieldsRebuild();
-    QVERIFY(updated.wait(20000));
-    // The preview shows the leaks; the status bar says so and names the menu item, no flag.
-    const QLabel* label = win.w.findChild<QLabel*>("leakCutsLabel");
-    QVERIFY(label);
-    const QString item = cuts->text().remove(QLatin1Char('&'));
-    QVERIFY2(label->text().contains(QStringLiteral("View › ") + item), qPrintable(label->text()));
-    QVERIFY(!label->text().contains(QStringLiteral("--")));
   }
 
   void lightingPanelListsTheScenesLightsAndSaysWhichLightTheCapturesUse() {

@@ -30,10 +30,12 @@ run "$scene" --probes "$tmp/set.json" --select 1 --overlays glyphs,slice,test-ob
   --screenshot "$tmp/overlays.png"
 run "$scene" --probes "$tmp/set.json" --select 1 --screenshot "$tmp/base.png"
 run "$scene" --probes "$tmp/set.json" --overlays preview,tets --screenshot "$tmp/preview.png"
-# The probe-lighting preview with the leak cuts (the default) and without.
-run "$scene" --probes "$tmp/set.json" --overlays preview --screenshot "$tmp/cuts.png"
-run "$scene" --probes "$tmp/set.json" --overlays preview --no-leak-cuts \
-  --screenshot "$tmp/nocuts.png"
+# The removed --no-leak-cuts is refused (exit 1) with what replaced it.
+if run "$scene" --no-leak-cuts --screenshot "$tmp/nocuts.png" 2>"$tmp/nocuts.err"; then
+  echo "FAIL: --no-leak-cuts was accepted"; exit 1
+fi
+grep -q -- "--no-leak-cuts: removed; .*visibility maps" "$tmp/nocuts.err" ||
+  { echo "FAIL: --no-leak-cuts: unexpected message:"; cat "$tmp/nocuts.err"; exit 1; }
 # Two importance volumes (weight 3: orange, 0.5: blue) added to the saved set, with the window.
 sed 's/"importance_volumes": \[\]/"importance_volumes": [{"name": "doorway", "min": [-1, 0.2, -1.2], "max": [1, 2.4, 1.2], "weight": 3}, {"name": "far corner", "min": [3.5, 0.2, 1.5], "max": [5.8, 1.5, 3.8], "weight": 0.5}]/' \
   "$tmp/set.json" > "$tmp/volumes.json"
@@ -42,7 +44,7 @@ run "$scene" --probes "$tmp/volumes.json" --screenshot "$tmp/volumes.png" \
   --window-screenshot "$tmp/volumes-window.png"
 run "$scene" --probes "$tmp/set.json" --screenshot "$tmp/novolumes.png"
 cp "$tmp/volumes-window.png" "$artifacts/editor-two-rooms-volumes-window.png"
-for f in overlays base preview volumes cuts nocuts; do
+for f in overlays base preview volumes; do
   cp "$tmp/$f.png" "$artifacts/editor-two-rooms-$f.png"
   cp "$tmp/$f.png.json" "$artifacts/editor-two-rooms-$f.png.json"
 done
@@ -51,7 +53,6 @@ done
 run "$scene" --probes "$tmp/set.json" --select 1 --overlays domain --screenshot "$tmp/domain.png"
 "$checker" --domain "$tmp/domain.png" "$tmp/base.png"
 "$checker" --volumes "$tmp/volumes.png" "$tmp/novolumes.png"
-"$checker" --cuts "$tmp/cuts.png" "$tmp/nocuts.png"
 
 # Probes stay visible however far the view: in a small viewport the same set's probes are drawn
 # at least 9 px in radius (accepted; candidates 0.7 of that), Viewport::kMinProbeRadiusPx. In flat

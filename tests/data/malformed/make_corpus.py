@@ -81,16 +81,19 @@ write("ps-locked-string.json", js(probe_set(probes=[probe(0, locked="yes")])))
 
 def volume(P=4, T=1, H=4, positions=None, tets=None, neighbors=None, order=2, version=1,
            magic=b"PSVOLUM1", fix_crc=True, counts=None, cut_start=None, cuts=None, maps=None):
-    """Version 2 (leak cuts) when cuts is given: a list of (nx, ny, nz, d, hide mask).
-    Version 3 (visibility maps) when maps is given: (R, flags per probe, 2 R^2 P floats)."""
+    """Version 4 (visibility maps) when maps is given: (R, flags per probe, 2 R^2 P floats).
+    Version 2 (the leak-cut section, read but never written) when cuts is given: a list of
+    (nx, ny, nz, d, hide mask); with maps too, or with version=3, version 3."""
     positions = positions or [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1][: 3 * P] + [0.5] * max(0, 3 * P - 12)
     tets = tets or [1, 2, 3, 0] * T
     neighbors = neighbors or [-1, -1, -1, -1] * T
     meta = b'{"scene":"room.gltf"}'
     c = counts or (P, T, H, len(meta))
-    if maps is not None:
-        version = 3 if version == 1 else version
+    if maps is not None and (cuts is not None or version == 3):
+        version = 3
         cuts = cuts or []
+    elif maps is not None:
+        version = 4 if version == 1 else version
     if cuts is not None:
         version = 2 if version == 1 else version
         cut_start = cut_start or [0] * T + [len(cuts)]
@@ -133,19 +136,12 @@ write("vol-tet-index.psv", volume(tets=[1, 2, 3, 4]))
 write("vol-negative-tet-index.psv", volume(tets=[1, 2, -3, 0]))
 write("vol-neighbor-index.psv", volume(neighbors=[-1, 7, -1, -1]))
 write("vol-three-probes.psv", volume(P=3, tets=[1, 2, 0, 0]))
-# Version 2: leak cuts after the hull faces.
-write("vol-cut-start-not-from-zero.psv", volume(cuts=[(1, 0, 0, 0.5, 1)], cut_start=[1, 1]))
-write("vol-cut-start-decreasing.psv",
-      volume(P=5, T=2, H=4, positions=[0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1],
-             tets=[1, 2, 3, 0, 1, 3, 2, 4], neighbors=[-1, -1, -1, 1, -1, -1, -1, 0],
-             cuts=[(1, 0, 0, 0.5, 1)], cut_start=[0, 2, 1]))
-write("vol-cut-too-many-planes.psv", volume(cuts=[(1, 0, 0, 0.1 * k, 1) for k in range(9)]))
-write("vol-cut-nan-plane.psv", volume(cuts=[(float("nan"), 0, 0, 0.5, 1)]))
-write("vol-cut-zero-normal.psv", volume(cuts=[(0, 0, 0, 0.5, 1)]))
-write("vol-cut-hide-mask.psv", volume(cuts=[(1, 0, 0, 0.5, 0x100)]))
+# Versions 2 and 3: the leak-cut section after the hull faces. Any cut plane is refused.
+write("vol-cut-planes.psv", volume(cuts=[(1, 0, 0, 0.5, 1)]))
+write("vol-cut-start-nonzero.psv", volume(cuts=[], cut_start=[0, 1]))
 write("vol-cut-truncated.psv", volume(cuts=[(1, 0, 0, 0.5, 1)])[:-30])
 write("vol-cut-header-truncated.psv", volume(cuts=[(1, 0, 0, 0.5, 1)])[:32])
-# Version 3: 1x1 maps, mean and mean square of each probe's one texel.
+# Version 4: 1x1 maps, mean and mean square of each probe's one texel.
 maps1 = (1, [0, 0, 0, 1], sum(([0.5 + 0.25 * i, (0.5 + 0.25 * i) ** 2 + 0.01] for i in range(4)), []))
 write("vol-vis-nan.psv", volume(maps=(1, maps1[1], maps1[2][:2] + [float("nan")] + maps1[2][3:])))
 write("vol-vis-negative-variance.psv", volume(maps=(1, maps1[1], [3.0] + maps1[2][1:])))
@@ -155,7 +151,7 @@ write("vol-vis-size-65.psv", volume(maps=(65, maps1[1], maps1[2])))
 write("vol-vis-wrong-size.psv", volume(maps=(2, maps1[1], maps1[2])))
 write("vol-vis-truncated.psv", volume(maps=maps1)[:-30])
 write("vol-vis-flag.psv", volume(maps=(1, [0, 2, 0, 0], maps1[2])))
-write("vol-cut-start-end.psv", volume(cuts=[(1, 0, 0, 0.5, 1)], cut_start=[0, 0]))
+write("vol-cut-planes-v3.psv", volume(maps=maps1, cuts=[(1, 0, 0, 0.5, 1)]))
 
 # ---- glTF --------------------------------------------------------------------------------
 
@@ -210,7 +206,8 @@ seed("probeset", "version1.json", js(dict((k, v) for k, v in probe_set(version=1
                                           if k not in ("scene_hash", "importance_volumes"))))
 seed("volume", "one-tet.psv", good)
 seed("volume", "one-tet-cut.psv", volume(cuts=[(1, 0, 0, 0.25, 0x21)]))
-seed("volume", "one-tet-visibility.psv", volume(maps=maps1))
+seed("volume", "one-tet-visibility.psv", volume(maps=maps1, version=3))
+seed("volume", "one-tet-visibility-v4.psv", volume(maps=maps1))
 # Two tets sharing a face: positions 0..4, tets (1,2,3,0) and (1,3,2,4).
 seed("volume", "two-tets.psv", volume(
     P=5, T=2, H=4, positions=[0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1],
