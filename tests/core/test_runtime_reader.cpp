@@ -12,6 +12,8 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "core/bake/Bake.h"
 #include "core/io/ProbeSetFile.h"
@@ -107,12 +109,28 @@ TEST(RuntimeReader, AnswersEqualTheCoresOnABakedVolume) {
   ASSERT_TRUE(ps_runtime::loadVolumeFile(bakedVolume().c_str(), rv, &error)) << error;
   EXPECT_EQ(rv.metadataJson, vf.metadataJson);
   EXPECT_EQ(rv.grid, v.locatorGrid);
-  size_t outside = 0;
+  size_t outside = 0, ties = 0;
   for (const Query& q : queries(v)) {
     const VolumeLocation a = locate(v, q.p, q.hint);
     const ps_runtime::Location b = ps_runtime::locate(rv, q.p.x, q.p.y, q.p.z, q.hint);
-    ASSERT_EQ(a.tet, b.tet) << q.p.x << " " << q.p.y << " " << q.p.z;
     ASSERT_EQ(a.outside, b.outside);
+    if (a.tet != b.tet) {
+      // A point on a face or edge two tetrahedra share (outside the hull: the clamp's), which
+      // builds that round differently (one contracting to FMA) may place in either: the same
+      // probes must get the same weights.
+      ++ties;
+      ASSERT_GE(a.tet, 0);
+      ASSERT_GE(b.tet, 0);
+      std::vector<std::pair<int32_t, float>> ba, bb;
+      for (int i = 0; i < 4; ++i) {
+        if (a.weights[i] > 0) ba.push_back({v.tets[size_t(a.tet)][i], a.weights[i]});
+        if (b.weights[i] > 0) bb.push_back({rv.tets[size_t(b.tet)][i], b.weights[i]});
+      }
+      std::sort(ba.begin(), ba.end());
+      std::sort(bb.begin(), bb.end());
+      ASSERT_EQ(ba, bb) << q.p.x << " " << q.p.y << " " << q.p.z;
+      continue;
+    }
     for (int i = 0; i < 4; ++i) ASSERT_EQ(a.weights[i], b.weights[i]);
     const ShRgb sa = interpolate(v, a);
     float sb[27];
@@ -121,8 +139,9 @@ TEST(RuntimeReader, AnswersEqualTheCoresOnABakedVolume) {
       for (int c = 0; c < 3; ++c) ASSERT_EQ(static_cast<float>(sa.c[k][c]), sb[3 * k + c]);
     outside += a.outside;
   }
-  std::printf("%zu queries, %zu outside the hull\n", queries(v).size(), outside);
-  EXPECT_GT(outside, 100u);  // the hull clamp was exercised
+  std::printf("%zu queries, %zu outside the hull, %zu ties\n", queries(v).size(), outside, ties);
+  EXPECT_GT(outside, 100u);                       // the hull clamp was exercised
+  EXPECT_LE(ties, 1 + queries(v).size() / 1000);  // rounding ties only
 }
 
 // The visibility-aware interpolant (VisibleInterpolation.h) and the reader's visibleWeights()

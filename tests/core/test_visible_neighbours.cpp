@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "core/bake/Bake.h"
 #include "core/capture/Capture.h"
@@ -154,8 +156,10 @@ TEST(VisibleNeighbours, APointWhoseTetrahedronSpansTheWallsTakesItsOwnRoomsLight
 
 // The runtime reader runs the same search with the same weights: on a saved volume, at points
 // of the corridor and all through the rooms, the same probes, count and fallback, and weights
-// within 1e-12. A point on a face two tetrahedra share may be located in either by builds that
-// round differently (the sanitizer build contracts to FMA): such ties are counted and skipped.
+// within 1e-12. A point on a face or edge two tetrahedra share (outside the hull, where the
+// clamp lands on a hull edge) may be located in either by builds that round differently (the
+// sanitizer build contracts to FMA): for such a tie, the same probes must get the same
+// barycentric weights.
 TEST(VisibleNeighbours, TheRuntimeReaderAgrees) {
   const Scene s = threeRooms();
   const Tracer tracer(s);
@@ -179,7 +183,15 @@ TEST(VisibleNeighbours, TheRuntimeReaderAgrees) {
     const ps_runtime::Location b = ps_runtime::locate(rv, q.p.x, q.p.y, q.p.z);
     if (a.tet != b.tet) {
       ++ties;
-      ASSERT_LE(*std::min_element(a.weights.begin(), a.weights.end()), 1e-4f);
+      std::vector<std::pair<int32_t, float>> ba, bb;
+      for (int k = 0; k < 4; ++k) {
+        if (a.weights[size_t(k)] > 0)
+          ba.push_back({v.tets[size_t(a.tet)][k], a.weights[size_t(k)]});
+        if (b.weights[k] > 0) bb.push_back({rv.tets[size_t(b.tet)][k], b.weights[k]});
+      }
+      std::sort(ba.begin(), ba.end());
+      std::sort(bb.begin(), bb.end());
+      ASSERT_EQ(ba, bb) << q.p.x << " " << q.p.y << " " << q.p.z;
       continue;
     }
     const VisibleWeights wa = visibleWeights(v, a, q.p, q.n);
@@ -204,7 +216,7 @@ TEST(VisibleNeighbours, TheRuntimeReaderAgrees) {
   std::printf("%zu queries, %d from the neighbour search, %d ties\n", queries.size(), neighbours,
               ties);
   EXPECT_GT(neighbours, 100);
-  EXPECT_LE(ties, int(queries.size() / 1000));
+  EXPECT_LE(ties, int(queries.size() / 100));
 }
 
 // The search is bounded: at most kMaxNeighbourProbes probes, none of the point's own
