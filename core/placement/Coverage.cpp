@@ -23,6 +23,13 @@ namespace {
 /// a hemisphere of it, and its SH rings in the directions along the floor.
 constexpr double kHullClearanceMeters = 0.15;
 
+/// The distance from p to the nearest of `lights` (infinite without lights), metres.
+double nearestLight(const std::vector<Vec3>& lights, Vec3 p) {
+  double d = std::numeric_limits<double>::infinity();
+  for (const Vec3& l : lights) d = std::min(d, length(l - p));
+  return d;
+}
+
 /// True when the segment between a and b crosses no geometry.
 bool sees(const Tracer& tracer, Vec3 a, Vec3 b) {
   const Vec3 d = b - a;
@@ -73,8 +80,18 @@ RoomOutcome coverRoom(const Tracer& tracer, const std::vector<Vec3>& cells,
       if (!seen[i]) u.push_back(i);
     return u;
   };
+  // Candidates keep off the rejected spots and out of the lights' clearance; where no cell of
+  // the room is out of it, the clearance shrinks to the farthest any cell gets.
+  auto lightDistance = [&](Vec3 p) { return nearestLight(s.lights, p); };
+  double clearance = s.lightClearanceMeters;
+  if (clearance > 0 && !s.lights.empty()) {
+    double farthest = 0;
+    for (const Vec3& p : tested) farthest = std::max(farthest, lightDistance(p));
+    clearance = std::min(clearance, farthest);
+  }
   auto allowed = [&](Vec3 p) {
-    return std::none_of(avoid.begin(), avoid.end(),
+    return lightDistance(p) >= clearance &&
+           std::none_of(avoid.begin(), avoid.end(),
                         [&](const Vec3& a) { return length(a - p) < avoidMeters; });
   };
   std::vector<size_t> unseen = unseenIndices();
@@ -235,8 +252,9 @@ CoverageResult coverDomain(const Tracer& tracer, const Domain& domain, std::span
       });
       for (const auto& [negDot, cell] : near) {
         const std::optional<Vec3> p = clearOf(cell);
-        if (!p || std::any_of(avoid.begin(), avoid.end(),
-                              [&](const Vec3& a) { return length(a - *p) < avoidMeters; }))
+        if (!p || nearestLight(s.lights, *p) < s.lightClearanceMeters ||
+            std::any_of(avoid.begin(), avoid.end(),
+                        [&](const Vec3& a) { return length(a - *p) < avoidMeters; }))
           continue;
         out.probes.push_back(*p);
         all.push_back(*p);

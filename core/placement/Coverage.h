@@ -51,6 +51,12 @@ struct CoverageSettings {
   int scoredCells = 256;
   /// Put the domain inside the probes' hull (step 2 of the header).
   bool hull = true;
+  /// The point and spot lights, and the clearance kept from them (metres): a probe beside a
+  /// lamp captures a near-singular irradiance and spreads it over its whole fan of tetrahedra
+  /// (the ball greedy and eval keep out of, kDefaultLightClearanceRelative). A room whose cells
+  /// all lie within it gets its probes as far from the lights as its cells go.
+  std::vector<Vec3> lights;
+  double lightClearanceMeters = 0;
   uint64_t seed = 1;
 };
 

@@ -56,6 +56,9 @@ PlaceResult placeProbeSet(const Tracer& tracer, const ProbeSet& set, const Place
   if (r.cover) {
     CoverageSettings cs = r.coverage;
     cs.seed = r.seed;
+    cs.lights = punctualLightPositions(tracer.scene(), set.rig);
+    cs.lightClearanceMeters = lightClearanceMeters(tracer, importanceBoxes(set.importanceVolumes),
+                                                   kDefaultLightClearanceRelative);
     const CoverageResult cov = coverDomain(tracer, *domain, keptAt, rejected, kCoverageAvoidMeters,
                                            cs, progress ? progress("coverage") : nullptr);
     out.minimumBudget = kept.size() + cov.probes.size();
