@@ -14,6 +14,7 @@
 
 #include "core/common/Error.h"
 #include "core/math/Random.h"
+#include "core/placement/PlacementMethod.h"
 
 namespace ps {
 
@@ -82,17 +83,13 @@ RoomOutcome coverRoom(const Tracer& tracer, const std::vector<Vec3>& cells,
   };
   // Candidates keep off the rejected spots and out of the lights' clearance; where no cell of
   // the room is out of it, the clearance shrinks to the farthest any cell gets.
-  auto lightDistance = [&](Vec3 p) { return nearestLight(s.lights, p); };
+  std::vector<double> lightDistance(tested.size());
+  for (size_t i = 0; i < tested.size(); ++i) lightDistance[i] = nearestLight(s.lights, tested[i]);
   double clearance = s.lightClearanceMeters;
-  if (clearance > 0 && !s.lights.empty()) {
-    double farthest = 0;
-    for (const Vec3& p : tested) farthest = std::max(farthest, lightDistance(p));
-    clearance = std::min(clearance, farthest);
-  }
-  auto allowed = [&](Vec3 p) {
-    return lightDistance(p) >= clearance &&
-           std::none_of(avoid.begin(), avoid.end(),
-                        [&](const Vec3& a) { return length(a - p) < avoidMeters; });
+  if (clearance > 0 && !s.lights.empty())
+    clearance = std::min(clearance, *std::max_element(lightDistance.begin(), lightDistance.end()));
+  auto allowed = [&](size_t i) {
+    return lightDistance[i] >= clearance && !withinAny(avoid, tested[i], avoidMeters);
   };
   std::vector<size_t> unseen = unseenIndices();
   const double limit = s.unseenShare * double(tested.size());
@@ -109,16 +106,15 @@ RoomOutcome coverRoom(const Tracer& tracer, const std::vector<Vec3>& cells,
     size_t nearest = unseen.size();
     double best = std::numeric_limits<double>::infinity();
     for (size_t k = 0; k < unseen.size(); ++k) {
-      const Vec3& p = tested[unseen[k]];
-      const double d = length(p - centroid);
-      if (d < best && allowed(p)) best = d, nearest = k;
+      const double d = length(tested[unseen[k]] - centroid);
+      if (d < best && allowed(unseen[k])) best = d, nearest = k;
     }
     if (nearest < unseen.size()) candidates.push_back(tested[unseen[nearest]]);
     for (int tries = 0; int(candidates.size()) < s.candidates && tries < 4 * s.candidates;
          ++tries) {
-      const Vec3& p = tested[unseen[std::min(unseen.size() - 1,
-                                             size_t(uniform01(rng) * double(unseen.size())))]];
-      if (allowed(p)) candidates.push_back(p);
+      const size_t i =
+          unseen[std::min(unseen.size() - 1, size_t(uniform01(rng) * double(unseen.size())))];
+      if (allowed(i)) candidates.push_back(tested[i]);
     }
     if (candidates.empty()) break;  // every unseen cell is beside a rejected probe
     // Scored against an even subsample of the unseen cells; among those within 90 % of the best
@@ -253,8 +249,7 @@ CoverageResult coverDomain(const Tracer& tracer, const Domain& domain, std::span
       for (const auto& [negDot, cell] : near) {
         const std::optional<Vec3> p = clearOf(cell);
         if (!p || nearestLight(s.lights, *p) < s.lightClearanceMeters ||
-            std::any_of(avoid.begin(), avoid.end(),
-                        [&](const Vec3& a) { return length(a - *p) < avoidMeters; }))
+            withinAny(avoid, *p, avoidMeters))
           continue;
         out.probes.push_back(*p);
         all.push_back(*p);

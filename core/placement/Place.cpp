@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "core/common/Error.h"
+#include "core/placement/Uniform.h"
 
 namespace ps {
 
@@ -27,8 +28,8 @@ std::vector<Probe> keptProbes(const ProbeSet& set, const PlaceRequest& r) {
 }
 
 void checkPlaceRequest(const PlaceRequest& r, const ProbeSet& set) {
-  if (r.budget > kMaxPlaceBudget)
-    throw ParameterError("budget", "expected at most " + std::to_string(kMaxPlaceBudget) +
+  if (r.budget > kMaxProbeBudget)
+    throw ParameterError("budget", "expected at most " + std::to_string(kMaxProbeBudget) +
                                        " probes (the limit), got " + std::to_string(r.budget));
   createPlacer(findPlacementMethod(r.method), r.parameters, {r.budget, keptProbes(set, r).size()});
 }
@@ -117,8 +118,7 @@ PlaceResult placeProbeSet(const Tracer& tracer, const ProbeSet& set, const Place
   out.set.placement.spacingMeters = placed.spacingMeters;
   const double minDistance = 0.5 * placed.spacingMeters;
   for (const PlacedProbe& p : placed.probes) {
-    if (std::any_of(rejected.begin(), rejected.end(),
-                    [&](const Vec3& q) { return length(q - p.position) < minDistance; })) {
+    if (withinAny(rejected, p.position, minDistance)) {
       ++out.nearRejected;
       continue;
     }

@@ -98,6 +98,11 @@ std::string formatNote(const char* fmt, ...) {
   return buf;
 }
 
+bool withinAny(std::span<const Vec3> points, Vec3 p, double meters) {
+  return std::any_of(points.begin(), points.end(),
+                     [&](const Vec3& q) { return length(q - p) < meters; });
+}
+
 std::vector<PlacedProbe> awayFromKept(const PlaceContext& c, std::vector<PlacedProbe> in,
                                       double spacing) {
   std::erase_if(in, [&](const PlacedProbe& p) {
@@ -190,7 +195,7 @@ PlaceOutcome placeUniformGrid(const PlaceContext& c, double spacingMeters) {
       if (c.kept.empty() || 10 * std::abs(missing) <= c.budget) break;
       (missing > 0 ? below : above) = target;
       const int next = below > 0 && above > 0 ? (below + above) / 2 : target + missing;
-      if (next == target || next < 4 || next > kMaxPlaceBudget) break;
+      if (next == target || next < 4 || next > kMaxProbeBudget) break;
       target = next;
     }
     // Methods are compared at equal probe counts: say when the set is not one (a box whose

@@ -30,10 +30,6 @@
 
 namespace ps {
 
-/// The largest budget `place` takes: uniform's search places a whole grid per step, and a budget
-/// in the millions would run for hours.
-inline constexpr int kMaxPlaceBudget = 1000000;
-
 /// A method's named numeric parameters (pbrt-v4's ParameterDictionary, reduced to numbers:
 /// counts, lengths in metres, shares, and switches as 0 or 1). Names are the core's own, in
 /// camelCase with the unit in the name (`spacingMeters`); each method lists the ones it reads
@@ -157,6 +153,8 @@ const PlacementMethod& spawnMergePlacementMethod();
 /// printf into a std::string (a note line).
 std::string formatNote(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 
+/// True when p lies closer than `meters` to one of `points`.
+bool withinAny(std::span<const Vec3> points, Vec3 p, double meters);
 /// Drops the points closer than half `spacingMeters` to a kept probe (it stands for them).
 std::vector<PlacedProbe> awayFromKept(const PlaceContext& context, std::vector<PlacedProbe> in,
                                       double spacingMeters);

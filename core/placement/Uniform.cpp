@@ -16,7 +16,6 @@ namespace ps {
 namespace {
 
 constexpr double kMaxGridPoints = 50e6;
-constexpr int kMaxBudget = 1'000'000;
 
 int axisCount(double extent, double spacing) {
   return std::max(1, static_cast<int>(std::floor(extent / spacing)));
@@ -300,8 +299,8 @@ UniformBudgetResult placeUniformBudget(const Tracer& tracer, int budget, Uniform
   if (budget < 4)
     throw ParameterError("budget: expected at least 4 probes, got " + std::to_string(budget));
   // Each bisection step places a whole grid: a budget in the millions would run for hours.
-  if (budget > kMaxBudget)
-    throw ParameterError("budget: expected at most " + std::to_string(kMaxBudget) +
+  if (budget > kMaxProbeBudget)
+    throw ParameterError("budget: expected at most " + std::to_string(kMaxProbeBudget) +
                          " probes (the limit), got " + std::to_string(budget));
   UniformBudgetResult result = BudgetSearch(tracer, budget, 1, s, progress).run();
   // A flat result (a room much wider than tall: dream-apartment at 32 and 64 probes, or a layer

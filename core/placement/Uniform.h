@@ -10,6 +10,10 @@
 
 namespace ps {
 
+/// The largest probe budget: the budget search places a whole grid per step, and a budget in the
+/// millions would run for hours. `place` refuses larger budgets for every method.
+inline constexpr int kMaxProbeBudget = 1000000;
+
 struct UniformSettings {
   double spacingMeters = 1.0;
   /// Per-axis spacings (x, y, z) when all three are positive, else spacingMeters on every axis.

@@ -226,10 +226,7 @@ std::optional<Hit> Tracer::intersect(double ox, double oy, double oz, double dx,
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
-  fillRay(ox, oy, oz, dx, dy, dz, tMin, tMax, rh.ray);
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  fillRayHit(Ray{{ox, oy, oz}, {dx, dy, dz}, tMin, tMax}, rh);
   rtcIntersect1(impl_->scene, &context, &rh);
   return impl_->hitOf(rh, Vec3{dx, dy, dz});
 }
