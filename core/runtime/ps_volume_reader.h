@@ -831,6 +831,83 @@ inline int neighbourCandidates(const Volume& v, int32_t tet, int32_t out[kMaxWei
   return count;
 }
 
+// The tetrahedra around vertex c (its star), from tet t, which holds it (as the core's
+// starTets): breadth first through the faces holding c, each in local order, at most 128.
+inline int starTets(const Volume& v, int32_t t, int32_t c, int32_t out[128]) {
+  int n = 0;
+  out[n++] = t;
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 4; ++k) {
+      if (v.tets[size_t(out[i])][k] == c) continue;
+      const int32_t nb = v.neighbors[size_t(out[i])][k];
+      if (nb < 0 || std::find(out, out + n, nb) != out + n) continue;
+      if (n == 128) return n;
+      out[n++] = nb;
+    }
+  return n;
+}
+
+// The walk's candidates (as the core's walkCandidates): from the vertex of `tet` nearest p, to
+// the nearest vertex of its star while that is strictly nearer, at most 64 steps; then the last
+// star's vertices not in `tet`, nearest first (lower index first on a tie), at most
+// kMaxWeightedProbes.
+inline int walkCandidates(const Volume& v, int32_t tet, V3 p, int32_t out[kMaxWeightedProbes]) {
+  const auto d2 = [&](int32_t q) {
+    const V3 d = p - pos(v, q);
+    return dot(d, d);
+  };
+  const auto& own = v.tets[size_t(tet)];
+  int32_t c = own[0], ct = tet;
+  double cd = d2(c);
+  for (int k = 1; k < 4; ++k)
+    if (d2(own[k]) < cd) {
+      c = own[k];
+      cd = d2(c);
+    }
+  int32_t star[128];
+  int ns = starTets(v, ct, c, star);
+  for (int step = 0; step < 64; ++step) {
+    int32_t best = c, bestTet = ct;
+    double bd = cd;
+    for (int i = 0; i < ns; ++i)
+      for (int k = 0; k < 4; ++k) {
+        const int32_t q = v.tets[size_t(star[i])][k];
+        const double dq = d2(q);
+        if (dq < bd) {
+          best = q;
+          bestTet = star[i];
+          bd = dq;
+        }
+      }
+    if (best == c) break;
+    c = best;
+    ct = bestTet;
+    cd = bd;
+    ns = starTets(v, ct, c, star);
+  }
+  double od[kMaxWeightedProbes];
+  int count = 0;
+  for (int i = 0; i < ns; ++i)
+    for (int k = 0; k < 4; ++k) {
+      const int32_t q = v.tets[size_t(star[i])][k];
+      if (std::find(own.begin(), own.end(), q) != own.end() ||
+          std::find(out, out + count, q) != out + count)
+        continue;
+      const double dq = d2(q);
+      int at = count;
+      while (at > 0 && (od[at - 1] > dq || (od[at - 1] == dq && out[at - 1] > q))) --at;
+      if (at == kMaxWeightedProbes) continue;
+      for (int j = std::min(count, kMaxWeightedProbes - 1); j > at; --j) {
+        out[j] = out[j - 1];
+        od[j] = od[j - 1];
+      }
+      out[at] = q;
+      od[at] = dq;
+      count = std::min(count + 1, kMaxWeightedProbes);
+    }
+  return count;
+}
+
 }  // namespace detail
 
 /// The visibility-aware weights at (x, y, z) for `loc` (locate() of that point), with `normal`
@@ -842,7 +919,11 @@ inline int neighbourCandidates(const Volume& v, int32_t tet, int32_t out[kMaxWei
 /// the vertices of the tetrahedra within two face steps (breadth first, each tetrahedron's
 /// neighbours in local order) that are not the tetrahedron's, the first 16, each with f_j > 0
 /// weighing f_j / d_j^2 (d_j its distance to the point), renormalised (fallback 3); when none of
-/// them sees the point either: the barycentric weights. Without maps: the barycentric weights.
+/// them sees the point either, the walk: from the tetrahedron's vertex nearest the point to the
+/// nearest probe (stepping to the nearest vertex of the tetrahedra around the current one while
+/// that is nearer), whose surrounding tetrahedra give their vertices not in the point's, nearest
+/// first, the first 16, weighed as before; when none of those sees it either: the barycentric
+/// weights. Without maps: the barycentric weights.
 inline Weights visibleWeights(const Volume& v, const Location& loc, double x, double y, double z,
                               const double* normal) {
   Weights w;
@@ -877,14 +958,22 @@ inline Weights visibleWeights(const Volume& v, const Location& loc, double x, do
   Weights n;
   n.tet = w.tet;
   n.outside = w.outside;
-  n.count = detail::neighbourCandidates(v, loc.tet, n.probes);
   double nsum = 0;
-  for (int j = 0; j < n.count; ++j) {
-    const double fj = detail::probeFactor(v, n.probes[j], p, normal);
-    const detail::V3 d = p - detail::pos(v, n.probes[j]);
-    n.weights[j] =
-        fj > 0 ? fj / std::max(detail::dot(d, d), std::numeric_limits<double>::min()) : 0;
-    nsum += n.weights[j];
+  const auto weigh = [&] {
+    nsum = 0;
+    for (int j = 0; j < n.count; ++j) {
+      const double fj = detail::probeFactor(v, n.probes[j], p, normal);
+      const detail::V3 d = p - detail::pos(v, n.probes[j]);
+      n.weights[j] =
+          fj > 0 ? fj / std::max(detail::dot(d, d), std::numeric_limits<double>::min()) : 0;
+      nsum += n.weights[j];
+    }
+  };
+  n.count = detail::neighbourCandidates(v, loc.tet, n.probes);
+  weigh();
+  if (!(nsum > 0)) {
+    n.count = detail::walkCandidates(v, loc.tet, p, n.probes);
+    weigh();
   }
   if (!(nsum > 0)) return w;
   const double inv = 1.0 / nsum;

@@ -163,6 +163,93 @@ int neighbourCandidates(const ProbeVolume& v, int32_t tet,
   return count;
 }
 
+/// The tets around vertex `c` (its star), from `tet`, which holds it: breadth first through the
+/// faces that hold c (those opposite the tet's other three vertices), each tet's faces in local
+/// order; at most kMaxStarTets, into `out`; returns how many.
+int starTets(const ProbeVolume& v, int32_t tet, int32_t c, std::array<int32_t, kMaxStarTets>& out) {
+  int n = 0;
+  out[size_t(n++)] = tet;
+  for (int i = 0; i < n; ++i) {
+    const auto& t = v.tets[size_t(out[size_t(i)])];
+    for (int k = 0; k < 4; ++k) {
+      if (t[k] == c) continue;
+      const int32_t nb = v.neighbors[size_t(out[size_t(i)])][k];
+      if (nb < 0 || std::find(out.begin(), out.begin() + n, nb) != out.begin() + n) continue;
+      if (n == kMaxStarTets) return n;
+      out[size_t(n++)] = nb;
+    }
+  }
+  return n;
+}
+
+/// The walk's candidates (the second part of fallback 2 of VisibleInterpolation.h): from the
+/// vertex of `tet` nearest p (the first in local order on a tie), step to the nearest vertex of
+/// its star while that one is strictly nearer p, at most kMaxWalkSteps steps (in a Delaunay
+/// tetrahedralization the walk ends at p's nearest probe: a vertex that is not the nearest has a
+/// Delaunay neighbour nearer p); then the vertices of the last star that are not `tet`'s, by
+/// distance to p (the lower index first on a tie), the first kMaxNeighbourProbes, into `out`;
+/// returns how many.
+int walkCandidates(const ProbeVolume& v, int32_t tet, Vec3 p,
+                   std::array<int32_t, kMaxNeighbourProbes>& out) {
+  const auto d2 = [&](int32_t q) {
+    const Vec3 d = p - v.position(q);
+    return dot(d, d);
+  };
+  const auto& own = v.tets[size_t(tet)];
+  int32_t c = own[0], ct = tet;
+  double cd = d2(c);
+  for (int k = 1; k < 4; ++k)
+    if (d2(own[k]) < cd) {
+      c = own[k];
+      cd = d2(c);
+    }
+  std::array<int32_t, kMaxStarTets> star;
+  int ns = starTets(v, ct, c, star);
+  for (int step = 0; step < kMaxWalkSteps; ++step) {
+    int32_t best = c, bestTet = ct;
+    double bd = cd;
+    for (int i = 0; i < ns; ++i)
+      for (int k = 0; k < 4; ++k) {
+        const int32_t q = v.tets[size_t(star[size_t(i)])][k];
+        const double dq = d2(q);
+        if (dq < bd) {
+          best = q;
+          bestTet = star[size_t(i)];
+          bd = dq;
+        }
+      }
+    if (best == c) break;
+    c = best;
+    ct = bestTet;
+    cd = bd;
+    ns = starTets(v, ct, c, star);
+  }
+  // The star's vertices not in `tet`, nearest first: an insertion into `out`, kept sorted.
+  std::array<double, kMaxNeighbourProbes> od;
+  int count = 0;
+  for (int i = 0; i < ns; ++i)
+    for (int k = 0; k < 4; ++k) {
+      const int32_t q = v.tets[size_t(star[size_t(i)])][k];
+      if (std::find(own.begin(), own.end(), q) != own.end() ||
+          std::find(out.begin(), out.begin() + count, q) != out.begin() + count)
+        continue;
+      const double dq = d2(q);
+      int at = count;
+      while (at > 0 &&
+             (od[size_t(at - 1)] > dq || (od[size_t(at - 1)] == dq && out[size_t(at - 1)] > q)))
+        --at;
+      if (at == kMaxNeighbourProbes) continue;
+      for (int j = std::min(count, kMaxNeighbourProbes - 1); j > at; --j) {
+        out[size_t(j)] = out[size_t(j - 1)];
+        od[size_t(j)] = od[size_t(j - 1)];
+      }
+      out[size_t(at)] = q;
+      od[size_t(at)] = dq;
+      count = std::min(count + 1, kMaxNeighbourProbes);
+    }
+  return count;
+}
+
 /// visibilityFactor() of each of the four probes `q` of a tet for p, into f: the same
 /// operations, run for the four side by side (loops over them that the compiler can pair in
 /// SIMD registers), and with the lines each probe's lookup, flag and SH will read asked for
@@ -293,15 +380,26 @@ VisibleWeights visibleWeights(const ProbeVolume& v, const VolumeLocation& loc, V
   // copied in, so that `w` is the one object returned.)
   std::array<int32_t, kMaxNeighbourProbes> probes;
   std::array<double, kMaxNeighbourProbes> nf, nw;
-  const int count = neighbourCandidates(v, loc.tet, probes);
+  int count = 0;
   double sum = 0;
-  for (int j = 0; j < count; ++j) {
-    const int32_t q = probes[size_t(j)];
-    const double f = probeFactor(v, q, p, normal);
-    const Vec3 dq = p - v.position(q);
-    nf[size_t(j)] = f;
-    nw[size_t(j)] = f > 0 ? f / std::max(dot(dq, dq), std::numeric_limits<double>::min()) : 0;
-    sum += nw[size_t(j)];
+  const auto weigh = [&] {
+    sum = 0;
+    for (int j = 0; j < count; ++j) {
+      const int32_t q = probes[size_t(j)];
+      const double f = probeFactor(v, q, p, normal);
+      const Vec3 dq = p - v.position(q);
+      nf[size_t(j)] = f;
+      nw[size_t(j)] = f > 0 ? f / std::max(dot(dq, dq), std::numeric_limits<double>::min()) : 0;
+      sum += nw[size_t(j)];
+    }
+  };
+  count = neighbourCandidates(v, loc.tet, probes);
+  weigh();
+  if (!(sum > 0)) {
+    // None of the face search's probes sees p, as in a sliver of the hull whose probes lie tens
+    // of metres away: the probes around p's nearest probe.
+    count = walkCandidates(v, loc.tet, p, probes);
+    weigh();
   }
   if (!(sum > 0)) return w;
   const double inv = 1.0 / sum;

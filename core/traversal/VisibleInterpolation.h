@@ -24,7 +24,13 @@
 //      neighbours in local order, then theirs), give their vertices not in p's tetrahedron, in
 //      that order, the first kMaxNeighbourProbes of them; each with f_j > 0 (the same factor)
 //      weighs f_j / d_j^2, d_j = |p - x_j|, renormalised. Within one tetrahedron the candidates
-//      are fixed, so these weights vary continuously with p;
+//      are fixed, so these weights vary continuously with p. When none of them sees p either (p
+//      in a sliver of the hull, whose probes and their neighbours lie far away): the walk. From
+//      the vertex of p's tetrahedron nearest p, it steps to the nearest vertex of that probe's
+//      star (the tetrahedra around it) while that is nearer p, which ends at p's nearest probe;
+//      that probe's star gives its vertices not in p's tetrahedron, nearest first, the first
+//      kMaxNeighbourProbes, weighed as above. Its candidates change where p's nearest probe
+//      does, and the light may step there;
 //   3. no candidate sees p either: the barycentric weights b_i.
 // A point is therefore never read through a wall while a probe of its tetrahedron or of the
 // search sees it. The result's weights are always finite, non-negative and sum to 1 (within
@@ -54,6 +60,10 @@ inline constexpr int kNeighbourSearchDepth = 2;
 /// The neighbour search examines at most this many probes (the first in its order). With the
 /// tetrahedron's four, the most factors one query computes: 4 + 16 = 20.
 inline constexpr int kMaxNeighbourProbes = 16;
+/// The walk towards p's nearest probe (the neighbour search's second part) takes at most this
+/// many steps, and reads at most kMaxStarTets tetrahedra around each probe it visits.
+inline constexpr int kMaxWalkSteps = 64;
+inline constexpr int kMaxStarTets = 128;
 /// The most probes one query's weights blend (the neighbour search's).
 inline constexpr int kMaxVisibleProbes = kMaxNeighbourProbes;
 

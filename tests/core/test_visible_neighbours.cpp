@@ -252,3 +252,108 @@ TEST(VisibleNeighbours, TheSearchIsBoundedAndFallsBackWhenNoProbeSees) {
     for (int k = 0; k < 4; ++k) EXPECT_EQ(w.weights[size_t(k)], double(loc.weights[k]));
   }
 }
+
+namespace {
+
+/// A volume where only probe `seeing` sees anything: every other probe's map holds a wall at
+/// 1 mm in every direction (its factor is 0 for any point farther away), and `seeing`'s a wall at
+/// 1 km. Constant SH per probe.
+ProbeVolume oneSeeingProbe(const std::vector<Vec3>& points, size_t seeing) {
+  std::vector<ShRgb> sh(points.size());
+  std::vector<ProbeVisibility> vis(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    sh[i].c[0] = Rgb(double(i + 1), 1, 1);
+    const double mu = i == seeing ? 1e3 : 1e-3;
+    for (int t = 0; t < kVisibilityTexels; ++t) {
+      vis[i].distanceMoments[size_t(2 * t)] = float(mu);
+      vis[i].distanceMoments[size_t(2 * t + 1)] = float(mu * mu);
+    }
+  }
+  return volumeFromProbes(points, sh, vis);
+}
+
+/// The face search's reach from `tet` (the test's own copy of its rule: the tets within two face
+/// steps and their vertices), to tell the points the walk serves from those the face search does.
+std::vector<int32_t> faceReach(const ProbeVolume& v, int32_t tet) {
+  std::vector<int32_t> tets{tet}, probes;
+  size_t begin = 0;
+  for (int depth = 0; depth < kNeighbourSearchDepth; ++depth) {
+    const size_t end = tets.size();
+    for (size_t i = begin; i < end; ++i)
+      for (int k = 0; k < 4; ++k) {
+        const int32_t n = v.neighbors[size_t(tets[i])][k];
+        if (n >= 0 && std::find(tets.begin(), tets.end(), n) == tets.end()) tets.push_back(n);
+      }
+    begin = end;
+  }
+  for (int32_t t : tets)
+    for (int k = 0; k < 4; ++k) probes.push_back(v.tets[size_t(t)][k]);
+  return probes;
+}
+
+}  // namespace
+
+// The walk, after the face search: in a sliver of the hull (two jittered layers of probes, 2 m
+// apart, and four probes 40 m above them), a point's tetrahedron and the tetrahedra two face
+// steps around it may hold only probes far away. When only one probe sees anything, every point
+// whose nearest probe it is takes all its light from it, whether it lies in the point's
+// tetrahedron, in the face search's reach or beyond it (where only the walk to the nearest probe
+// finds it); and the runtime reader gives the same probes and weights.
+TEST(VisibleNeighbours, TheWalkReachesThePointsNearestProbe) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> j(-0.2, 0.2), u(0, 1);
+  std::vector<Vec3> points;
+  for (double y : {0.0, 2.0})
+    for (int x = 0; x <= 5; ++x)
+      for (int z = 0; z <= 5; ++z)
+        points.push_back(Vec3{2.0 * x + j(rng), y + j(rng), 2.0 * z + j(rng)});
+  for (double x : {-30.0, 40.0})
+    for (double z : {-30.0, 40.0}) points.push_back(Vec3{x, 42.0, z});
+  const fs::path dir = ps::test::testTempDir("ps_test_visible_walk_");
+  int walked = 0, served = 0;
+  for (size_t seeing : {size_t(50), size_t(57), size_t(64)}) {  // probes of the upper layer
+    VolumeFile vf;
+    vf.volume = oneSeeingProbe(points, seeing);
+    vf.metadataJson = "{}";
+    saveVolume(vf, dir / "v.psv");
+    const ProbeVolume& v = vf.volume;
+    ps_runtime::Volume rv;
+    std::string error;
+    ASSERT_TRUE(ps_runtime::loadVolumeFile((dir / "v.psv").string().c_str(), rv, &error)) << error;
+    int32_t s = -1;  // the seeing probe's index in the volume
+    for (size_t i = 0; i < v.probeCount(); ++i)
+      if (length(v.position(int32_t(i)) - points[seeing]) < 1e-5) s = int32_t(i);
+    ASSERT_GE(s, 0);
+    for (int i = 0; i < 3000; ++i) {
+      const Vec3 p{-0.5 + 11 * u(rng), 2.3 + 6 * u(rng), -0.5 + 11 * u(rng)};
+      int32_t nearest = 0;
+      for (size_t k = 1; k < v.probeCount(); ++k)
+        if (length(p - v.position(int32_t(k))) < length(p - v.position(nearest)))
+          nearest = int32_t(k);
+      const VolumeLocation loc = locate(v, p);
+      ASSERT_GE(loc.tet, 0);
+      const VisibleWeights w = visibleWeights(v, loc, p, std::nullopt);
+      const ps_runtime::Location b = ps_runtime::locate(rv, p.x, p.y, p.z);
+      if (b.tet == loc.tet) {
+        const ps_runtime::Weights wb = ps_runtime::visibleWeights(rv, b, p.x, p.y, p.z, nullptr);
+        ASSERT_EQ(int(w.fallback), wb.fallback);
+        ASSERT_EQ(w.count, wb.count);
+        for (int k = 0; k < w.count; ++k) {
+          ASSERT_EQ(w.probes[size_t(k)], wb.probes[k]);
+          ASSERT_NEAR(w.weights[size_t(k)], wb.weights[k], 1e-12);
+        }
+      }
+      if (nearest != s) continue;
+      ++served;
+      double onS = 0;
+      for (int k = 0; k < w.count; ++k)
+        if (w.probes[size_t(k)] == s) onS += w.weights[size_t(k)];
+      EXPECT_NEAR(onS, 1.0, 1e-9) << p.x << " " << p.y << " " << p.z;
+      const std::vector<int32_t> reach = faceReach(v, loc.tet);
+      if (std::find(reach.begin(), reach.end(), s) == reach.end()) ++walked;
+    }
+  }
+  std::printf("%d points nearest the seeing probe, %d of them beyond the face search\n", served,
+              walked);
+  EXPECT_GT(walked, 0);
+}
