@@ -603,6 +603,10 @@ void GreedySearch::swapUntilDone() {
   // neighbours alone, but its candidates come from the whole field, and a move elsewhere also
   // raises the error where the moved probe left, so a probe not taken out again may have
   // missed a gain there. It makes the passes after the first cost where something changed.
+  if (s_.swapPasses > 0 && points_.unresolvedShare > kGreedyUnresolvedShareLimit) {
+    result_.swapsSkipped = true;
+    return;
+  }
   const size_t swappable = result_.positions.size();
   std::vector<uint8_t> look(swappable, 1), lookNext(swappable, 0);
   const size_t additionTrials = result_.trials;

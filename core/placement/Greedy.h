@@ -86,7 +86,9 @@ struct GreedySettings {
   /// captureProbeValues (ParameterError otherwise). Off: barycentric weights alone.
   bool visibility = false;
   /// Passes of swaps after the additions (placeGreedy), at most; a pass without a swap ends
-  /// them, as does one that lowers the error by less than swapMinGain of it. 0: none.
+  /// them, as does one that lowers the error by less than swapMinGain of it. 0: none. The
+  /// passes are skipped where the error points' captures do not resolve the light
+  /// (GreedyResult::swapsSkipped).
   int swapPasses = 0;
   double swapMinGain = 0.01;
   /// A swap also tries the swapNeighbours field samples nearest to the probe it took out (a
@@ -134,6 +136,12 @@ struct GreedyResult {
   /// kPerceptual: the weighted share of the error points whose capture resolves no light
   /// (greedy::ErrorPoints::unresolvedShare); 0 for kEnergy.
   double unresolvedShare = 0;
+  /// The swap passes were skipped: more than kGreedyUnresolvedShareLimit of the error points
+  /// resolve no light (unresolvedShare), so a move's measured gain would be mostly their
+  /// noise. Measured on a generated level of 233 rooms (93 % unresolved), the swaps lowered
+  /// greedy's own error by 23 % but eval's RMS stops by 1.7 %, within its noise, and raised its
+  /// rel_rmse by 4 %, at 74 % of the run's trials.
+  bool swapsSkipped = false;
   size_t reevaluations = 0;  ///< points re-interpolated after the first mesh (locality measure)
   size_t swapPasses = 0;     ///< swap passes run
   size_t swaps = 0;          ///< moves the swaps made (a slot moved twice counts twice)
@@ -145,6 +153,11 @@ struct GreedyResult {
   /// interpolation, summed over the changes.
   size_t stateMismatches = 0;
 };
+
+/// Above this share of unresolved error points (GreedyResult::unresolvedShare), the
+/// perceptual objective mostly measures the captures' noise: placement warns, and the swaps
+/// are skipped.
+inline constexpr double kGreedyUnresolvedShareLimit = 0.5;
 
 /// The irradiance luminance of `sh` for the 14 fixed normals the error is measured with (the 6
 /// axes and the 8 cube diagonals).

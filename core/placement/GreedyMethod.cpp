@@ -212,7 +212,7 @@ std::vector<HeldOutSample> drawGreedyHeldOut(const Tracer& tracer, const Lightin
 namespace {
 
 /// The note for a run whose held-out points' captures mostly resolve no light (`share` of
-/// them, above 0.5).
+/// them, above kGreedyUnresolvedShareLimit).
 std::string unresolvedWarning(double share, const DenseFieldSettings& fs) {
   return formatNote(
       "warning: the captures of %.0f %% of the held-out points resolve no light (at %d "
@@ -296,7 +296,12 @@ class GreedyPlacer : public Placer {
                          gs.heldOut.size(), g.positions.size() + kept.size()));
     // Half the held-out points unresolved: the objective measures their noise (the Cornell box,
     // lit by a small emissive panel, 99 % at 64 samples; two-rooms 37 %).
-    if (g.unresolvedShare > 0.5) out.notes.push_back(unresolvedWarning(g.unresolvedShare, fs));
+    if (g.unresolvedShare > kGreedyUnresolvedShareLimit)
+      out.notes.push_back(unresolvedWarning(g.unresolvedShare, fs));
+    if (g.swapsSkipped)
+      out.notes.push_back(
+          "greedy: no swaps: most held-out points resolve no light, so a move's measured gain "
+          "would be mostly their noise");
     if (g.swapPasses > 0) {
       std::string errors;
       for (double e : g.swapErrorHistory) errors += formatNote(" %.4f", e);
@@ -355,10 +360,11 @@ class GreedyPlacer : public Placer {
     settings.captureProbeValues = nullptr;
     const RegionalGreedyResult g = placeRegionalGreedy(field, kept, settings, regions, captureFor,
                                                        c.stage("greedy"), c.rooms.get());
-    size_t fewest = std::numeric_limits<size_t>::max(), most = 0;
+    size_t fewest = std::numeric_limits<size_t>::max(), most = 0, unswapped = 0;
     for (const GreedyRegion& region : g.regions) {
       fewest = std::min(fewest, region.probes);
       most = std::max(most, region.probes);
+      unswapped += region.swapsSkipped ? 1 : 0;
     }
     out.notes.push_back(formatNote(
         "greedy: %d regions of the dense field%s, %zu to %zu new probes each (shared by the "
@@ -366,7 +372,13 @@ class GreedyPlacer : public Placer {
         "interpolated from its region's probes; %zu trials, %zu swap moves",
         regions, c.rooms ? " made of whole rooms" : "", fewest, most, g.fieldError,
         gs.heldOut.size(), g.positions.size() + kept.size(), g.trials, g.swaps));
-    if (g.unresolvedShare > 0.5) out.notes.push_back(unresolvedWarning(g.unresolvedShare, fs));
+    if (g.unresolvedShare > kGreedyUnresolvedShareLimit)
+      out.notes.push_back(unresolvedWarning(g.unresolvedShare, fs));
+    if (unswapped > 0)
+      out.notes.push_back(formatNote(
+          "greedy: no swaps in %zu of the %d regions: most of their held-out points resolve no "
+          "light, so a move's measured gain would be mostly their noise",
+          unswapped, regions));
     for (const GreedyRegion& region : g.regions)
       if (!region.refused.empty())
         out.notes.push_back(formatNote("greedy: a region of %zu samples got no new probes: %s",

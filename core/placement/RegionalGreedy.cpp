@@ -334,6 +334,7 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
     unresolvedSum += g.unresolvedShare * info.errorNorm;
     out.trials += g.trials;
     out.swaps += g.swaps;
+    info.swapsSkipped = g.swapsSkipped;
     for (size_t i = 0; i < g.positions.size(); ++i) {
       out.positions.push_back(g.positions[i]);
       out.sampleIndex.push_back(in[r].sampleIndex[g.sampleIndex[i]]);

@@ -50,7 +50,8 @@ struct GreedyRegion {
   /// (GreedyResult::errorNorm).
   double weightedErrSq = 0;
   double errorNorm = 0;
-  std::string refused;  ///< non-empty: greedy refused the region (why); it got no new probes
+  bool swapsSkipped = false;  ///< GreedyResult::swapsSkipped: its light is mostly unresolved
+  std::string refused;        ///< non-empty: greedy refused the region (why); it got no new probes
 };
 
 struct RegionalGreedyResult {
