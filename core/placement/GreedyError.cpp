@@ -340,14 +340,26 @@ void interpolateChanged(const TrialMesh& mesh, const std::vector<IrrVec>& values
   });
 }
 
+/// Whether point i's capture resolves its light: its mean luminance over the normals is above
+/// kResolvedSigmas standard deviations of its noise (pts.noiseVar in luminance, before the
+/// perceptual objective turns it into stops).
+bool resolvesLight(const ErrorPoints& pts, size_t i) {
+  double mean = 0;
+  for (double r : pts.ref[i]) mean += r / kNormals;
+  return mean > kResolvedSigmas * std::sqrt(pts.noiseVar[i]);
+}
+
 /// kAdaptationFloorFraction times the weighted median of the points' mean luminance over the
 /// normals (the weights are volumes: the median luminance of the domain, as eval's floor is
-/// its queries'); 1e-12 when that is 0.
-double perceptualFloor(const ErrorPoints& pts) {
+/// its queries'); 1e-12 when that is 0. With `resolvedOnly`, the median of the points whose
+/// captures resolve their light (resolvesLight): where most do not, the median of all is their
+/// noise (often 0), not the light a viewer adapts to, and the objective would weigh ratios of
+/// noise. The floor then says what the captures can measure: light below it counts as black.
+double perceptualFloor(const ErrorPoints& pts, bool resolvedOnly) {
   std::vector<std::pair<double, double>> lum;  // (mean luminance, weight)
   double total = 0;
   for (size_t i = 0; i < pts.count; ++i) {
-    if (!(pts.weight[i] > 0)) continue;
+    if (!(pts.weight[i] > 0) || (resolvedOnly && !resolvesLight(pts, i))) continue;
     double m = 0;
     for (double r : pts.ref[i]) m += r;
     lum.emplace_back(m / kNormals, pts.weight[i]);
@@ -477,14 +489,14 @@ void weighErrorPoints(ErrorPoints& pts, const DenseField& field, const GreedySet
   if (s.objective == GreedyObjective::kPerceptual) {
     pts.errorNorm = weightSum;
     pts.scoreUnit = 1;
-    pts.floorLuminance = perceptualFloor(pts);
+    double unresolved = 0;
+    for (size_t i = 0; i < N; ++i)
+      if (!resolvesLight(pts, i)) unresolved += weight[i];
+    pts.unresolvedShare = unresolved / weightSum;
+    pts.floorLuminance = perceptualFloor(pts, pts.unresolvedShare > kGreedyUnresolvedShareLimit);
     // The noise in stops, to first order: d log2(E) = dE / (E ln 2), with E floored as
     // errorStops floors it (below the floor, noise moves nothing: bounded by the floor's).
-    double unresolved = 0;
     for (size_t i = 0; i < N; ++i) {
-      double mean = 0;
-      for (double r : pts.ref[i]) mean += r / kNormals;
-      if (!(mean > kResolvedSigmas * std::sqrt(pts.noiseVar[i]))) unresolved += weight[i];
       double gain = 0;
       for (double r : pts.ref[i]) {
         const double g = 1 / (std::max(r, pts.floorLuminance) * std::log(2.0));
@@ -492,7 +504,6 @@ void weighErrorPoints(ErrorPoints& pts, const DenseField& field, const GreedySet
       }
       pts.noiseVar[i] *= gain / kNormals;
     }
-    pts.unresolvedShare = unresolved / weightSum;
   } else {
     pts.errorNorm = weightedRefSq;
     pts.scoreUnit = pts.refRms;
