@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <functional>
 #include <mutex>
 #include <numeric>
 #include <string>
@@ -145,6 +146,25 @@ std::vector<size_t> shareBudget(const std::vector<size_t>& initial, std::vector<
   return take;
 }
 
+/// `m` (a region's first pass, additions only) cut to its first `newProbes` new probes, as
+/// placeGreedy with that budget (and `keptCount` kept probes) would have placed them: the same
+/// initial samples and additions in order, the error history and error up to there.
+GreedyResult prefixOf(GreedyResult m, size_t newProbes, size_t keptCount) {
+  PS_CHECK_LE(newProbes, m.positions.size());
+  PS_CHECK_GE(newProbes, m.initialCount);
+  m.positions.resize(newProbes);
+  m.sampleIndex.resize(newProbes);
+  m.scores.resize(newProbes);
+  m.errorHistory.resize(newProbes - m.initialCount + 1);
+  m.fieldError = m.errorHistory.back();
+  if (m.noImprovement && m.probesAtNoImprovement > keptCount + newProbes) {
+    m.noImprovement = false;
+    m.probesAtNoImprovement = 0;
+  }
+  m.trials = 0;  // counted with the first pass
+  return m;
+}
+
 }  // namespace
 
 int regionalGreedyRegions(size_t newProbes) {
@@ -245,13 +265,19 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
     if (progress && !progress(pass0 + passShare * double(done) / double(R))) cancelled = true;
   };
   const ProgressFn regionProgress = [&](double) { return !cancelled.load(); };
-  // Runs greedy in every region at once with `budgetOf(r)` new probes and `swapPasses`.
+  // Runs greedy in every region at once with `budgetOf(r)` new probes and `swapPasses`; a
+  // region whose `reuse(r)` is true keeps the first budgetOf(r) new probes of its result.
   auto runRegions = [&](int pass, const std::vector<size_t>& budgetOf, int swapPasses, double pass0,
-                        double passShare) {
+                        double passShare, const std::function<bool(size_t)>& reuse) {
     done = 0;
     tbb::parallel_for(size_t(0), R, [&](size_t r) {
       RegionInput& g = in[r];
       GreedyRegion& info = out.regions[r];
+      if (reuse && reuse(r)) {
+        results[r] = prefixOf(std::move(results[r]), budgetOf[r], g.kept.size());
+        regionDone(pass0, passShare);
+        return;
+      }
       results[r] = GreedyResult();
       if (!info.refused.empty() || budgetOf[r] == 0) {
         regionDone(pass0, passShare);
@@ -287,7 +313,7 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
     out.regions[r].heldOut = g.heldOut.size();
     out.regions[r].kept = g.kept.size();
   }
-  runRegions(0, measureBudget, 0, 0.0, 0.4);
+  runRegions(0, measureBudget, 0, 0.0, 0.4, nullptr);
 
   // 3. Share.
   std::vector<size_t> initial(R, 0);
@@ -321,7 +347,16 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
                       " probes, fewer than the budget of " + std::to_string(settings.budget));
 
   // 4. Place.
-  runRegions(1, take, settings.swapPasses, 0.4, 0.6);
+  // A region that will not swap (no passes asked, or its light mostly unresolved: placeGreedy
+  // skips them) and whose share the first pass reached keeps that pass's first probes: its
+  // additions are the same, in the same order, for the same captures and any budget that
+  // starts from the same 8 corners (addInitialSamples). The others run again, with the swaps.
+  runRegions(1, take, settings.swapPasses, 0.4, 0.6, [&](size_t r) {
+    const GreedyResult& m = results[r];
+    const bool swaps =
+        settings.swapPasses > 0 && !(m.unresolvedShare > kGreedyUnresolvedShareLimit);
+    return !swaps && take[r] >= 8 && m.initialCount == 8 && take[r] <= m.positions.size();
+  });
   double errSum = 0, normSum = 0, unresolvedSum = 0;
   for (size_t r = 0; r < R; ++r) {
     const GreedyResult& g = results[r];
