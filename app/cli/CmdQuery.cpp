@@ -17,16 +17,36 @@
 #include "core/io/VolumeFile.h"
 #include "core/placement/Uniform.h"
 #include "core/tessellation/Tetrahedralization.h"
+#include "core/traversal/VisibleInterpolation.h"
 
 namespace ps::cli {
 
 namespace fs = std::filesystem;
 using ojson = nlohmann::ordered_json;
 
+namespace {
+
+/// How visibleWeights found a point's weights, as query prints it.
+const char* fallbackName(VisibleFallback f) {
+  switch (f) {
+    case VisibleFallback::None:
+      return "none";
+    case VisibleFallback::Visibility:
+      return "visibility";
+    case VisibleFallback::Barycentric:
+      return "barycentric";
+    case VisibleFallback::Neighbours:
+      return "neighbours";
+  }
+  return "none";
+}
+
+}  // namespace
+
 void registerQuery(CLI::App& app) {
   struct Opts {
     std::string volume, at, pointsFile, normal = "0,1,0", normalsFile;
-    bool json = false;
+    bool json = false, noVisibility = false, normalTerm = false;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd =
@@ -42,6 +62,12 @@ void registerQuery(CLI::App& app) {
   auto* nf = cmd->add_option("--normals", o->normalsFile, "File with one normal per point");
   nn->excludes(nf);
   cmd->add_flag("--json", o->json, "Print JSON (the only output format for now)");
+  cmd->add_flag("--no-visibility", o->noVisibility,
+                "Interpolate with the barycentric weights alone, even when the volume carries "
+                "visibility maps (as eval --no-visibility)");
+  cmd->add_flag("--visibility-normal-term", o->normalTerm,
+                "With visibility: weigh down the probes behind each point's normal (DDGI's smooth "
+                "backface term), as a renderer shading a surface would");
   cmd->callback([o] {
     if (o->at.empty() && o->pointsFile.empty())
       throw ParameterError("query: give --at X,Y,Z or --points FILE");
@@ -72,12 +98,32 @@ void registerQuery(CLI::App& app) {
       const Vec3 p = pts[i] * vf.metresPerUnit;
       const VolumeLocation loc = locate(vf.volume, p, hint);
       hint = loc.tet;
+      const Vec3 n = normalize(normals[i]);
+      // As eval and the runtime reader read the volume: the visibility-aware weights when it
+      // carries maps (the point is in the air: no normal term unless asked), else barycentric.
+      const bool visibility = vf.volume.hasVisibility() && !o->noVisibility;
+      VisibleWeights w;
+      if (visibility) {
+        w = visibleWeights(vf.volume, loc, p,
+                           o->normalTerm ? std::optional<Vec3>(n) : std::nullopt);
+      } else {
+        w.tet = loc.tet;
+        w.outside = loc.outside;
+        w.count = loc.tet >= 0 ? 4 : 0;
+        for (int k = 0; k < w.count; ++k) {
+          w.probes[size_t(k)] = vf.volume.tets[size_t(loc.tet)][k];
+          w.weights[size_t(k)] = loc.weights[k];
+        }
+      }
       ojson q;
       q["position"] = vecToJson(pts[i]);
       q["tet"] = loc.tet;
       q["outside"] = loc.outside;
-      q["weights"] = loc.weights;
-      q["irradiance"] = rgbJson(interpolate(vf.volume, loc).irradiance(normalize(normals[i])));
+      q["probes"] = std::vector<int32_t>(w.probes.begin(), w.probes.begin() + w.count);
+      q["weights"] = std::vector<double>(w.weights.begin(), w.weights.begin() + w.count);
+      q["interpolant"] = visibility ? "visible" : "barycentric";
+      if (visibility) q["fallback"] = fallbackName(w.fallback);
+      q["irradiance"] = rgbJson(interpolate(vf.volume, w).irradiance(n));
       out.push_back(q);
     }
     std::cout << out.dump(2) << "\n";
