@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <mutex>
 #include <numeric>
@@ -27,9 +29,14 @@ struct KdNode {
 };
 
 /// Splits `idx` (field sample indices) into `regions` leaves, appending nodes to `nodes` and
-/// each leaf's samples to `leaves` in region order; returns the node's index. O(S log S) per
+/// each leaf's samples to `leaves` in region order; returns the node's index. A cut parts the
+/// held-out points `held` (indices into `heldOut`) in the ratio of the regions on either side by
+/// weight, as the first pass shares the budget by it, so that the regions' budgets, and their
+/// cost (a region's trials re-mesh its probes: its time grows faster than its probe count), come
+/// out alike; without held-out points, the samples in that ratio. O((S + H) log (S + H)) per
 /// level, log2(regions) levels.
-int splitSamples(const DenseField& field, std::vector<size_t> idx, int regions,
+int splitSamples(const DenseField& field, std::span<const HeldOutSample> heldOut,
+                 std::vector<size_t> idx, std::vector<size_t> held, int regions,
                  std::vector<KdNode>& nodes, std::vector<std::vector<size_t>>& leaves) {
   const int self = int(nodes.size());
   nodes.emplace_back();
@@ -47,8 +54,30 @@ int splitSamples(const DenseField& field, std::vector<size_t> idx, int regions,
     return coord(a) < coord(b) || (coord(a) == coord(b) && a < b);
   });
   const int leftRegions = regions / 2;
-  const size_t target =
-      std::clamp<size_t>(idx.size() * size_t(leftRegions) / size_t(regions), 1, idx.size() - 1);
+  size_t target = idx.size() * size_t(leftRegions) / size_t(regions);
+  double heldWeight = 0;
+  for (size_t h : held) heldWeight += heldOut[h].weight;
+  if (heldWeight > 0) {
+    // The coordinate below which the held-out points hold the left regions' share of the
+    // weight; the target is the samples below it.
+    auto hcoord = [&](size_t h) { return heldOut[h].position[axis]; };
+    std::sort(held.begin(), held.end(), [&](size_t a, size_t b) {
+      return hcoord(a) < hcoord(b) || (hcoord(a) == hcoord(b) && a < b);
+    });
+    const double want = heldWeight * double(leftRegions) / double(regions);
+    double below = 0, at = hcoord(held.back());
+    for (size_t h : held) {
+      below += heldOut[h].weight;
+      if (below >= want) {
+        at = hcoord(h);
+        break;
+      }
+    }
+    target = size_t(std::lower_bound(idx.begin(), idx.end(), at,
+                                     [&](size_t i, double x) { return coord(i) < x; }) -
+                    idx.begin());
+  }
+  target = std::clamp<size_t>(target, 1, idx.size() - 1);
   // The nearest place to the target where the coordinate changes: a plane between the halves.
   size_t cut = target;
   for (size_t d = 0; d < idx.size(); ++d) {
@@ -66,8 +95,12 @@ int splitSamples(const DenseField& field, std::vector<size_t> idx, int regions,
                         : coord(idx[cut]);
   std::vector<size_t> right(idx.begin() + std::ptrdiff_t(cut), idx.end());
   idx.resize(cut);
-  const int l = splitSamples(field, std::move(idx), leftRegions, nodes, leaves);
-  const int r = splitSamples(field, std::move(right), regions - leftRegions, nodes, leaves);
+  std::vector<size_t> heldLeft, heldRight;
+  for (size_t h : held) (heldOut[h].position[axis] < at ? heldLeft : heldRight).push_back(h);
+  const int l =
+      splitSamples(field, heldOut, std::move(idx), std::move(heldLeft), leftRegions, nodes, leaves);
+  const int r = splitSamples(field, heldOut, std::move(right), std::move(heldRight),
+                             regions - leftRegions, nodes, leaves);
   nodes[size_t(self)].axis = axis;
   nodes[size_t(self)].at = at;
   nodes[size_t(self)].left = l;
@@ -189,23 +222,40 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
   std::iota(all.begin(), all.end(), size_t(0));
   std::vector<KdNode> nodes;
   std::vector<std::vector<size_t>> leaves;
-  splitSamples(field, std::move(all), regionCount, nodes, leaves);
+  std::vector<size_t> held(settings.heldOut.size());
+  std::iota(held.begin(), held.end(), size_t(0));
+  splitSamples(field, settings.heldOut, std::move(all), std::move(held), regionCount, nodes,
+               leaves);
   PS_CHECK_EQ(leaves.size(), R);
   // With rooms, each room goes whole to the region holding most of its samples, so that the
   // regions' borders run along walls: a point is then interpolated from the probes of its own
-  // room's region, as the volume's visibility will read it. Points in no room keep the k-d
-  // region.
+  // room's region, as the volume's visibility will read it. A room that would weigh more than
+  // a region (by held-out weight, or samples without held-out points: a storey's corridors
+  // joined into one space) keeps the k-d cuts, which part it through open space, so that no
+  // region takes several regions' budget and time. Points in no room keep the k-d region.
   std::vector<int> roomRegion;
   if (rooms != nullptr) {
-    std::vector<std::vector<size_t>> count(size_t(rooms->roomCount()), std::vector<size_t>(R, 0));
+    const size_t roomCount = size_t(rooms->roomCount());
+    std::vector<std::vector<size_t>> count(roomCount, std::vector<size_t>(R, 0));
+    std::vector<double> roomWeight(roomCount, 0.0);
+    double totalWeight = 0;
     for (size_t r = 0; r < R; ++r)
       for (size_t i : leaves[r]) {
         const int room = rooms->roomOf(field.samples[i].position);
         if (room >= 0) ++count[size_t(room)][r];
+        if (room >= 0 && settings.heldOut.empty()) roomWeight[size_t(room)] += 1;
+        if (settings.heldOut.empty()) totalWeight += 1;
       }
-    for (const std::vector<size_t>& c : count) {
+    for (const HeldOutSample& h : settings.heldOut) {
+      const int room = rooms->roomOf(h.position);
+      if (room >= 0) roomWeight[size_t(room)] += h.weight;
+      totalWeight += h.weight;
+    }
+    for (size_t room = 0; room < roomCount; ++room) {
+      const std::vector<size_t>& c = count[room];
       const auto most = std::max_element(c.begin(), c.end());
-      roomRegion.push_back(*most > 0 ? int(most - c.begin()) : -1);
+      const bool whole = *most > 0 && roomWeight[room] <= totalWeight / double(R);
+      roomRegion.push_back(whole ? int(most - c.begin()) : -1);
     }
   }
   auto regionAt = [&](Vec3 p) {

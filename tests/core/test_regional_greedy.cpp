@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -99,16 +100,12 @@ TEST(RegionalGreedy, RegionsGetProbesByTheirError) {
   EXPECT_GT(lit.measuredProbes, 24u);
 }
 
-TEST(RegionalGreedy, RegionsAreWholeRoomsTheSameOnOneThreadAndOnMany) {
-  // Four rooms in a row (x in [4k, 4k + 4], walls at x = 4, 8, 12): three k-d regions would cut
-  // through a room; with the rooms, every region is a union of whole rooms.
-  const Scene scene = testing::roomsInARow(4);
-  const Tracer tracer(scene);
-  const RoomMap rooms(tracer, {});
-  ASSERT_EQ(rooms.roomCount(), 4);
+/// A 0.5 m grid of samples over rooms along x (x in [0, 4 rooms]), y in [0, 3], z in [0, 6],
+/// those in a wall left out; each room lit by a lamp at its centre.
+DenseField roomsField(const RoomMap& rooms, int count) {
   DenseField f;
   f.baseSpacingMeters = 0.5;
-  for (double x = 0.25; x < 16; x += 0.5)
+  for (double x = 0.25; x < 4 * count; x += 0.5)
     for (double y = 0.25; y < 3; y += 0.5)
       for (double z = 0.25; z < 6; z += 0.5) {
         FieldSample smp;
@@ -121,19 +118,31 @@ TEST(RegionalGreedy, RegionsAreWholeRoomsTheSameOnOneThreadAndOnMany) {
         f.domain.extend(smp.position);
         f.samples.push_back(smp);
       }
+  return f;
+}
+
+TEST(RegionalGreedy, RegionsAreWholeRoomsTheSameOnOneThreadAndOnMany) {
+  // Six rooms in a row (x in [4k, 4k + 4], walls at x = 4, 8, ..., 20): four k-d regions would
+  // cut through rooms; with the rooms (each half a region's share), every region is a union of
+  // whole rooms.
+  const Scene scene = testing::roomsInARow(6);
+  const Tracer tracer(scene);
+  const RoomMap rooms(tracer, {});
+  ASSERT_EQ(rooms.roomCount(), 6);
+  const DenseField f = roomsField(rooms, 6);
   GreedySettings s;
-  s.budget = 60;
+  s.budget = 80;
   s.swapPasses = 1;
   s.swapNeighbours = 8;
   RegionalGreedyResult one;
-  tbb::task_arena(1).execute([&] { one = placeRegionalGreedy(f, {}, s, 3, {}, {}, &rooms); });
-  const RegionalGreedyResult many = placeRegionalGreedy(f, {}, s, 3, {}, {}, &rooms);
+  tbb::task_arena(1).execute([&] { one = placeRegionalGreedy(f, {}, s, 4, {}, {}, &rooms); });
+  const RegionalGreedyResult many = placeRegionalGreedy(f, {}, s, 4, {}, {}, &rooms);
   EXPECT_EQ(one.sampleIndex, many.sampleIndex);
   EXPECT_EQ(one.fieldError, many.fieldError);
-  ASSERT_EQ(many.positions.size(), 60u);
-  ASSERT_EQ(many.regions.size(), 3u);
+  ASSERT_EQ(many.positions.size(), 80u);
+  ASSERT_EQ(many.regions.size(), 4u);
   // Each room's samples all lie in one region's box, and the boxes do not share a room.
-  for (int room = 0; room < 4; ++room) {
+  for (int room = 0; room < 6; ++room) {
     int holding = 0;
     for (const GreedyRegion& r : many.regions)
       holding += r.samples > 0 && r.box.lo.x < 4 * room + 2 && r.box.hi.x > 4 * room + 2;
@@ -144,6 +153,30 @@ TEST(RegionalGreedy, RegionsAreWholeRoomsTheSameOnOneThreadAndOnMany) {
     EXPECT_LT(std::abs(r.box.lo.x - 4 * std::round(r.box.lo.x / 4)), 0.3) << r.box.lo.x;
     EXPECT_LT(std::abs(r.box.hi.x - 4 * std::round(r.box.hi.x / 4)), 0.3) << r.box.hi.x;
   }
+}
+
+// A room that weighs more than a region (here two rooms, each one and a half regions' share)
+// is parted by the k-d planes rather than given whole to one region: every region gets
+// samples and probes, and the regions' samples differ by at most a factor of 2 (whole rooms
+// would leave a region with none, or one with three times another's).
+TEST(RegionalGreedy, ARoomLargerThanARegionIsParted) {
+  const Scene scene = testing::roomsInARow(2);
+  const Tracer tracer(scene);
+  const RoomMap rooms(tracer, {});
+  ASSERT_EQ(rooms.roomCount(), 2);
+  const DenseField f = roomsField(rooms, 2);
+  GreedySettings s;
+  s.budget = 48;
+  const RegionalGreedyResult r = placeRegionalGreedy(f, {}, s, 3, {}, {}, &rooms);
+  ASSERT_EQ(r.regions.size(), 3u);
+  size_t fewest = f.samples.size(), most = 0;
+  for (const GreedyRegion& g : r.regions) {
+    EXPECT_TRUE(g.refused.empty()) << g.refused;
+    EXPECT_GT(g.probes, 0u);
+    fewest = std::min(fewest, g.samples);
+    most = std::max(most, g.samples);
+  }
+  EXPECT_LE(most, 2 * fewest);
 }
 
 TEST(RegionalGreedy, RefusesTooSmallABudget) {
