@@ -1,6 +1,7 @@
 #include "ui/Document.h"
 
 #include <QDateTime>
+#include <QElapsedTimer>
 #include <QFileInfo>
 #include <QJsonArray>
 #include <QJsonDocument>
@@ -11,6 +12,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <mutex>
 #include <tuple>
 #include <unordered_set>
 
@@ -742,15 +744,31 @@ void Document::startJob(const QString& kind, const QString& firstMessage, JobFn 
   const int generation = generation_;
   jobCancel_ = std::make_shared<std::atomic<bool>>(false);
   auto cancel = jobCancel_;
-  // Progress arrives from worker threads; it is forwarded (throttled) to the GUI thread. The
+  // Progress arrives from worker threads; it is forwarded to the GUI thread when its message
+  // changes (a new step) and otherwise at most every kProgressIntervalMs: each report shown
+  // repaints the window, which the software GL drivers compose on the job's own cores. The
   // job stops at its next progress report once the flag is set; the document waits for it
   // before it changes or dies, so `this` outlives the job.
-  auto lastPercent = std::make_shared<std::atomic<int>>(-1);
-  std::function<bool(QString, double)> report = [this, generation, lastPercent, cancel](
+  struct Throttle {
+    std::mutex mutex;
+    QElapsedTimer sinceForwarded;  ///< invalid until the first report is forwarded
+    QString message;               ///< the last message forwarded
+  };
+  auto throttle = std::make_shared<Throttle>();
+  std::function<bool(QString, double)> report = [this, generation, throttle, cancel](
                                                     const QString& what, double fraction) {
     if (cancel->load()) return false;
-    const int percent = int(fraction * 100);
-    if (lastPercent->exchange(percent) != percent)
+    bool forward = false;
+    {
+      const std::lock_guard lock(throttle->mutex);
+      if (!throttle->sinceForwarded.isValid() || what != throttle->message ||
+          throttle->sinceForwarded.elapsed() >= kProgressIntervalMs) {
+        forward = true;
+        throttle->sinceForwarded.start();
+        throttle->message = what;
+      }
+    }
+    if (forward)
       QMetaObject::invokeMethod(
           this,
           [this, what, fraction, generation] {
@@ -993,16 +1011,26 @@ bool Document::bake(const BakeRequest& request) {
   const QString path = volumePathFor(setPath_);
   std::shared_ptr<const Tracer> tracer = tracer_;
   const int rigGeneration = rigGeneration_;
+  // The capture cache of `probestudio bake`: SET.capture-cache beside the probe set, keyed by
+  // the scene's content, so that a re-bake (here or on the command line) traces only the probes
+  // moved or added since. A scene built in memory (hash 0) has no cache.
+  const uint64_t sceneHash = lightingSceneHash();
+  const std::filesystem::path cacheDir = toPath(setPath_ + QStringLiteral(".capture-cache"));
   startJob("bake", tr("Baking…"), [=](JobResult& result, const auto& report) {
     BakeSettings bs;
     bs.capture.samplesPerProbe = request.samplesPerProbe;
+    bs.sceneHash = sceneHash;
+    if (sceneHash != 0) bs.cacheDir = cacheDir;
     if (request.fit) bs.fit = FitSettings{};
     BakeResult baked = bakeProbeSet(set, *tracer, bs, [&](double f) {
       return report(tr("Baking %1 probes…").arg(accepted), 0.97 * f);
     });
     saveVolume(baked.file, toPath(path));  // atomic
     result.bakedProbes = baked.probes;
-    result.notes << tr("Baked %1 accepted probes").arg(baked.probes);
+    result.notes << tr("Baked %1 accepted probes (%2 captured, %3 from the cache)")
+                        .arg(baked.probes)
+                        .arg(baked.captured)
+                        .arg(baked.cacheHits);
     if (baked.fit)
       result.notes << tr("Values fitted by least squares to %1 points (%2 s)")
                           .arg(baked.fit->points)
@@ -1034,6 +1062,20 @@ bool Document::recapture(int samplesPerProbe) {
     result.probes = std::move(probes);
   });
   return true;
+}
+
+uint64_t Document::lightingSceneHash() const {
+  // The scene's lights edited in this session (setSceneLights) are not in the file's hash:
+  // folded in, a capture or a reference traced with other lights is never read back.
+  uint64_t sceneHash = sceneHash_;
+  if (sceneHash != 0 && scene_ && !sameLights(scene_->lights, fileLights_))
+    for (const Light& l : scene_->lights) {
+      const double values[] = {double(l.type), l.position.x,  l.position.y,  l.position.z,
+                               l.direction.x,  l.direction.y, l.direction.z, l.intensity.r,
+                               l.intensity.g,  l.intensity.b};
+      sceneHash = fnv1a64(values, sizeof values, sceneHash);
+    }
+  return sceneHash;
 }
 
 bool Document::evaluate(const EvalRequest& request) {
@@ -1068,16 +1110,7 @@ bool Document::evaluate(const EvalRequest& request) {
                              : QStandardPaths::writableLocation(QStandardPaths::CacheLocation);
     if (!base.isEmpty()) cacheDir = defaultReferenceCacheDir(toPath(base));
   }
-  // The scene's lights edited in this session (setSceneLights) are not in the file's hash:
-  // folded in, a reference traced with other lights is never read back.
-  uint64_t sceneHash = sceneHash_;
-  if (sceneHash != 0 && !sameLights(scene_->lights, fileLights_))
-    for (const Light& l : scene_->lights) {
-      const double values[] = {double(l.type), l.position.x,  l.position.y,  l.position.z,
-                               l.direction.x,  l.direction.y, l.direction.z, l.intensity.r,
-                               l.intensity.g,  l.intensity.b};
-      sceneHash = fnv1a64(values, sizeof values, sceneHash);
-    }
+  const uint64_t sceneHash = lightingSceneHash();
   startJob("eval", tr("Evaluating…"), [=](JobResult& result, const auto& report) {
     EvalSettings es;
     es.queries = request.queries;

@@ -127,7 +127,16 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   progress_->setMaximumWidth(160);
   progress_->hide();
   cancelJob_ = new QPushButton(tr("Cancel"));
+  cancelJob_->setObjectName("cancelJob");
+  cancelJob_->setToolTip(tr("Stop the running job (Esc); it changes nothing"));
   cancelJob_->hide();
+  // The bar and its Cancel keep their room while hidden: the status bar's height never changes
+  // with a job, so the 3D view is not resized (and redrawn) when a job starts or ends.
+  for (QWidget* jobWidget : {static_cast<QWidget*>(progress_), static_cast<QWidget*>(cancelJob_)}) {
+    QSizePolicy policy = jobWidget->sizePolicy();
+    policy.setRetainSizeWhenHidden(true);
+    jobWidget->setSizePolicy(policy);
+  }
   connect(cancelJob_, &QPushButton::clicked, doc_, &Document::requestCancel);
   statusBar()->addWidget(sceneLabel_);
   statusBar()->addWidget(trianglesLabel_);
@@ -520,17 +529,26 @@ QString MainWindow::editorMessage(const QString& message) {
   return m;
 }
 
+void MainWindow::setJobBarValue(int percent) {
+  // QProgressBar::setValue repaints at once (a synchronous flush of the whole window, which
+  // software GL composes on the job's cores); with updates off it only schedules the repaint.
+  if (progress_->value() == percent) return;
+  progress_->setUpdatesEnabled(false);
+  progress_->setValue(percent);
+  progress_->setUpdatesEnabled(true);  // update(): repainted with the next frame
+}
+
 void MainWindow::onJobProgress(const QString& what, double fraction) {
   const bool busy = doc_->isBusy();
   if (busy && !jobTimer_.isValid()) {
     jobTimer_.start();
     jobKind_ = doc_->jobKind();
-    progress_->setValue(0);
+    setJobBarValue(0);
   }
   // One bar for the whole job: the document reports the overall fraction across its phases;
   // the bar never goes back within a job.
   const int percent = std::max(progress_->value(), int(fraction * 100));
-  progress_->setValue(percent);
+  setJobBarValue(percent);
   QString text = what;
   const double elapsed = jobTimer_.isValid() ? jobTimer_.elapsed() * 1e-3 : 0.0;
   if (busy && !doc_->isCancelling() && percent >= 3 && elapsed >= 2.0) {

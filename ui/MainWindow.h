@@ -41,6 +41,9 @@ class MainWindow : public QMainWindow {
   LightingPanel* lightingPanel() const { return lighting_; }
   EvaluationPanel* evaluationPanel() const { return evaluation_; }
   Autosave* autosave() const { return autosave_; }
+  /// The job's progress bar and its Cancel, in the status bar: the only ones (every job's).
+  QProgressBar* jobProgressBar() const { return progress_; }
+  QPushButton* cancelButton() const { return cancelJob_; }
 
   /// No prompts on close (screenshot and test runs).
   void setPromptOnClose(bool on) { promptOnClose_ = on; }
@@ -128,6 +131,8 @@ class MainWindow : public QMainWindow {
   void onBoxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers mods);
   void addRecentFile(const QString& path);
   void onJobProgress(const QString& what, double fraction);
+  /// Sets the job bar's percentage; its repaint waits for the next frame.
+  void setJobBarValue(int percent);
   void rebuildRecentMenu();
 
   Document* doc_;
