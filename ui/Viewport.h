@@ -185,6 +185,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// startFieldsRebuild() until its finished signal reaches the view, also when updateFields()
   /// took its result before (the handler then drops it).
   bool isFieldsRebuildRunning() const { return fieldsRebuildRunning_; }
+  /// The view computes nothing in the background: no fields rebuild and no scene light grid
+  /// under way, the fields current.
+  bool isSettled() const { return fieldsCurrent() && !fieldsRebuildRunning_ && !sceneGridPending_; }
   /// The preview volume as it is now, without bringing it up to date.
   bool hasPreviewVolume() const { return previewVolume_.has_value(); }
   /// The preview volume the test object is lit by now, without bringing it up to date: during
