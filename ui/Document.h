@@ -237,7 +237,7 @@ class Document : public QObject {
   bool proposeCandidates();
   bool isBusy() const { return busy_; }
   /// The least time between two progress reports of one step of a job (jobProgress), ms.
-  static constexpr int kProgressIntervalMs = 500;
+  static constexpr int kProgressIntervalMs = 1000;
   /// A job's work was started and the end of it has not been handled yet: true from its start
   /// until its finished signal reaches the document (its result applied, or dropped when the
   /// document moved on), also after replace() stopped it and reported jobFinished.
