@@ -97,6 +97,8 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   tabifyDockWidget(lightingDock, evaluationDock);
   connect(evaluation_, &EvaluationPanel::failed, this, &MainWindow::showError);
   evaluation_->setPlacementSettings([this] { return placement_->placementRequest(); });
+  evaluation_->setBakeSettings([this] { return placement_->bakeRequest(); });
+  evaluation_->setSaveBeforeBake([this] { return offerSaveBeforeBake(); });
   // The error where it is: a picked query is framed and ringed; a probe added there is selected.
   connect(evaluation_, &EvaluationPanel::queryPicked, this, [this](int index) {
     if (doc_->evaluations().empty()) return;
