@@ -56,14 +56,14 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   chart_ = new QChart;
   chart_->setTitle(tr("Irradiance error against probe count"));
   rmse_ = new QScatterSeries;
-  rmse_->setName(tr("relative RMS (%)"));
+  rmse_->setName(tr("RMS %"));
   rmse_->setMarkerSize(9);
   p95_ = new QScatterSeries;
-  p95_->setName(tr("95th percentile (%)"));
+  p95_->setName(tr("p95 %"));
   p95_->setMarkerSize(9);
   p95_->setMarkerShape(QScatterSeries::MarkerShapeRectangle);
   stops_ = new QScatterSeries;
-  stops_->setName(tr("RMS (stops)"));
+  stops_->setName(tr("stops"));
   stops_->setMarkerSize(9);
   stops_->setMarkerShape(QScatterSeries::MarkerShapeTriangle);
   rmseLine_ = new QLineSeries;
@@ -85,10 +85,15 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   // The error as the eye sees it, in stops (core/eval/PerceptualError.h), on its own axis.
   chart_->addSeries(stops_);
   stopsAxis_ = new QValueAxis;
-  stopsAxis_->setTitleText(tr("RMS error (stops)"));
+  stopsAxis_->setTitleText(tr("RMS (stops)"));
   chart_->addAxis(stopsAxis_, Qt::AlignRight);
   stops_->attachAxis(xAxis_);
   stops_->attachAxis(stopsAxis_);
+  // A label cut to fit ("3.5" for 36.6) misreads: the plot gives the axes their room instead.
+  for (QAbstractAxis* axis :
+       {static_cast<QAbstractAxis*>(xAxis_), static_cast<QAbstractAxis*>(yAxis_),
+        static_cast<QAbstractAxis*>(stopsAxis_)})
+    axis->setTruncateLabels(false);
   // The connecting lines share the markers' colours and stay out of the legend.
   rmseLine_->setColor(rmse_->color());
   p95Line_->setColor(p95_->color());
@@ -96,7 +101,11 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   for (auto* m : chart_->legend()->markers(p95Line_)) m->setVisible(false);
   view_ = new QChartView(chart_);
   view_->setRenderHint(QPainter::Antialiasing);
-  view_->setMinimumHeight(220);
+  // Tall enough for the axes' titles and labels whole beside a dock's narrow width; the legend
+  // names are short for the same reason (QChart cuts what does not fit, and never wraps).
+  view_->setMinimumHeight(kPlotMinHeight);
+  chart_->legend()->setAlignment(Qt::AlignBottom);  // the plot's whole width for the names
+  chart_->setMargins(QMargins(4, 4, 4, 4));
   layout->addWidget(view_, 1);
 
   table_ = new QTableWidget(0, 7);

@@ -39,6 +39,8 @@ class EvaluationPanel : public QWidget {
   bool evaluate();
 
   QChart* chart() const { return chart_; }
+  /// The plot's least height, pixels.
+  static constexpr int kPlotMinHeight = 280;
   /// The plotted series: relative RMS error (%) and 95th percentile (%) against probe count.
   QScatterSeries* rmseSeries() const { return rmse_; }
   QScatterSeries* p95Series() const { return p95_; }

@@ -340,6 +340,32 @@ class TestArtistLoop : public QObject {
     QCOMPARE(QString::fromStdString(doc->staleCapturesText()), QString());
   }
 
+  void aSceneWithoutLightOpensWithABannerAndOneClickSky() {
+    QTemporaryDir dir;
+    const QString unlit = copyScene(dir, true);
+    QVERIFY(!unlit.isEmpty());
+    MainWindow w;
+    w.setPromptOnClose(false);   // not quiet: an error would be a modal box
+    QVERIFY(w.openPath(unlit));  // proposes candidates it cannot capture
+    // The job ends with the capture's failure, which the banner says instead of a dialog.
+    QVERIFY(waitForJob(w.document()) != QLatin1String("timeout"));
+    QCoreApplication::processEvents();
+    QVERIFY2(QApplication::activeModalWidget() == nullptr, "a dialog stands in front");
+    QVERIFY(w.lastError().isEmpty());
+    QVERIFY(!w.viewBanner()->isHidden());
+    auto* reason = w.findChild<QLabel*>("overlayReason");
+    QVERIFY2(reason->text().contains("no light"), qPrintable(reason->text()));
+    auto* sky = w.findChild<QPushButton*>("addDefaultSky");
+    QVERIFY(sky && !sky->isHidden());
+    // One click lights the scene: one undo step, the banner goes.
+    const int steps = w.document()->undoStack()->count();
+    sky->click();
+    QCOMPARE(w.document()->undoStack()->count(), steps + 1);
+    QCOMPARE(w.document()->probeSet().rig.skyRadiance.b, MainWindow::kDefaultSkyRadiance.b);
+    QVERIFY(sky->isHidden());
+    QVERIFY2(!reason->text().contains("no light"), qPrintable(reason->text()));
+  }
+
   void messagesNameTheEditorsControls() {
     QTemporaryDir dir;
     const QString unlit = copyScene(dir, true);
