@@ -1,17 +1,23 @@
 // Background jobs in the editor as it is shown (run under xvfb-run with Mesa's software GL, as
 // ui.test_jobs does): while a job reports progress, the 3D view is not redrawn (a redraw in a
-// software GL driver costs the job's own cores); it is redrawn once what it shows changed.
+// software GL driver costs the job's own cores); it is redrawn once what it shows changed. Cancel
+// ends every step of a job and says so at once.
 #include <QComboBox>
 #include <QDoubleSpinBox>
 #include <QElapsedTimer>
 #include <QFile>
 #include <QGuiApplication>
+#include <QLabel>
+#include <QPushButton>
 #include <QSignalSpy>
 #include <QSpinBox>
 #include <QTemporaryDir>
+#include <QTimer>
+#include <QUndoStack>
 #include <QtTest>
 
 #include "ui/Document.h"
+#include "ui/EvaluationPanel.h"
 #include "ui/MainWindow.h"
 #include "ui/PlacementPanel.h"
 #include "ui/Viewport.h"
@@ -111,6 +117,78 @@ class TestJobs : public QObject {
     // What the view shows changed (new probes): it is drawn again.
     QTRY_VERIFY_WITH_TIMEOUT(counter.paints > paintsAtEnd, 10000);
   }
+
+  void cancelEndsEveryStepAndSaysSo() {
+    // Cancel clicked in the middle of each step of a greedy placement, a bake and an
+    // evaluation (kIntoStep after the step's first report): the job ends cancelled, the status
+    // bar says "Cancelling…" at once, and nothing changes. The latency of each is printed (the
+    // figures of BENCHMARKS.md); the document holds no timing assertion.
+    constexpr int kIntoStep = 500;  // ms
+    struct Case {
+      QString job, step;
+    };
+    const Case cases[] = {
+        {"place", "field"}, {"place", "greedy"}, {"bake", "Baking"}, {"eval", "Evaluating"}};
+    for (const Case& c : cases) {
+      MainWindow w;
+      w.setQuiet(true);
+      w.setPromptOnClose(false);
+      Document* doc = w.document();
+      doc->setAutoPropose(false);
+      QVERIFY(w.openPath(kScene));
+      if (c.job != QLatin1String("place")) {
+        // A set of 64 accepted probes to bake and evaluate, saved beside a scratch folder.
+        w.placementPanel()->budgetBox()->setValue(64);
+        w.placementPanel()->methodBox()->setCurrentText("uniform");
+        QVERIFY(w.placementPanel()->run());
+        QSignalSpy placed(doc, &Document::jobFinished);
+        QVERIFY(placed.wait(120000));
+        std::vector<uint64_t> ids;
+        for (const Probe& p : doc->probes()) ids.push_back(p.id);
+        doc->setStates(ids, ProbeState::Accepted);
+        QVERIFY(w.saveAs(scratch_.filePath(c.job + ".probes.json")));
+      }
+      const int steps = doc->undoStack()->count();
+      const QLabel* jobLabel = w.findChild<QLabel*>(QStringLiteral("jobLabel"));
+      QElapsedTimer clock;
+      QString shownAtCancel, cancelledIn;
+      QTimer timer;
+      timer.setSingleShot(true);
+      connect(&timer, &QTimer::timeout, this, [&] {
+        cancelledIn = jobLabel->text();
+        clock.start();
+        w.cancelButton()->click();
+        shownAtCancel = jobLabel->text();
+      });
+      connect(doc, &Document::jobProgress, this, [&](const QString& message) {
+        if (!timer.isActive() && !clock.isValid() && message.contains(c.step))
+          timer.start(kIntoStep);
+      });
+      QSignalSpy done(doc, &Document::jobFinished);
+      if (c.job == QLatin1String("place")) {
+        w.placementPanel()->methodBox()->setCurrentText("greedy");
+        w.placementPanel()->budgetBox()->setValue(64);
+        QVERIFY(w.placementPanel()->run());
+      } else if (c.job == QLatin1String("bake")) {
+        w.placementPanel()->bakeSamplesBox()->setValue(1 << 16);  // long enough to cancel in
+        QVERIFY(w.placementPanel()->bake());
+      } else {
+        w.evaluationPanel()->queriesBox()->setValue(4096);
+        w.evaluationPanel()->referenceSamplesBox()->setValue(4096);
+        QVERIFY(w.evaluationPanel()->evaluate());
+      }
+      QVERIFY(done.wait(300000));
+      QVERIFY2(clock.isValid(), qPrintable(c.job + ": ended before the cancel"));
+      qInfo("Cancel %d ms into %s (\"%s\"): the job ended %.3f s later", kIntoStep,
+            qPrintable(c.job), qPrintable(cancelledIn), double(clock.nsecsElapsed()) * 1e-9);
+      QCOMPARE(done.first().first().toString(), QStringLiteral("cancelled"));
+      QCOMPARE(shownAtCancel, QStringLiteral("Cancelling…"));
+      QCOMPARE(doc->undoStack()->count(), steps);
+    }
+  }
+
+ private:
+  QTemporaryDir scratch_;
 };
 
 QTEST_MAIN(TestJobs)
