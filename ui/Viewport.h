@@ -5,6 +5,8 @@
 // metered from the lit surfaces in view, ACES, sRGB); the sun's direction gizmo; the sky as the
 // background. Turns document data into GL buffers and nothing more (STYLE.md rule 10).
 // OpenGL 3.3 core; GL resources are made in initializeGL and freed on aboutToBeDestroyed.
+// Viewport.cpp: the widget, its camera and picking; ViewportGL.cpp: the drawing;
+// ViewportInput.cpp: mouse and keys; ViewportOverlays.cpp: the lighting preview and overlays.
 #include <QFutureWatcher>
 #include <QOpenGLFunctions_3_3_Core>
 #include <QOpenGLWidget>
@@ -328,6 +330,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void focusOutEvent(QFocusEvent* e) override;
 
  private:
+  static QVector3D toQ(Vec3 v) { return QVector3D(float(v.x), float(v.y), float(v.z)); }
   void cleanup();
   void uploadScene();
   void uploadProbes();
