@@ -102,6 +102,13 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The handle part under a widget pixel (None without a handle).
   HandlePart handlePartAt(QPointF widgetPos) const;
 
+  /// The arrow keys, while the view has the focus, move the selected unlocked probes by
+  /// kNudgeMeters: Left and Right along the camera's right, Up and Down away from and towards
+  /// the camera along the floor, with Shift up and down; one undo step per press. False when
+  /// the key is no arrow or nothing selected can move.
+  bool nudgeSelection(int key, Qt::KeyboardModifiers modifiers);
+  static constexpr double kNudgeMeters = 0.1;
+
   /// Fly (WASD, Q/E down/up, Shift faster) while the right mouse button is held. Advances the
   /// camera by `seconds` for the keys held; returns true when it moved.
   bool flyStep(float seconds);

@@ -317,11 +317,37 @@ bool Viewport::event(QEvent* e) {
   return QOpenGLWidget::event(e);
 }
 
+bool Viewport::nudgeSelection(int key, Qt::KeyboardModifiers modifiers) {
+  // Up and Down move away from and towards the camera along the floor (Shift: up and down),
+  // Left and Right along the camera's right, both level whatever the camera's pitch.
+  QVector3D away(-camera_.backward().x(), 0, -camera_.backward().z());
+  if (away.lengthSquared() < 1e-6f) away = QVector3D(camera_.up().x(), 0, camera_.up().z());
+  const QVector3D right = QVector3D(camera_.right().x(), 0, camera_.right().z()).normalized();
+  const bool vertical = modifiers & Qt::ShiftModifier;
+  QVector3D step;
+  if (key == Qt::Key_Left) step = -right;
+  if (key == Qt::Key_Right) step = right;
+  if (key == Qt::Key_Up) step = vertical ? QVector3D(0, 1, 0) : away.normalized();
+  if (key == Qt::Key_Down) step = vertical ? QVector3D(0, -1, 0) : -away.normalized();
+  if (step.isNull()) return false;
+  step *= float(kNudgeMeters);
+  std::vector<std::pair<uint64_t, Vec3>> targets;
+  for (quint64 id : selection_)
+    if (const Probe* p = doc_->probe(id); p && !p->locked)
+      targets.emplace_back(id, p->position + Vec3(step.x(), step.y(), step.z()));
+  if (targets.empty()) return false;
+  doc_->moveProbes(targets, doc_->newMergeKey());  // one undo step per press
+  return true;
+}
+
 void Viewport::keyPressEvent(QKeyEvent* e) {
   if (isFlyKey(e->key())) {
     if (!e->isAutoRepeat()) setFlyKey(e->key(), true);
     return;
   }
+  if (!(e->modifiers() & (Qt::ControlModifier | Qt::AltModifier)) &&
+      nudgeSelection(e->key(), e->modifiers()))
+    return;
   QOpenGLWidget::keyPressEvent(e);
 }
 

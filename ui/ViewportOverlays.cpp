@@ -1022,6 +1022,23 @@ std::vector<Viewport::Legend> Viewport::legends() {
     l.markLabel = tr("visible from ⅓ stop");
     out.push_back(l);
   }
+  if (overlay(Overlay::TestObject) && drawnPreviewVolume()) {
+    Legend l;
+    l.title = tr("Test object: a white sphere lit by the preview volume at (%1, %2, %3) m")
+                  .arg(testObject_.x, 0, 'f', 2)
+                  .arg(testObject_.y, 0, 'f', 2)
+                  .arg(testObject_.z, 0, 'f', 2);
+    l.swatches = {{rgbF(1.0, 1.0, 1.0), tr("albedo 1, drag it to move it")}};
+    out.push_back(l);
+  }
+  if (overlay(Overlay::Domain) && doc_->tracer()) {
+    Legend l;
+    l.title = doc_->probeSet().importanceVolumes.empty()
+                  ? tr("Domain of interest: the space a player can reach")
+                  : tr("Domain of interest: the importance volumes");
+    l.swatches = {{rgbF(0.25, 0.9, 0.55), tr("its shell (cell faces)")}};
+    out.push_back(l);
+  }
   if (overlay(Overlay::TetMesh) && previewVolume_) {
     Legend l;
     l.title = tr("Tetrahedra of the preview volume: %L1").arg(previewVolume_->tets.size());
