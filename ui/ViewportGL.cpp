@@ -761,14 +761,20 @@ void Viewport::drawHandle(const QMatrix4x4& vp) {
   };
   const HandlePart arms[3] = {HandlePart::AxisX, HandlePart::AxisY, HandlePart::AxisZ};
   const HandlePart planes[3] = {HandlePart::PlaneYZ, HandlePart::PlaneXZ, HandlePart::PlaneXY};
+  // The arms start at the surface of the selected probes' largest sphere (half the arm at
+  // most), so that the handle, drawn over everything, leaves the probe it moves in sight.
+  float gap = 0;
+  for (quint64 id : selection_)
+    if (const Probe* p = doc_->probe(id); p && isDrawn(*p)) gap = std::max(gap, drawnRadius(*p));
+  gap = std::min(gap, 0.5f * arm);
   for (int i = 0; i < 3; ++i) {
     const QVector4D c = active == arms[i] ? QVector4D(1, 0.95f, 0.3f, 1) : colors[i];
     // The arm, drawn as a thin screen-facing quad so it reads at any line width.
-    const QVector3D e = *o + axes[i] * arm;
+    const QVector3D b = *o + axes[i] * gap, e = *o + axes[i] * arm;
     QVector3D side = QVector3D::crossProduct(axes[i], camera_.backward());
     if (side.lengthSquared() < 1e-8f) side = camera_.right();
     side = side.normalized() * arm * 0.015f;
-    for (const QVector3D& p : {*o - side, *o + side, e + side, *o - side, e + side, e - side})
+    for (const QVector3D& p : {b - side, b + side, e + side, b - side, e + side, e - side})
       put(tris, p, c);
     // Arrow head.
     const QVector3D h = *o + axes[i] * arm * 0.82f;
