@@ -236,6 +236,8 @@ class Document : public QObject {
   /// a tracer; throws ParameterError as runPlacement does.
   bool proposeCandidates();
   bool isBusy() const { return busy_; }
+  /// The least time between two progress reports of one step of a job (jobProgress), ms.
+  static constexpr int kProgressIntervalMs = 1000;
   /// A job's work was started and the end of it has not been handled yet: true from its start
   /// until its finished signal reaches the document (its result applied, or dropped when the
   /// document moved on), also after replace() stopped it and reported jobFinished.
@@ -270,6 +272,7 @@ class Document : public QObject {
   /// Bakes the accepted probes in the background (capture, tetrahedralization) and saves the
   /// volume to volumePathFor(probeSetPath()). Needs a saved probe set; throws ParameterError when
   /// there is none or fewer than 4 probes are accepted. On success volume() holds the result.
+  /// Captures go through `probestudio bake`'s cache (SET.capture-cache beside the set).
   bool bake(const BakeRequest& request);
   /// The volume file beside a probe set: "X.probes.json" and "X.json" give "X.psv".
   static QString volumePathFor(const QString& probeSetPath);
@@ -358,7 +361,9 @@ class Document : public QObject {
   /// A live capture landed: the probe's SH now holds `samples` rays taken at its position, in
   /// `seconds` since the edit that asked for it.
   void liveCaptured(quint64 id, int samples, double seconds);
-  /// Background work: a message and the fraction done in [0, 1].
+  /// Background work: a message and the fraction done in [0, 1]. Emitted when the job starts,
+  /// when its message changes (a new step), at most every kProgressIntervalMs otherwise, on
+  /// a cancel request and at the end (empty message, 1).
   void jobProgress(const QString& message, double fraction);
   /// Background work finished; `error` is empty on success.
   void jobFinished(const QString& error);
@@ -394,6 +399,9 @@ class Document : public QObject {
   /// What every lighting change does to the captures: live captures of the old light dropped
   /// (the moved probes still waiting are captured with the new one), the volume not current.
   void lightingChanged();
+  /// sceneHash() with the scene's lights edited in this session folded in: the key of the
+  /// capture and reference caches for the lighting the scene has now; 0 without a file.
+  uint64_t lightingSceneHash() const;
   /// Stops the background job (if any) and waits for it.
   void cancelJob();
 

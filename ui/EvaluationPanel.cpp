@@ -12,6 +12,7 @@
 #include <QScatterSeries>
 #include <QSpinBox>
 #include <QTableWidget>
+#include <QTimer>
 #include <QVBoxLayout>
 #include <QValueAxis>
 #include <algorithm>
@@ -38,7 +39,15 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   run_->setToolTip(
       tr("Error of the baked volume (or the accepted probes' preview) against a "
          "path-traced reference at random points"));
-  layout->addWidget(run_);
+  bakeAndEvaluate_ = new QPushButton(tr("Bake and evaluate"));
+  bakeAndEvaluate_->setObjectName("bakeAndEvaluate");
+  bakeAndEvaluate_->setToolTip(
+      tr("Bake the accepted probes (the Placement tab's bake settings), then evaluate the baked "
+         "volume: the figure of what the game will show"));
+  auto* runRow = new QHBoxLayout;
+  runRow->addWidget(run_);
+  runRow->addWidget(bakeAndEvaluate_);
+  layout->addLayout(runRow);
   evaluated_ = new QLabel;
   evaluated_->setObjectName("evaluatedVolume");
   evaluated_->setWordWrap(true);
@@ -47,14 +56,14 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   chart_ = new QChart;
   chart_->setTitle(tr("Irradiance error against probe count"));
   rmse_ = new QScatterSeries;
-  rmse_->setName(tr("relative RMS (%)"));
+  rmse_->setName(tr("RMS %"));
   rmse_->setMarkerSize(9);
   p95_ = new QScatterSeries;
-  p95_->setName(tr("95th percentile (%)"));
+  p95_->setName(tr("p95 %"));
   p95_->setMarkerSize(9);
   p95_->setMarkerShape(QScatterSeries::MarkerShapeRectangle);
   stops_ = new QScatterSeries;
-  stops_->setName(tr("RMS (stops)"));
+  stops_->setName(tr("stops"));
   stops_->setMarkerSize(9);
   stops_->setMarkerShape(QScatterSeries::MarkerShapeTriangle);
   rmseLine_ = new QLineSeries;
@@ -76,10 +85,15 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   // The error as the eye sees it, in stops (core/eval/PerceptualError.h), on its own axis.
   chart_->addSeries(stops_);
   stopsAxis_ = new QValueAxis;
-  stopsAxis_->setTitleText(tr("RMS error (stops)"));
+  stopsAxis_->setTitleText(tr("RMS (stops)"));
   chart_->addAxis(stopsAxis_, Qt::AlignRight);
   stops_->attachAxis(xAxis_);
   stops_->attachAxis(stopsAxis_);
+  // A label cut to fit ("3.5" for 36.6) misreads: the plot gives the axes their room instead.
+  for (QAbstractAxis* axis :
+       {static_cast<QAbstractAxis*>(xAxis_), static_cast<QAbstractAxis*>(yAxis_),
+        static_cast<QAbstractAxis*>(stopsAxis_)})
+    axis->setTruncateLabels(false);
   // The connecting lines share the markers' colours and stay out of the legend.
   rmseLine_->setColor(rmse_->color());
   p95Line_->setColor(p95_->color());
@@ -87,7 +101,11 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   for (auto* m : chart_->legend()->markers(p95Line_)) m->setVisible(false);
   view_ = new QChartView(chart_);
   view_->setRenderHint(QPainter::Antialiasing);
-  view_->setMinimumHeight(220);
+  // Tall enough for the axes' titles and labels whole beside a dock's narrow width; the legend
+  // names are short for the same reason (QChart cuts what does not fit, and never wraps).
+  view_->setMinimumHeight(kPlotMinHeight);
+  chart_->legend()->setAlignment(Qt::AlignBottom);  // the plot's whole width for the names
+  chart_->setMargins(QMargins(4, 4, 4, 4));
   layout->addWidget(view_, 1);
 
   table_ = new QTableWidget(0, 7);
@@ -126,13 +144,15 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   greedyAdd_ = new QPushButton(tr("Let greedy add"));
   greedyAdd_->setObjectName("greedyAddProbes");
   greedyAddCount_ = new QSpinBox;
-  greedyAddCount_->setRange(1, 999);
+  // The placement refuses a budget that leaves fewer than 4 new probes beside the kept ones.
+  greedyAddCount_->setRange(4, 999);
   greedyAddCount_->setValue(8);
   greedyAddCount_->setSuffix(tr(" probes"));
   const QString greedyTip =
       tr("Greedy, with the Placement tab's objective and swap passes, adds this many accepted "
          "probes where its measured error is worst, keeping every probe where it is (one undo "
-         "step; fewer when it reaches its noise floor first). Evaluate again to see the gain");
+         "step; fewer when it reaches its noise floor first). Bake and evaluate then measures "
+         "the volume with them");
   greedyAdd_->setToolTip(greedyTip);
   greedyAddCount_->setToolTip(greedyTip);
   greedyRow->addWidget(greedyAdd_);
@@ -142,13 +162,20 @@ EvaluationPanel::EvaluationPanel(Document* doc, QWidget* parent) : QWidget(paren
   where->setWordWrap(true);
   greedyRow->addWidget(where, 1);
   layout->addLayout(greedyRow);
+  next_ = new QLabel;
+  next_->setObjectName("evaluationNext");
+  next_->setWordWrap(true);
+  next_->hide();
+  layout->addWidget(next_);
   connect(greedyAdd_, &QPushButton::clicked, this, [this] { addProbesWhereErrorIsWorst(); });
+  connect(bakeAndEvaluate_, &QPushButton::clicked, this, [this] { bakeAndEvaluate(); });
 
   connect(run_, &QPushButton::clicked, this, [this] { evaluate(); });
   connect(doc_, &Document::evaluationsChanged, this, &EvaluationPanel::refresh);
   auto updateState = [this] {
     run_->setEnabled(!doc_->isBusy());
     greedyAdd_->setEnabled(!doc_->isBusy() && doc_->hasScene());
+    bakeAndEvaluate_->setEnabled(!doc_->isBusy() && doc_->hasScene());
   };
   connect(doc_, &Document::jobFinished, this, updateState);
   connect(doc_, &Document::jobProgress, this, updateState);
@@ -180,7 +207,15 @@ bool EvaluationPanel::addProbesWhereErrorIsWorst() {
             QSet<quint64> ids;
             for (const Probe& p : doc_->probes())
               if (p.id >= firstNewId && p.method == "greedy") ids.insert(quint64(p.id));
-            if (error.isEmpty() && !ids.isEmpty()) emit probesAdded(ids);
+            if (!error.isEmpty() || ids.isEmpty()) return;
+            // The figures so far are of the volume without them: say what measures it now.
+            next_->setText(
+                tr("Greedy added %n probe(s). The figures above are of the volume "
+                   "without them: Bake and evaluate measures what will be baked.",
+                   nullptr, int(ids.size())));
+            next_->show();
+            bakeAndEvaluate_->setDefault(true);
+            emit probesAdded(ids);
           },
           Qt::SingleShotConnection);
       return true;
@@ -190,6 +225,33 @@ bool EvaluationPanel::addProbesWhereErrorIsWorst() {
     return false;
   }
   emit failed(tr("Let greedy add probes"),
+              doc_->isBusy() ? tr("Another job is running.") : tr("Open a scene first."));
+  return false;
+}
+
+bool EvaluationPanel::bakeAndEvaluate() {
+  if (doc_->hasScene() && !doc_->isBusy() && doc_->probeSetPath().isEmpty() && saveBeforeBake_ &&
+      !saveBeforeBake_())
+    return false;  // the artist declined to save: nothing to report
+  const BakeRequest request = bakeSettings_ ? bakeSettings_() : BakeRequest{};
+  try {
+    if (doc_->bake(request)) {
+      next_->hide();
+      bakeAndEvaluate_->setDefault(false);
+      // The evaluation starts once the bake's end has reached every listener.
+      connect(
+          doc_, &Document::jobFinished, this,
+          [this](const QString& error) {
+            if (error.isEmpty()) QTimer::singleShot(0, this, [this] { evaluate(); });
+          },
+          Qt::SingleShotConnection);
+      return true;
+    }
+  } catch (const Error& e) {
+    emit failed(tr("Bake and evaluate"), QString::fromStdString(e.what()));
+    return false;
+  }
+  emit failed(tr("Bake and evaluate"),
               doc_->isBusy() ? tr("Another job is running.") : tr("Open a scene first."));
   return false;
 }

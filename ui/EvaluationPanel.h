@@ -6,7 +6,8 @@
 // volume's probe count, and a row to the table below it. Below that, the last evaluation's
 // queries worst first: picking one frames it in the view, and "Add a probe here" puts an accepted
 // probe at it; "Let greedy add K probes" runs greedy around the probes there are
-// (Document::addProbesWhereErrorIsWorst).
+// (Document::addProbesWhereErrorIsWorst), and "Bake and evaluate" measures the volume that will
+// be baked with them.
 #include <QSet>
 #include <QWidget>
 
@@ -26,6 +27,7 @@ class QTableWidget;
 namespace ps::ui {
 
 class Document;
+struct BakeRequest;
 struct PlacementRequest;
 
 class EvaluationPanel : public QWidget {
@@ -37,6 +39,8 @@ class EvaluationPanel : public QWidget {
   bool evaluate();
 
   QChart* chart() const { return chart_; }
+  /// The plot's least height, pixels.
+  static constexpr int kPlotMinHeight = 280;
   /// The plotted series: relative RMS error (%) and 95th percentile (%) against probe count.
   QScatterSeries* rmseSeries() const { return rmse_; }
   QScatterSeries* p95Series() const { return p95_; }
@@ -65,8 +69,26 @@ class EvaluationPanel : public QWidget {
     placementSettings_ = std::move(settings);
   }
   /// Starts greedy adding greedyAddCountBox() probes (Document::addProbesWhereErrorIsWorst);
-  /// false (after emitting failed) when it could not start.
+  /// false (after emitting failed) when it could not start. Once they landed, nextStepLabel()
+  /// says that the figures shown are of the volume without them and names Bake and evaluate.
   bool addProbesWhereErrorIsWorst();
+  /// "Bake and evaluate": bakes the accepted probes (Document::bake with the bake settings),
+  /// then, when the bake succeeded, evaluates the baked volume; the evaluation's figure is the
+  /// volume that will ship. A set without a file is offered to be saved first (the volume is
+  /// saved beside it). False (after emitting failed, unless the artist declined to save) when
+  /// the bake could not start.
+  bool bakeAndEvaluate();
+  QPushButton* bakeAndEvaluateButton() const { return bakeAndEvaluate_; }
+  /// What to do next after greedy added probes (hidden otherwise).
+  QLabel* nextStepLabel() const { return next_; }
+  /// Where the bake's settings come from (the placement panel's); without one, BakeRequest's
+  /// defaults.
+  void setBakeSettings(std::function<BakeRequest()> settings) {
+    bakeSettings_ = std::move(settings);
+  }
+  /// Asked before a bake when the probe set has no file (MainWindow::offerSaveBeforeBake): true
+  /// once it is saved.
+  void setSaveBeforeBake(std::function<bool()> offer) { saveBeforeBake_ = std::move(offer); }
 
  signals:
   void failed(const QString& title, const QString& message);
@@ -90,13 +112,17 @@ class EvaluationPanel : public QWidget {
   QValueAxis *xAxis_, *yAxis_, *stopsAxis_;
   QSpinBox *queries_, *refSpp_;
   QPushButton* run_;
+  QPushButton* bakeAndEvaluate_;
   QLabel* evaluated_;
+  QLabel* next_;
   QTableWidget* table_;
   QTableWidget* worst_;
   QPushButton* addProbe_;
   QPushButton* greedyAdd_;
   QSpinBox* greedyAddCount_;
   std::function<PlacementRequest()> placementSettings_;
+  std::function<BakeRequest()> bakeSettings_;
+  std::function<bool()> saveBeforeBake_;
 };
 
 }  // namespace ps::ui

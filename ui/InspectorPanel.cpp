@@ -21,6 +21,7 @@ InspectorPanel::InspectorPanel(Document* doc, QWidget* parent) : QWidget(parent)
   title_->setFont(bold);
   layout->addWidget(title_);
   auto* form = new QFormLayout;
+  form->setRowWrapPolicy(QFormLayout::WrapLongRows);  // narrow docks: fields under labels
   state_ = new QLabel;
   method_ = new QLabel;
   score_ = new QLabel;

@@ -7,6 +7,8 @@
 #include <QDockWidget>
 #include <QFileDialog>
 #include <QFileInfo>
+#include <QFrame>
+#include <QHBoxLayout>
 #include <QHeaderView>
 #include <QItemSelectionModel>
 #include <QLabel>
@@ -16,9 +18,11 @@
 #include <QPushButton>
 #include <QRegularExpression>
 #include <QScreen>
+#include <QScrollArea>
 #include <QSettings>
 #include <QSortFilterProxyModel>
 #include <QStatusBar>
+#include <QStyle>
 #include <QTableView>
 #include <QToolBar>
 #include <QUndoStack>
@@ -33,10 +37,24 @@
 #include "ui/LightingPanel.h"
 #include "ui/PlacementPanel.h"
 #include "ui/ProbeTableModel.h"
+#include "ui/SceneLighting.h"
 #include "ui/SurfacePlacement.h"
 #include "ui/Viewport.h"
 
 namespace ps::ui {
+
+namespace {
+/// A dock's panel in a scroll area: a dock shorter than the panel scrolls it instead of
+/// squashing its rows below their height.
+QScrollArea* scrollable(QWidget* panel) {
+  auto* area = new QScrollArea;
+  area->setWidget(panel);
+  area->setWidgetResizable(true);
+  area->setFrameShape(QFrame::NoFrame);
+  area->setHorizontalScrollBarPolicy(Qt::ScrollBarAsNeeded);
+  return area;
+}
+}  // namespace
 
 MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   doc_ = new Document(this);
@@ -68,13 +86,13 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   inspector_ = new InspectorPanel(doc_);
   auto* inspectorDock = new QDockWidget(tr("Inspector"), this);
   inspectorDock->setObjectName("inspectorDock");
-  inspectorDock->setWidget(inspector_);
+  inspectorDock->setWidget(scrollable(inspector_));
   addDockWidget(Qt::RightDockWidgetArea, inspectorDock);
 
   placement_ = new PlacementPanel(doc_);
-  auto* placementDock = new QDockWidget(tr("Placement and bake"), this);
+  auto* placementDock = new QDockWidget(tr("Placement"), this);
   placementDock->setObjectName("placementDock");
-  placementDock->setWidget(placement_);
+  placementDock->setWidget(scrollable(placement_));
   addDockWidget(Qt::LeftDockWidgetArea, placementDock);
   leftDock_ = placementDock;
   rightDock_ = dock;
@@ -85,18 +103,20 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   lighting_ = new LightingPanel(doc_);
   auto* lightingDock = new QDockWidget(tr("Lighting"), this);
   lightingDock->setObjectName("lightingDock");
-  lightingDock->setWidget(lighting_);
+  lightingDock->setWidget(scrollable(lighting_));
   addDockWidget(Qt::LeftDockWidgetArea, lightingDock);
   tabifyDockWidget(placementDock, lightingDock);
 
   evaluation_ = new EvaluationPanel(doc_);
   auto* evaluationDock = new QDockWidget(tr("Evaluation"), this);
   evaluationDock->setObjectName("evaluationDock");
-  evaluationDock->setWidget(evaluation_);
+  evaluationDock->setWidget(scrollable(evaluation_));
   addDockWidget(Qt::LeftDockWidgetArea, evaluationDock);
   tabifyDockWidget(lightingDock, evaluationDock);
   connect(evaluation_, &EvaluationPanel::failed, this, &MainWindow::showError);
   evaluation_->setPlacementSettings([this] { return placement_->placementRequest(); });
+  evaluation_->setBakeSettings([this] { return placement_->bakeRequest(); });
+  evaluation_->setSaveBeforeBake([this] { return offerSaveBeforeBake(); });
   // The error where it is: a picked query is framed and ringed; a probe added there is selected.
   connect(evaluation_, &EvaluationPanel::queryPicked, this, [this](int index) {
     if (doc_->evaluations().empty()) return;
@@ -114,9 +134,29 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   sceneLabel_ = new QLabel(tr("No scene"));
   trianglesLabel_ = new QLabel;
   probesLabel_ = new QLabel;
+  // Why the view shows nothing (or flat colours), with what fixes it: a banner over the top of
+  // the view, wrapped to its width, never a dialog. A scene without any light offers a sky.
+  banner_ = new QFrame(this);
+  banner_->setObjectName("viewBanner");
+  banner_->setAutoFillBackground(true);
+  banner_->setFrameShape(QFrame::StyledPanel);
+  banner_->setStyleSheet(
+      "#viewBanner { background: rgba(255, 244, 229, 235); border: 1px solid #b35c00; }");
   overlayReason_ = new QLabel;
   overlayReason_->setObjectName("overlayReason");
-  overlayReason_->setStyleSheet("color: #b35c00");
+  overlayReason_->setStyleSheet("color: #7a3e00");
+  overlayReason_->setWordWrap(true);
+  bannerAction_ = new QPushButton(tr("Add a default sky"));
+  bannerAction_->setObjectName("addDefaultSky");
+  bannerAction_->setToolTip(
+      tr("Light the scene with a uniform sky (one undo step; edit it in the Lighting tab)"));
+  connect(bannerAction_, &QPushButton::clicked, this, &MainWindow::addDefaultSky);
+  auto* bannerLayout = new QHBoxLayout(banner_);
+  bannerLayout->setContentsMargins(8, 4, 8, 4);
+  bannerLayout->addWidget(overlayReason_, 1);
+  bannerLayout->addWidget(bannerAction_);
+  banner_->hide();
+  viewport_->installEventFilter(this);
   volumeState_ = new QLabel;
   volumeState_->setObjectName("volumeStateStatus");
   volumeState_->setStyleSheet("color: #b35c00");
@@ -127,12 +167,20 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   progress_->setMaximumWidth(160);
   progress_->hide();
   cancelJob_ = new QPushButton(tr("Cancel"));
+  cancelJob_->setObjectName("cancelJob");
+  cancelJob_->setToolTip(tr("Stop the running job (Esc); it changes nothing"));
   cancelJob_->hide();
+  // The bar and its Cancel keep their room while hidden: the status bar's height never changes
+  // with a job, so the 3D view is not resized (and redrawn) when a job starts or ends.
+  for (QWidget* jobWidget : {static_cast<QWidget*>(progress_), static_cast<QWidget*>(cancelJob_)}) {
+    QSizePolicy policy = jobWidget->sizePolicy();
+    policy.setRetainSizeWhenHidden(true);
+    jobWidget->setSizePolicy(policy);
+  }
   connect(cancelJob_, &QPushButton::clicked, doc_, &Document::requestCancel);
   statusBar()->addWidget(sceneLabel_);
   statusBar()->addWidget(trianglesLabel_);
   statusBar()->addWidget(probesLabel_);
-  statusBar()->addWidget(overlayReason_);
   statusBar()->addWidget(volumeState_);
   statusBar()->addPermanentWidget(jobLabel_);
   statusBar()->addPermanentWidget(progress_);
@@ -181,6 +229,11 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
     jobTimer_.invalidate();
     const QString kind = jobKind_;
     jobKind_.clear();
+    // The proposal in a scene without any light places its candidates but cannot capture them:
+    // the banner over the view says so and offers a sky; no dialog stands in front of the scene.
+    const Scene* scene = doc_->scene();
+    if (kind == QLatin1String("propose") && scene && !hasAnyLight(*scene, doc_->probeSet().rig))
+      return updateOverlayReason();
     if (!error.isEmpty() && error != QLatin1String("cancelled")) showError(jobTitle(kind), error);
   });
   updateTitle();
@@ -520,17 +573,26 @@ QString MainWindow::editorMessage(const QString& message) {
   return m;
 }
 
+void MainWindow::setJobBarValue(int percent) {
+  // QProgressBar::setValue repaints at once (a synchronous flush of the whole window, which
+  // software GL composes on the job's cores); with updates off it only schedules the repaint.
+  if (progress_->value() == percent) return;
+  progress_->setUpdatesEnabled(false);
+  progress_->setValue(percent);
+  progress_->setUpdatesEnabled(true);  // update(): repainted with the next frame
+}
+
 void MainWindow::onJobProgress(const QString& what, double fraction) {
   const bool busy = doc_->isBusy();
   if (busy && !jobTimer_.isValid()) {
     jobTimer_.start();
     jobKind_ = doc_->jobKind();
-    progress_->setValue(0);
+    setJobBarValue(0);
   }
   // One bar for the whole job: the document reports the overall fraction across its phases;
   // the bar never goes back within a job.
   const int percent = std::max(progress_->value(), int(fraction * 100));
-  progress_->setValue(percent);
+  setJobBarValue(percent);
   QString text = what;
   const double elapsed = jobTimer_.isValid() ? jobTimer_.elapsed() * 1e-3 : 0.0;
   if (busy && !doc_->isCancelling() && percent >= 3 && elapsed >= 2.0) {
@@ -734,10 +796,27 @@ bool MainWindow::maybeSave() {
   return answer == QMessageBox::Discard;
 }
 
+int MainWindow::docksWidth(Qt::DockWidgetArea side) const {
+  // The tabs of the side's docks, each its title and the style's padding (QTabBar::tabSizeHint),
+  // side by side, and the widest panel without a horizontal scroll bar.
+  int tabs = 0, panels = 0;
+  const int tabPadding = style()->pixelMetric(QStyle::PM_TabBarTabHSpace, nullptr, this);
+  const int scrollBar = style()->pixelMetric(QStyle::PM_ScrollBarExtent, nullptr, this);
+  for (const QDockWidget* d : findChildren<QDockWidget*>()) {
+    if (dockWidgetArea(const_cast<QDockWidget*>(d)) != side) continue;
+    tabs += fontMetrics().size(Qt::TextShowMnemonic, d->windowTitle()).width() + tabPadding;
+    if (const auto* area = qobject_cast<const QScrollArea*>(d->widget()))
+      panels = std::max(panels, area->widget()->minimumSizeHint().width() + scrollBar);
+  }
+  return std::max(tabs, panels) + kDockFrame;
+}
+
 void MainWindow::resizeEvent(QResizeEvent* e) {
   if (!dockSizesSet_ && e->size().width() > 0) {
     const int w = e->size().width();
-    resizeDocks({leftDock_, rightDock_}, {int(kLeftDockShare * w), int(kRightDockShare * w)},
+    resizeDocks({leftDock_, rightDock_},
+                {std::max(int(kLeftDockShare * w), docksWidth(Qt::LeftDockWidgetArea)),
+                 std::max(int(kRightDockShare * w), docksWidth(Qt::RightDockWidgetArea))},
                 Qt::Horizontal);  // the layout keeps each dock at least at its minimum
   }
   QMainWindow::resizeEvent(e);
@@ -787,7 +866,34 @@ void MainWindow::updateVolumeState() {
 void MainWindow::updateOverlayReason() {
   const QString reason = viewport_->emptyOverlayReason();
   overlayReason_->setText(reason);
-  overlayReason_->setToolTip(reason);
+  const Scene* scene = doc_->scene();
+  bannerAction_->setVisible(scene && !hasAnyLight(*scene, doc_->probeSet().rig));
+  banner_->setVisible(!reason.isEmpty() && centralWidget() == viewport_);
+  placeBanner();
+}
+
+void MainWindow::placeBanner() {
+  if (!banner_->isVisible() || centralWidget() != viewport_) return;
+  constexpr int kMargin = 8;
+  const QRect view = viewport_->geometry();
+  const int width = std::max(view.width() - 2 * kMargin, 1);
+  const int height = banner_->layout()->hasHeightForWidth()
+                         ? banner_->layout()->totalHeightForWidth(width)
+                         : banner_->sizeHint().height();
+  banner_->setGeometry(view.x() + kMargin, view.y() + kMargin, width, height);
+  banner_->raise();
+}
+
+bool MainWindow::eventFilter(QObject* watched, QEvent* e) {
+  if (watched == viewport_ && (e->type() == QEvent::Resize || e->type() == QEvent::Move))
+    placeBanner();
+  return QMainWindow::eventFilter(watched, e);
+}
+
+void MainWindow::addDefaultSky() {
+  LightingRig rig = doc_->probeSet().rig;
+  rig.skyRadiance = kDefaultSkyRadiance;
+  doc_->setRig(rig, tr("Add a default sky"));
 }
 
 std::vector<uint64_t> MainWindow::selectedIds() const {

@@ -7,8 +7,11 @@
 #include <QStringList>
 #include <optional>
 
+#include "core/math/Vec3.h"
+
 class QActionGroup;
 class QDockWidget;
+class QFrame;
 class QLabel;
 class QMenu;
 class QPushButton;
@@ -41,6 +44,14 @@ class MainWindow : public QMainWindow {
   LightingPanel* lightingPanel() const { return lighting_; }
   EvaluationPanel* evaluationPanel() const { return evaluation_; }
   Autosave* autosave() const { return autosave_; }
+  /// The job's progress bar and its Cancel, in the status bar: the only ones (every job's).
+  QProgressBar* jobProgressBar() const { return progress_; }
+  QPushButton* cancelButton() const { return cancelJob_; }
+
+  /// The sky "Add a default sky" gives a scene without any light: uniform, W/(m² sr) per channel.
+  static constexpr Rgb kDefaultSkyRadiance{0.3, 0.4, 0.6};
+  /// The banner over the view saying why it shows nothing or flat colours (hidden otherwise).
+  QFrame* viewBanner() const { return banner_; }
 
   /// No prompts on close (screenshot and test runs).
   void setPromptOnClose(bool on) { promptOnClose_ = on; }
@@ -100,7 +111,7 @@ class MainWindow : public QMainWindow {
  protected:
   void closeEvent(QCloseEvent* e) override;
   /// Until the window has been shown at a size, gives the docks their default share of the
-  /// width (kLeftDockShare, kRightDockShare; at least their minimum), the viewport the rest.
+  /// width (kLeftDockShare, kRightDockShare; at least docksWidth()), the viewport the rest.
   void resizeEvent(QResizeEvent* e) override;
   void showEvent(QShowEvent* e) override;
 
@@ -113,12 +124,23 @@ class MainWindow : public QMainWindow {
   /// The left docks' and the right docks' default share of the window's width: the viewport
   /// keeps about 60 % of it.
   static constexpr double kLeftDockShare = 0.2, kRightDockShare = 0.16;
+  /// The least width of one side's docks that cuts nothing: their tabs side by side with whole
+  /// titles (as tabs need them; stacked docks need less), and the widest of their panels
+  /// without a horizontal scroll bar (pixels).
+  int docksWidth(Qt::DockWidgetArea side) const;
+  static constexpr int kDockFrame = 8;  ///< a dock's frame and separator, pixels
   void showError(const QString& title, const QString& message);
   bool maybeSave();
   void updateTitle();
   void updateStatus();
-  /// The status bar's reason why a shown overlay is empty (Viewport::emptyOverlayReason).
+  /// The banner over the view: why the preview or a shown overlay is empty
+  /// (Viewport::emptyOverlayReason), and for a scene without any light "Add a default sky".
   void updateOverlayReason();
+  /// Puts the banner across the top of the view, as high as its text wraps to.
+  void placeBanner();
+  bool eventFilter(QObject* watched, QEvent* e) override;
+  /// Sets the rig's sky to kDefaultSkyRadiance (one undo step).
+  void addDefaultSky();
   /// The status bar's volume label: shown while the volume is stale.
   void updateVolumeState();
   std::vector<uint64_t> selectedIds() const;
@@ -128,6 +150,8 @@ class MainWindow : public QMainWindow {
   void onBoxSelected(const QSet<quint64>& ids, Qt::KeyboardModifiers mods);
   void addRecentFile(const QString& path);
   void onJobProgress(const QString& what, double fraction);
+  /// Sets the job bar's percentage; its repaint waits for the next frame.
+  void setJobBarValue(int percent);
   void rebuildRecentMenu();
 
   Document* doc_;
@@ -138,8 +162,10 @@ class MainWindow : public QMainWindow {
   QLabel* sceneLabel_;
   QLabel* trianglesLabel_;
   QLabel* probesLabel_;
-  QLabel* overlayReason_;  ///< why a shown overlay is empty, with the fixing action
-  QLabel* volumeState_;    ///< a stale volume, named with why (Document::volumeStatusText)
+  QFrame* banner_;             ///< over the view's top; hidden when there is nothing to say
+  QLabel* overlayReason_;      ///< why a shown overlay is empty, with the fixing action
+  QPushButton* bannerAction_;  ///< "Add a default sky", for a scene without any light
+  QLabel* volumeState_;        ///< a stale volume, named with why (Document::volumeStatusText)
   QLabel* jobLabel_;
   QProgressBar* progress_;
   InspectorPanel* inspector_;

@@ -9,7 +9,6 @@
 #include <QHBoxLayout>
 #include <QHeaderView>
 #include <QLabel>
-#include <QProgressBar>
 #include <QPushButton>
 #include <QSpinBox>
 #include <QTableWidget>
@@ -178,14 +177,10 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
   bakeForm->addRow(volume_);
   layout->addWidget(bakeBox);
 
-  auto* jobRow = new QHBoxLayout;
-  progress_ = new QProgressBar;
-  progress_->setRange(0, 100);
-  cancel_ = new QPushButton(tr("Cancel"));
-  jobRow->addWidget(progress_, 1);
-  jobRow->addWidget(cancel_);
-  layout->addLayout(jobRow);
+  // What the last job did (its notes) or why it failed; the job's progress and Cancel are the
+  // status bar's.
   status_ = new QLabel;
+  status_->setObjectName("placementStatus");
   status_->setWordWrap(true);
   layout->addWidget(status_);
   layout->addStretch(1);
@@ -200,10 +195,10 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
 
   connect(run_, &QPushButton::clicked, this, [this] { run(); });
   connect(bake_, &QPushButton::clicked, this, [this] { bake(); });
-  connect(cancel_, &QPushButton::clicked, doc_, &Document::requestCancel);
-  connect(doc_, &Document::jobProgress, this, [this](const QString& what, double f) {
-    status_->setText(what);
-    progress_->setValue(int(f * 100));
+  // Enabled states follow the job; the message of each report is the status bar's alone (a
+  // label changed at every report would repaint the dock).
+  connect(doc_, &Document::jobProgress, this, [this] {
+    if (doc_->isBusy() && !status_->text().isEmpty()) status_->clear();
     updateState();
   });
   connect(doc_, &Document::jobFinished, this, [this](const QString& error) {
@@ -211,7 +206,6 @@ PlacementPanel::PlacementPanel(Document* doc, QWidget* parent) : QWidget(parent)
     status_->setText(error == QLatin1String("cancelled") ? tr("Cancelled")
                      : error.isEmpty()                   ? doc_->lastJobNotes().join('\n')
                                                          : MainWindow::editorMessage(error));
-    progress_->setValue(0);
     updateState();
   });
   connect(addVolume_, &QPushButton::clicked, this, [this] { addVolumeAroundSelection(); });
@@ -422,9 +416,7 @@ void PlacementPanel::updateState() {
   const bool busy = doc_->isBusy();
   run_->setEnabled(!busy && doc_->hasScene());
   bake_->setEnabled(!busy && doc_->hasScene());
-  cancel_->setEnabled(busy);
   removeVolume_->setEnabled(volumes_->currentRow() >= 0 && volumes_->rowCount() > 0);
-  progress_->setVisible(busy);
   const bool stale = doc_->volumeState() == Document::VolumeState::Stale;
   volume_->setText(tr("Volume: %1").arg(doc_->volumeStatusText()) +
                    (stale ? tr(". Bake again (Ctrl+B).") : QString()));

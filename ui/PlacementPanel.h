@@ -3,8 +3,8 @@
 // places in the background and replaces the unlocked candidates (Document::runPlacement); Bake
 // captures the accepted probes at final quality and saves the volume beside the probe set
 // (Document::bake). The importance volumes (boxes the artist adds around a selection and edits in
-// a table) restrict greedy's and chajdas' dense field to them and weight chajdas' merging. Progress
-// and Cancel are in the main window's status bar and here.
+// a table) restrict greedy's and chajdas' dense field to them and weight chajdas' merging. A job's
+// progress and Cancel are in the main window's status bar; the panel says what the last job did.
 #include <QWidget>
 
 #include <cstdint>
@@ -17,7 +17,6 @@ class QCheckBox;
 class QComboBox;
 class QDoubleSpinBox;
 class QLabel;
-class QProgressBar;
 class QPushButton;
 class QSpinBox;
 class QTableWidget;
@@ -68,7 +67,6 @@ class PlacementPanel : public QWidget {
   QCheckBox* replaceBox() const { return replace_; }
   QSpinBox* bakeSamplesBox() const { return bakeSpp_; }
   QCheckBox* fitBox() const { return fit_; }
-  QPushButton* cancelButton() const { return cancel_; }
   /// The volume named with its state (Document::volumeStatusText).
   QLabel* volumeLabel() const { return volume_; }
   /// One row per importance volume: name, weight, min x/y/z, max x/y/z (metres), editable.
@@ -104,8 +102,6 @@ class PlacementPanel : public QWidget {
   QSpinBox* bakeSpp_;
   QPushButton* run_;
   QPushButton* bake_;
-  QPushButton* cancel_;
-  QProgressBar* progress_;
   QLabel* status_;
   QLabel* volume_;
   QTableWidget* volumes_ = nullptr;

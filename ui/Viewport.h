@@ -5,6 +5,8 @@
 // metered from the lit surfaces in view, ACES, sRGB); the sun's direction gizmo; the sky as the
 // background. Turns document data into GL buffers and nothing more (STYLE.md rule 10).
 // OpenGL 3.3 core; GL resources are made in initializeGL and freed on aboutToBeDestroyed.
+// Viewport.cpp: the widget, its camera and picking; ViewportGL.cpp: the drawing;
+// ViewportInput.cpp: mouse and keys; ViewportOverlays.cpp: the lighting preview and overlays.
 #include <QFutureWatcher>
 #include <QOpenGLFunctions_3_3_Core>
 #include <QOpenGLWidget>
@@ -100,6 +102,13 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// The handle part under a widget pixel (None without a handle).
   HandlePart handlePartAt(QPointF widgetPos) const;
 
+  /// The arrow keys, while the view has the focus, move the selected unlocked probes by
+  /// kNudgeMeters: Left and Right along the camera's right, Up and Down away from and towards
+  /// the camera along the floor, with Shift up and down; one undo step per press. False when
+  /// the key is no arrow or nothing selected can move.
+  bool nudgeSelection(int key, Qt::KeyboardModifiers modifiers);
+  static constexpr double kNudgeMeters = 0.1;
+
   /// Fly (WASD, Q/E down/up, Shift faster) while the right mouse button is held. Advances the
   /// camera by `seconds` for the keys held; returns true when it moved.
   bool flyStep(float seconds);
@@ -185,6 +194,9 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   /// startFieldsRebuild() until its finished signal reaches the view, also when updateFields()
   /// took its result before (the handler then drops it).
   bool isFieldsRebuildRunning() const { return fieldsRebuildRunning_; }
+  /// The view computes nothing in the background: no fields rebuild and no scene light grid
+  /// under way, the fields current.
+  bool isSettled() const { return fieldsCurrent() && !fieldsRebuildRunning_ && !sceneGridPending_; }
   /// The preview volume as it is now, without bringing it up to date.
   bool hasPreviewVolume() const { return previewVolume_.has_value(); }
   /// The preview volume the test object is lit by now, without bringing it up to date: during
@@ -325,6 +337,7 @@ class Viewport : public QOpenGLWidget, protected QOpenGLFunctions_3_3_Core {
   void focusOutEvent(QFocusEvent* e) override;
 
  private:
+  static QVector3D toQ(Vec3 v) { return QVector3D(float(v.x), float(v.y), float(v.z)); }
   void cleanup();
   void uploadScene();
   void uploadProbes();

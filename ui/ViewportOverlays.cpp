@@ -1022,6 +1022,23 @@ std::vector<Viewport::Legend> Viewport::legends() {
     l.markLabel = tr("visible from ⅓ stop");
     out.push_back(l);
   }
+  if (overlay(Overlay::TestObject) && drawnPreviewVolume()) {
+    Legend l;
+    l.title = tr("Test object: a white sphere lit by the preview volume at (%1, %2, %3) m")
+                  .arg(testObject_.x, 0, 'f', 2)
+                  .arg(testObject_.y, 0, 'f', 2)
+                  .arg(testObject_.z, 0, 'f', 2);
+    l.swatches = {{rgbF(1.0, 1.0, 1.0), tr("albedo 1, drag it to move it")}};
+    out.push_back(l);
+  }
+  if (overlay(Overlay::Domain) && doc_->tracer()) {
+    Legend l;
+    l.title = doc_->probeSet().importanceVolumes.empty()
+                  ? tr("Domain of interest: the space a player can reach")
+                  : tr("Domain of interest: the importance volumes");
+    l.swatches = {{rgbF(0.25, 0.9, 0.55), tr("its shell (cell faces)")}};
+    out.push_back(l);
+  }
   if (overlay(Overlay::TetMesh) && previewVolume_) {
     Legend l;
     l.title = tr("Tetrahedra of the preview volume: %L1").arg(previewVolume_->tets.size());
@@ -1142,8 +1159,14 @@ void Viewport::drawLegends() {
   int bottom = height() - 10;
   for (auto it = all.rbegin(); it != all.rend(); ++it) {
     const Legend& l = *it;
-    const int lines = l.ramp.empty() ? 1 + int(l.swatches.size()) : 3;
-    const int h = pad * 2 + lines * fm.height() + (l.ramp.empty() ? 0 : barH - fm.height() + 4);
+    // The title wraps to the box's width, never cut; below it the ramp's two lines or a line
+    // per swatch.
+    const int textWidth = width - 2 * pad;
+    const int titleH =
+        fm.boundingRect(QRect(0, 0, textWidth, 1 << 16), Qt::TextWordWrap, l.title).height();
+    const int lines = l.ramp.empty() ? int(l.swatches.size()) : 2;
+    const int h =
+        pad * 2 + titleH + lines * fm.height() + (l.ramp.empty() ? 0 : barH - fm.height() + 4);
     const QRect box(10, bottom - h, width, h);
     legendRects_.push_back(box);
     p.setPen(Qt::NoPen);
@@ -1151,10 +1174,9 @@ void Viewport::drawLegends() {
     p.drawRoundedRect(box, 4, 4);
     p.setPen(QColor(235, 235, 235));
     int y = box.top() + pad;
-    p.drawText(QRect(box.left() + pad, y, box.width() - 2 * pad, fm.height()),
-               Qt::AlignLeft | Qt::AlignVCenter,
-               fm.elidedText(l.title, Qt::ElideRight, box.width() - 2 * pad));
-    y += fm.height() + 2;
+    p.drawText(QRect(box.left() + pad, y, textWidth, titleH), Qt::AlignLeft | Qt::TextWordWrap,
+               l.title);
+    y += titleH + 2;
     if (!l.ramp.empty()) {
       const QRect bar(box.left() + pad, y, box.width() - 2 * pad, barH);
       QLinearGradient g(bar.topLeft(), bar.topRight());

@@ -1,9 +1,11 @@
 // probestudio-editor [SCENE | SET.json] [--probes SET.json] [--screenshot OUT.png] [--size WxH]
 //                    [--overlays glyphs,slice,tets,test-object,domain,preview,flat] [--select ID]
+//                    [--time-jobs place,bake,eval]
 // The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
 // probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
 // projected pixel position of every probe, the camera, the cut-away height) and exits: 0 on
-// success, 1 with a one-line error.
+// success, 1 with a one-line error. With --time-jobs it runs those jobs as their buttons do and
+// prints the wall time of each.
 #include <QAction>
 #include <QApplication>
 #include <QCommandLineParser>
@@ -18,12 +20,15 @@
 #include <QTimer>
 #include <cstdio>
 #include <exception>
+#include <memory>
 
 #include "core/common/Error.h"
 #include "core/scene/SceneUnits.h"
 #include "ui/Document.h"
+#include "ui/EvaluationPanel.h"
 #include "ui/LightingField.h"
 #include "ui/MainWindow.h"
+#include "ui/PlacementPanel.h"
 #include "ui/Viewport.h"
 
 namespace {
@@ -144,6 +149,52 @@ bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) 
   return true;
 }
 
+/// Runs the jobs of `jobs` (place, bake, eval) one after the other as the panels' buttons start
+/// them, with the panels' settings, in the shown window, and prints each one's wall time (from
+/// the click to the job's end reaching the window) to stdout. Quits the application when done:
+/// 0 when every job succeeded, 1 otherwise. Each job starts once the editor is idle, as an
+/// artist's click finds it: no job runs and the view computes nothing in the background.
+void timeJobs(QApplication& app, ps::ui::MainWindow& w, QStringList jobs) {
+  ps::ui::Document* doc = w.document();
+  if (doc->isBusy() || doc->isCapturingLive() || !w.viewport()->isSettled()) {
+    constexpr int kPollMs = 100;
+    QTimer::singleShot(kPollMs, &w, [&app, &w, jobs] { timeJobs(app, w, jobs); });
+    return;
+  }
+  if (jobs.isEmpty()) {
+    app.exit(0);
+    return;
+  }
+  const QString job = jobs.takeFirst();
+  auto timer = std::make_shared<QElapsedTimer>();
+  timer->start();
+  bool started = false;
+  if (job == QLatin1String("place"))
+    started = w.placementPanel()->run();
+  else if (job == QLatin1String("bake"))
+    started = w.placementPanel()->bake();
+  else if (job == QLatin1String("eval"))
+    started = w.evaluationPanel()->evaluate();
+  if (!started) {
+    fail(QStringLiteral("--time-jobs: %1 did not start: %2").arg(job, w.lastError()));
+    app.exit(1);
+    return;
+  }
+  QObject::connect(
+      doc, &ps::ui::Document::jobFinished, &w,
+      [&app, &w, jobs, job, timer](const QString& error) {
+        std::printf("editor %s: %.2f s%s\n", qPrintable(job), double(timer->nsecsElapsed()) * 1e-9,
+                    qPrintable(error.isEmpty() ? QString() : QStringLiteral(" (") + error + ")"));
+        std::fflush(stdout);
+        if (!error.isEmpty()) {
+          app.exit(1);
+          return;
+        }
+        QTimer::singleShot(0, &w, [&app, &w, jobs] { timeJobs(app, w, jobs); });
+      },
+      Qt::SingleShotConnection);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -190,13 +241,18 @@ int main(int argc, char** argv) {
   noCutsOpt.setFlags(QCommandLineOption::HiddenFromHelp);
   const QCommandLineOption recoverOpt(
       "recover", "With --screenshot: recover the newest crashed session's work first.");
+  const QCommandLineOption timeJobsOpt(
+      "time-jobs",
+      "Run these jobs one after the other as their buttons do, with the panels' settings, print "
+      "each one's wall time and exit: any of place, bake, eval (e.g. bake,eval).",
+      "LIST");
   const QCommandLineOption acceptOpt(
       "accept-proposal",
       "Accept the proposed candidates once they are there (one undo step, an unsaved edit): "
       "a scripted session's work, for the recovery test.");
   parser.addOptions({acceptOpt, unitsOpt, probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt,
                      overlaysOpt, selectOpt, saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt,
-                     windowShotOpt, noCutsOpt});
+                     windowShotOpt, noCutsOpt, timeJobsOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -296,6 +352,21 @@ int main(int argc, char** argv) {
             ? parser.value(recoveryDirOpt)
             : QStandardPaths::writableLocation(QStandardPaths::AppLocalDataLocation) + "/recovery";
     const int autosaveMs = std::max(parser.value(autosaveOpt).toInt(), 50);
+    if (parser.isSet(timeJobsOpt)) {
+      const QStringList jobs = parser.value(timeJobsOpt).split(',', Qt::SkipEmptyParts);
+      for (const QString& job : jobs)
+        if (job != QLatin1String("place") && job != QLatin1String("bake") &&
+            job != QLatin1String("eval")) {
+          fail(QStringLiteral("--time-jobs: unknown job '%1' (expected place, bake, eval)")
+                   .arg(job));
+          return 1;
+        }
+      if (!ok) return 1;
+      w.setPromptOnClose(false);
+      w.setQuiet(true);
+      QTimer::singleShot(0, &w, [&app, &w, jobs] { timeJobs(app, w, jobs); });
+      return app.exec();
+    }
     if (!screenshot) {
       if (parser.isSet(acceptOpt))
         QObject::connect(

@@ -96,6 +96,24 @@ QString waitForJob(Document* doc, int timeoutMs = 120000) {
   return done.first().first().toString();
 }
 
+/// Opens a copy of two-rooms in `dir` in `w` (quiet, no prompts, no proposal) with
+/// acceptedProbes() captured at 16 samples (the preview evaluation needs captured probes), saves
+/// the set as two-rooms.probes.json there and sets the bake to 16 samples. Returns the set's
+/// path, empty on failure.
+QString openSavedSet(MainWindow& w, const QTemporaryDir& dir) {
+  const QString scene = copyScene(dir, false);
+  const QString set = dir.filePath("two-rooms.probes.json");
+  w.setQuiet(true);
+  w.setPromptOnClose(false);
+  Document* doc = w.document();
+  doc->setAutoPropose(false);
+  if (scene.isEmpty() || !w.openPath(scene)) return {};
+  doc->addProbes(acceptedProbes(), "Add");
+  if (!doc->recapture(16) || !waitForJob(doc).isEmpty() || !w.saveAs(set)) return {};
+  w.placementPanel()->bakeSamplesBox()->setValue(16);
+  return set;
+}
+
 /// Visible top-level widgets other than `main`.
 QStringList strayWindows(const QWidget* main) {
   QStringList out;
@@ -208,20 +226,10 @@ class TestArtistLoop : public QObject {
 
   void aStaleVolumeIsNamedStaleFromTheMomentItNoLongerMatches() {
     QTemporaryDir dir;
-    const QString scene = copyScene(dir, false);
-    QVERIFY(!scene.isEmpty());
-    const QString set = dir.filePath("two-rooms.probes.json");
     MainWindow w;
-    w.setQuiet(true);
-    w.setPromptOnClose(false);
+    const QString set = openSavedSet(w, dir);
+    QVERIFY(!set.isEmpty());
     Document* doc = w.document();
-    doc->setAutoPropose(false);
-    QVERIFY(w.openPath(scene));
-    doc->addProbes(acceptedProbes(), "Add");
-    QVERIFY(doc->recapture(16));  // the preview evaluation needs captured probes
-    QCOMPARE(waitForJob(doc), QString());
-    QVERIFY(w.saveAs(set));
-    w.placementPanel()->bakeSamplesBox()->setValue(16);
     QVERIFY(w.placementPanel()->bake());
     QCOMPARE(waitForJob(doc), QString());
     const QLabel* panel = w.placementPanel()->volumeLabel();
@@ -273,6 +281,46 @@ class TestArtistLoop : public QObject {
     QCOMPARE(table->item(table->rowCount() - 1, 6)->text(), e.source);
   }
 
+  void greedyAddsThenOneClickMeasuresWhatWillBeBaked() {
+    QTemporaryDir dir;
+    MainWindow w;
+    QVERIFY(!openSavedSet(w, dir).isEmpty());
+    Document* doc = w.document();
+    EvaluationPanel* panel = w.evaluationPanel();
+    panel->queriesBox()->setValue(16);
+    panel->referenceSamplesBox()->setValue(16);
+    // Bake and evaluate from a set never baked: the evaluation measures the baked volume.
+    QVERIFY(panel->bakeAndEvaluate());
+    QCOMPARE(waitForJob(doc), QString());  // the bake; the evaluation follows
+    QTRY_COMPARE_WITH_TIMEOUT(doc->evaluations().size(), size_t(1), 120000);
+    QVERIFY2(doc->evaluations().back().source.startsWith("baked volume"),
+             qPrintable(doc->evaluations().back().source));
+
+    // Greedy adds four probes: the volume no longer holds the accepted probes, and the panel
+    // says that its figures are of the volume without them and names the one click.
+    panel->greedyAddCountBox()->setValue(4);
+    w.placementPanel()->captureSamplesBox()->setValue(16);
+    QVERIFY2(panel->addProbesWhereErrorIsWorst(), qPrintable(w.lastError()));
+    QCOMPARE(waitForJob(doc, 300000), QString());
+    size_t accepted = 0;
+    for (const Probe& p : doc->probes()) accepted += p.state == ProbeState::Accepted ? 1 : 0;
+    QVERIFY(accepted > acceptedProbes().size());
+    QCOMPARE(doc->volumeState(), Document::VolumeState::Stale);
+    QVERIFY(!panel->nextStepLabel()->isHidden());
+    QVERIFY2(panel->nextStepLabel()->text().contains("Bake and evaluate"),
+             qPrintable(panel->nextStepLabel()->text()));
+    // One click: the volume is baked with them and that volume is what the figure measures.
+    panel->bakeAndEvaluateButton()->click();
+    QVERIFY(doc->isBusy());
+    QCOMPARE(waitForJob(doc), QString());
+    QTRY_COMPARE_WITH_TIMEOUT(doc->evaluations().size(), size_t(2), 120000);
+    const EvaluationPoint& e = doc->evaluations().back();
+    QCOMPARE(doc->volumeState(), Document::VolumeState::Baked);
+    QCOMPARE(e.probes, accepted);
+    QVERIFY2(e.source.startsWith("baked volume"), qPrintable(e.source));
+    QVERIFY(panel->nextStepLabel()->isHidden());
+  }
+
   void capturesMadeInTheEditorAreNotStaleOnReopen() {
     QTemporaryDir dir;
     MainWindow w;
@@ -290,6 +338,32 @@ class TestArtistLoop : public QObject {
     QVERIFY(w.saveAs(set));
     QVERIFY(w.openPath(set));
     QCOMPARE(QString::fromStdString(doc->staleCapturesText()), QString());
+  }
+
+  void aSceneWithoutLightOpensWithABannerAndOneClickSky() {
+    QTemporaryDir dir;
+    const QString unlit = copyScene(dir, true);
+    QVERIFY(!unlit.isEmpty());
+    MainWindow w;
+    w.setPromptOnClose(false);   // not quiet: an error would be a modal box
+    QVERIFY(w.openPath(unlit));  // proposes candidates it cannot capture
+    // The job ends with the capture's failure, which the banner says instead of a dialog.
+    QVERIFY(waitForJob(w.document()) != QLatin1String("timeout"));
+    QCoreApplication::processEvents();
+    QVERIFY2(QApplication::activeModalWidget() == nullptr, "a dialog stands in front");
+    QVERIFY(w.lastError().isEmpty());
+    QVERIFY(!w.viewBanner()->isHidden());
+    auto* reason = w.findChild<QLabel*>("overlayReason");
+    QVERIFY2(reason->text().contains("no light"), qPrintable(reason->text()));
+    auto* sky = w.findChild<QPushButton*>("addDefaultSky");
+    QVERIFY(sky && !sky->isHidden());
+    // One click lights the scene: one undo step, the banner goes.
+    const int steps = w.document()->undoStack()->count();
+    sky->click();
+    QCOMPARE(w.document()->undoStack()->count(), steps + 1);
+    QCOMPARE(w.document()->probeSet().rig.skyRadiance.b, MainWindow::kDefaultSkyRadiance.b);
+    QVERIFY(sky->isHidden());
+    QVERIFY2(!reason->text().contains("no light"), qPrintable(reason->text()));
   }
 
   void messagesNameTheEditorsControls() {

@@ -713,6 +713,83 @@ class TestEditing : public QObject {
     QVERIFY(seen.size() > 30);
   }
 
+  void arrowKeysNudgeTheSelectionInTheView() {
+    MainWindow w;
+    quiet(w);
+    Document* doc = w.document();
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(800, 600);
+    vp->frameAll();
+    Probe p;
+    p.position = doc->scene()->bounds.center();
+    const std::vector<uint64_t> ids = doc->addProbes({p, p}, "Add");
+    doc->setLocked({ids[1]}, true);
+    vp->setSelection({ids[0], ids[1]});
+    const Vec3 start = doc->probe(ids[0])->position;
+    const QVector3D right = vp->camera().right();
+    const Vec3 level = normalize(Vec3(right.x(), 0, right.z()));
+    auto press = [&](int key, Qt::KeyboardModifiers mods = Qt::NoModifier) {
+      QKeyEvent e(QEvent::KeyPress, key, mods);
+      QCoreApplication::sendEvent(vp, &e);
+    };
+    // Right: along the camera's right on the floor, one undo step; the locked probe stays.
+    const int steps = doc->undoStack()->count();
+    press(Qt::Key_Right);
+    QCOMPARE(doc->undoStack()->count(), steps + 1);
+    const Vec3 moved = doc->probe(ids[0])->position - start;
+    QVERIFY(length(moved - level * Viewport::kNudgeMeters) < 1e-6);  // float steps
+    QCOMPARE(doc->probe(ids[1])->position, start);
+    // Up is level too (away from the camera); Shift+Up raises it.
+    press(Qt::Key_Up);
+    QCOMPARE(doc->probe(ids[0])->position.y, start.y);
+    press(Qt::Key_Up, Qt::ShiftModifier);
+    QVERIFY(std::abs(doc->probe(ids[0])->position.y - (start.y + Viewport::kNudgeMeters)) < 1e-6);
+    QCOMPARE(doc->undoStack()->count(), steps + 3);
+    for (int i = 0; i < 3; ++i) doc->undoStack()->undo();
+    QCOMPARE(doc->probe(ids[0])->position, start);
+    // Nothing movable selected: the keys move nothing.
+    vp->setSelection({ids[1]});
+    press(Qt::Key_Left);
+    QCOMPARE(doc->undoStack()->index(), steps);
+    QCOMPARE(doc->undoStack()->count(), steps + 3);
+  }
+
+  void testObjectAndDomainOverlaysHaveLegends() {
+    MainWindow w;
+    quiet(w);
+    Document* doc = w.document();
+    doc->setAutoPropose(false);
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    auto titles = [&] {
+      QStringList out;
+      for (const Viewport::Legend& l : vp->legends()) out << l.title;
+      return out.join(" | ");
+    };
+    vp->setOverlay(Viewport::Overlay::Domain, true);
+    QVERIFY2(titles().contains("Domain of interest: the space a player can reach"),
+             qPrintable(titles()));
+    // The test object needs a preview volume: captured probes that span the scene.
+    std::vector<Probe> probes;
+    const Bounds3 b = doc->scene()->bounds;
+    for (int i = 0; i < 8; ++i) {
+      Probe p;
+      const Vec3 e = b.hi - b.lo;
+      p.position = b.lo + Vec3(e.x * (i & 1 ? 0.7 : 0.3), e.y * (i & 2 ? 0.7 : 0.3),
+                               e.z * (i & 4 ? 0.7 : 0.3));
+      p.state = ProbeState::Accepted;
+      probes.push_back(p);
+    }
+    doc->addProbes(probes, "Add");
+    QVERIFY(doc->recapture(8));
+    QSignalSpy done(doc, &Document::jobFinished);
+    QVERIFY(done.wait(60000));
+    vp->setOverlay(Viewport::Overlay::TestObject, true);
+    (void)vp->previewVolume();
+    QVERIFY2(titles().contains("Test object"), qPrintable(titles()));
+  }
+
   void wasdFliesWhileTheRightButtonIsHeld() {
     MainWindow w;
     quiet(w);
