@@ -325,6 +325,8 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
       GreedyRegion& info = out.regions[r];
       if (reuse && reuse(r)) {
         results[r] = prefixOf(std::move(results[r]), budgetOf[r], g.kept.size());
+        // Reused only where no swap runs: with passes asked, because its light is unresolved.
+        results[r].swapsSkipped = swapPasses > 0;
         regionDone(pass0, passShare);
         return;
       }

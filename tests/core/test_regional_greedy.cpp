@@ -179,6 +179,32 @@ TEST(RegionalGreedy, ARoomLargerThanARegionIsParted) {
   EXPECT_LE(most, 2 * fewest);
 }
 
+// A region whose error points are mostly unresolved (every sample's standard error as large as
+// its light) skips its swaps and says so, and keeps the first pass's probes: the same probes as
+// a run that asks for no swaps.
+TEST(RegionalGreedy, RegionsWhoseLightIsUnresolvedDoNotSwap) {
+  DenseField f = halfLitField(0.5);
+  for (FieldSample& smp : f.samples)
+    for (int k = 0; k < kShCoeffCount; ++k) smp.shStdError.c[k] = smp.sh.c[0] * 2.0;
+  GreedySettings s;
+  s.objective = GreedyObjective::kPerceptual;
+  s.budget = 48;
+  s.swapPasses = 2;
+  s.swapNeighbours = 8;
+  const RegionalGreedyResult swapsAsked = placeRegionalGreedy(f, {}, s, 2, {});
+  s.swapPasses = 0;
+  const RegionalGreedyResult noSwaps = placeRegionalGreedy(f, {}, s, 2, {});
+  ASSERT_GT(swapsAsked.unresolvedShare, kGreedyUnresolvedShareLimit);
+  for (const GreedyRegion& r : swapsAsked.regions) {
+    if (r.probes > 0) {
+      EXPECT_TRUE(r.swapsSkipped);
+    }
+  }
+  for (const GreedyRegion& r : noSwaps.regions) EXPECT_FALSE(r.swapsSkipped);
+  EXPECT_EQ(swapsAsked.swaps, 0u);
+  EXPECT_EQ(swapsAsked.sampleIndex, noSwaps.sampleIndex);
+}
+
 TEST(RegionalGreedy, RefusesTooSmallABudget) {
   const DenseField f = halfLitField(1.0);
   GreedySettings s;
