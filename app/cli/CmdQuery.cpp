@@ -102,19 +102,10 @@ void registerQuery(CLI::App& app) {
       // As eval and the runtime reader read the volume: the visibility-aware weights when it
       // carries maps (the point is in the air: no normal term unless asked), else barycentric.
       const bool visibility = vf.volume.hasVisibility() && !o->noVisibility;
-      VisibleWeights w;
-      if (visibility) {
-        w = visibleWeights(vf.volume, loc, p,
-                           o->normalTerm ? std::optional<Vec3>(n) : std::nullopt);
-      } else {
-        w.tet = loc.tet;
-        w.outside = loc.outside;
-        w.count = loc.tet >= 0 ? 4 : 0;
-        for (int k = 0; k < w.count; ++k) {
-          w.probes[size_t(k)] = vf.volume.tets[size_t(loc.tet)][k];
-          w.weights[size_t(k)] = loc.weights[k];
-        }
-      }
+      const VisibleWeights w =
+          visibility ? visibleWeights(vf.volume, loc, p,
+                                      o->normalTerm ? std::optional<Vec3>(n) : std::nullopt)
+                     : barycentricWeights(vf.volume, loc);
       ojson q;
       q["position"] = vecToJson(pts[i]);
       q["tet"] = loc.tet;

@@ -603,7 +603,7 @@ void GreedySearch::swapUntilDone() {
   // neighbours alone, but its candidates come from the whole field, and a move elsewhere also
   // raises the error where the moved probe left, so a probe not taken out again may have
   // missed a gain there. It makes the passes after the first cost where something changed.
-  if (s_.swapPasses > 0 && points_.unresolvedShare > kGreedyUnresolvedShareLimit) {
+  if (greedySwapsSkipped(s_.swapPasses, points_.unresolvedShare)) {
     result_.swapsSkipped = true;
     return;
   }

@@ -159,6 +159,12 @@ struct GreedyResult {
 /// are skipped.
 inline constexpr double kGreedyUnresolvedShareLimit = 0.5;
 
+/// Whether greedy skips the `swapPasses` asked for (GreedyResult::swapsSkipped) when its error
+/// points' unresolved share is `unresolvedShare`.
+inline bool greedySwapsSkipped(int swapPasses, double unresolvedShare) {
+  return swapPasses > 0 && unresolvedShare > kGreedyUnresolvedShareLimit;
+}
+
 /// The irradiance luminance of `sh` for the 14 fixed normals the error is measured with (the 6
 /// axes and the 8 cube diagonals).
 std::array<double, 14> greedyErrorNormalsIrradiance(const ShRgb& sh);

@@ -325,8 +325,7 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
       GreedyRegion& info = out.regions[r];
       if (reuse && reuse(r)) {
         results[r] = prefixOf(std::move(results[r]), budgetOf[r], g.kept.size());
-        // Reused only where no swap runs: with passes asked, because its light is unresolved.
-        results[r].swapsSkipped = swapPasses > 0;
+        results[r].swapsSkipped = greedySwapsSkipped(swapPasses, results[r].unresolvedShare);
         regionDone(pass0, passShare);
         return;
       }
@@ -406,7 +405,7 @@ RegionalGreedyResult placeRegionalGreedy(const DenseField& field, std::span<cons
   runRegions(1, take, settings.swapPasses, 0.4, 0.6, [&](size_t r) {
     const GreedyResult& m = results[r];
     const bool swaps =
-        settings.swapPasses > 0 && !(m.unresolvedShare > kGreedyUnresolvedShareLimit);
+        settings.swapPasses > 0 && !greedySwapsSkipped(settings.swapPasses, m.unresolvedShare);
     return !swaps && take[r] >= 8 && m.initialCount == 8 && take[r] <= m.positions.size();
   });
   double errSum = 0, normSum = 0, unresolvedSum = 0;

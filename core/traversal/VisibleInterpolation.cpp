@@ -351,8 +351,7 @@ double probeVisibility(const ProbeVolume& v, int32_t probe, Vec3 p) {
   return mapVisibility(probeMap(v, probe), v.visibilityMapSize, v.position(probe), p);
 }
 
-VisibleWeights visibleWeights(const ProbeVolume& v, const VolumeLocation& loc, Vec3 p,
-                              const std::optional<Vec3>& normal) {
+VisibleWeights barycentricWeights(const ProbeVolume& v, const VolumeLocation& loc) {
   VisibleWeights w;
   w.tet = loc.tet;
   w.outside = loc.outside;
@@ -364,7 +363,14 @@ VisibleWeights visibleWeights(const ProbeVolume& v, const VolumeLocation& loc, V
     w.weights[size_t(i)] = loc.weights[i];
     w.factors[size_t(i)] = 1.0;
   }
-  if (!v.hasVisibility()) return w;
+  return w;
+}
+
+VisibleWeights visibleWeights(const ProbeVolume& v, const VolumeLocation& loc, Vec3 p,
+                              const std::optional<Vec3>& normal) {
+  VisibleWeights w = barycentricWeights(v, loc);
+  if (loc.tet < 0 || !v.hasVisibility()) return w;
+  const auto& tet = v.tets[size_t(loc.tet)];
   PS_CHECK_EQ(v.visibility.size(),
               v.probeCount() * size_t(2 * v.visibilityMapSize * v.visibilityMapSize));
   PS_CHECK_EQ(v.probeInside.size(), v.probeCount());

@@ -112,6 +112,10 @@ VisibleFallback combineVisibleWeights(const std::array<double, 4>& barycentric,
 /// header's formula, without the normal term and the crush). 1 when the volume has no maps.
 double probeVisibility(const ProbeVolume& v, int32_t probe, Vec3 p);
 
+/// The barycentric weights of `loc` as VisibleWeights: the tet's four probes, factors 1 (what
+/// visibleWeights() gives for a volume without maps; count 0 for tet = -1).
+VisibleWeights barycentricWeights(const ProbeVolume& v, const VolumeLocation& loc);
+
 /// The final weights at p for location `loc` (locate(v, p, ...)); `normal`, when given, is
 /// p's unit surface normal. Without maps: the barycentric weights. Cost: the four factors and,
 /// only when none of them sees p, the neighbour search (at most 16 tetrahedra visited and
