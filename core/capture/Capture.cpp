@@ -707,13 +707,39 @@ double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed) {
   return inside / rays;
 }
 
-Rgb traceRadiance(const Tracer& tracer, const LightingRig& rig, Vec3 origin, Vec3 dir,
-                  uint64_t& rngState, CaptureMode /*mode*/) {
-  // The mode changes nothing along a ray: delta lights are never hit by rays, and the light
-  // they send straight to a point is added from DirectLight.h by the caller.
-  // Every light summed: the tree would be built per ray here.
-  const PathTracer pt(tracer, rig, std::numeric_limits<size_t>::max(), 1);
-  return pt.radiance(origin, dir, rngState, nullptr);
+struct RadianceTracer::Impl {
+  Impl(const Tracer& tracer, const LightingRig& rig, size_t exactLightCount, int maxLightCut)
+      : pt(tracer, rig, exactLightCount, maxLightCut) {}
+  PathTracer pt;
+};
+
+RadianceTracer::RadianceTracer(const Tracer& tracer, const LightingRig& rig, size_t exactLightCount,
+                               int maxLightCut)
+    : impl_(std::make_unique<Impl>(tracer, rig, exactLightCount, maxLightCut)) {}
+
+RadianceTracer::~RadianceTracer() = default;
+
+Rgb RadianceTracer::radiance(Vec3 origin, Vec3 dir, uint64_t& rngState) const {
+  return impl_->pt.radiance(origin, dir, rngState, nullptr);
+}
+
+void RadianceTracer::radiance(Vec3 origin, std::span<const Vec3> dirs,
+                              std::span<const uint64_t> streams, std::span<Rgb> out) const {
+  PS_CHECK_EQ(dirs.size(), streams.size());
+  PS_CHECK_EQ(dirs.size(), out.size());
+  std::array<PathState, kPathBatchSamples> paths;
+  for (size_t first = 0; first < dirs.size(); first += paths.size()) {
+    const size_t count = std::min(paths.size(), dirs.size() - first);
+    for (size_t k = 0; k < count; ++k) {
+      PathState& s = paths[k];
+      s = PathState{};
+      s.o = origin;
+      s.d = dirs[first + k];
+      s.rng = streams[first + k];
+    }
+    impl_->pt.trace(std::span<PathState>(paths.data(), count), true);
+    for (size_t k = 0; k < count; ++k) out[first + k] = paths[k].L;
+  }
 }
 
 }  // namespace ps

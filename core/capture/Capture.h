@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -159,11 +160,35 @@ void captureProbesInChunks(const Tracer& tracer, const LightingRig& rig,
 /// ProbeCapture::backfaceFraction takes the first hit as it is. Deterministic for a given seed.
 double backfaceFraction(const Tracer& tracer, Vec3 p, int rays, uint64_t seed);
 
-/// Radiance path-traced along a ray leaving point `origin` in unit direction `dir`; exposed for
-/// the evaluation's reference. `rngState` is advanced. Delta lights (sun, point, spot) are never
-/// hit by a ray, so the light they send straight to `origin` is not in it (and `mode` changes
-/// nothing here): add it from core/capture/DirectLight.h for a reference irradiance.
-Rgb traceRadiance(const Tracer& tracer, const LightingRig& rig, Vec3 origin, Vec3 dir,
-                  uint64_t& rngState, CaptureMode mode = CaptureMode::Full);
+/// Path-traced radiance along rays leaving points of the scene, for the evaluation's reference
+/// and the prefiltered capture: the same path tracer as captureProbes, its lights gathered and its
+/// light tree built once for every ray traced through it. `exactLightCount` and `maxLightCut` as
+/// in CaptureSettings; the evaluation's reference sums every light (SIZE_MAX), for the least
+/// noise per path. Delta lights (sun, point, spot) are never hit
+/// by a ray, so the light they send straight to the origin is not in the radiance: add it from
+/// core/capture/DirectLight.h for a reference irradiance. Safe to call from many threads.
+class RadianceTracer {
+ public:
+  RadianceTracer(const Tracer& tracer, const LightingRig& rig,
+                 size_t exactLightCount = kExactLightCount, int maxLightCut = kMaxCut);
+  ~RadianceTracer();
+  RadianceTracer(const RadianceTracer&) = delete;
+  RadianceTracer& operator=(const RadianceTracer&) = delete;
+
+  /// Radiance arriving at `origin` from -dir (`dir` unit), one ray at a time; `rngState` is the
+  /// path's random stream and is advanced.
+  Rgb radiance(Vec3 origin, Vec3 dir, uint64_t& rngState) const;
+  /// out[k] = the radiance along dirs[k] from `origin`, path k drawing from the stream whose
+  /// state is streams[k] (not advanced). The paths are traced together, bounce by bounce, in
+  /// Embree stream calls (CaptureSettings::tracePackets); each gives what radiance() gives for
+  /// its ray and stream, up to the last bits of Embree's packet kernels. All three spans have
+  /// the same size.
+  void radiance(Vec3 origin, std::span<const Vec3> dirs, std::span<const uint64_t> streams,
+                std::span<Rgb> out) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace ps

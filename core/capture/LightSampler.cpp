@@ -39,7 +39,8 @@ LightSampler::LightSampler(std::span<const Light> lights, size_t exactCount, int
   for (size_t i = 0; i < lights.size(); ++i)
     (lights[i].type == LightType::Directional ? directional_ : local)
         .push_back(static_cast<uint32_t>(i));
-  if (local.size() <= exactCount) {
+  sampling_ = local.size() > exactCount;
+  if (!sampling_ && local.size() <= kExactLightCount) {
     summed_ = std::move(local);
     return;
   }
@@ -123,6 +124,24 @@ void LightSampler::choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& ou
   for (uint32_t i : directional_) out.push_back({i, 1.0});
   for (uint32_t i : summed_) out.push_back({i, 1.0});
   if (nodes_.empty()) return;
+  if (!sampling_) {
+    // Every light summed: the tree only skips the subtrees whose range windows have all ended.
+    uint32_t stack[64];
+    int depth = 0;
+    stack[depth++] = 0;
+    while (depth > 0) {
+      const Node& node = nodes_[stack[--depth]];
+      if (distanceSquaredToBox(p, node.lo, node.hi) >= node.maxRange * node.maxRange) continue;
+      if (node.leaf) {
+        out.push_back({node.light, 1.0});
+        continue;
+      }
+      PS_CHECK_LT(depth + 2, 64);
+      stack[depth++] = node.second;
+      stack[depth++] = uint32_t(&node - nodes_.data()) + 1;
+    }
+    return;
+  }
   // A cut through the tree (as Conty Estevez & Kulla sec. 5.2 refine the tree where its nodes
   // look large from p, here to choose among rather than to sample each): starting at the root, a
   // node that looks large (looksLarge) is replaced by its children while the cut holds fewer than

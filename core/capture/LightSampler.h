@@ -57,12 +57,13 @@ class LightSampler {
   /// a probability that is positive for every light with f > 0, so nothing is lost (or the few
   /// that the cut through the tree resolves to single lights, all with weight 1). A light
   /// whose range window has ended at p, or that lies below the surface, is never chosen when
-  /// sampling; when summing, the caller skips it before any ray (deltaLightArrival says
-  /// nothing). `u` is uniform in [0, 1) and is read only when sampling.
+  /// sampling; when summing, a tree over more than kExactLightCount lights skips the subtrees
+  /// whose windows have all ended, and the caller skips the rest before any ray
+  /// (deltaLightArrival says nothing). `u` is uniform in [0, 1) and is read only when sampling.
   void choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& out) const;
 
   /// True when point and spot lights are sampled rather than summed.
-  bool sampling() const { return !nodes_.empty(); }
+  bool sampling() const { return sampling_; }
 
  private:
   /// A node of the tree over the point and spot lights. Its first child is the next node, its
@@ -87,8 +88,11 @@ class LightSampler {
   size_t exactCount_ = 0;
   int maxCut_ = 1;
   std::vector<uint32_t> directional_;  ///< always shaded
-  std::vector<uint32_t> summed_;       ///< point and spot lights, when summed
-  std::vector<Node> nodes_;            ///< the tree, when sampling; root at 0
+  std::vector<uint32_t> summed_;       ///< point and spot lights, when summed without a tree
+  /// The tree, when sampling or when summing more than kExactLightCount lights (then it only
+  /// skips the subtrees whose range windows have all ended at the point); root at 0.
+  std::vector<Node> nodes_;
+  bool sampling_ = false;
 };
 
 }  // namespace ps

@@ -93,6 +93,7 @@ std::vector<ProbeCapture> capturePrefiltered(const Tracer& tracer, const Lightin
   const Scene& scene = tracer.scene();
   const std::vector<Light> lights =
       settings.mode == CaptureMode::Full ? allLights(scene, rig) : std::vector<Light>{};
+  const RadianceTracer radiance(tracer, rig);
   const int N = settings.samplesPerProbe;
   std::vector<ProbeCapture> out(nodes.size());
   forEachProbeInParallel(
@@ -141,7 +142,7 @@ std::vector<ProbeCapture> capturePrefiltered(const Tracer& tracer, const Lightin
         Accumulator acc;
         for (const Candidate& k : kept) {
           ShRgb x = directDeltaSh(tracer, lights, k.origin);
-          const Rgb L = traceRadiance(tracer, rig, k.origin, k.dir, rng, settings.mode);
+          const Rgb L = radiance.radiance(k.origin, k.dir, rng);
           x.addSample(k.dir, L, 4.0 * kPi);
           acc.add(x);
           c.luminanceHistogram[size_t(luminanceBin(L))] += 1.0;

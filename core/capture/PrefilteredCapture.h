@@ -31,7 +31,7 @@ struct PrefilterNode {
 /// face (its own ray hits one, or a shadow ray to a back-face point found earlier for this node
 /// does) is outside the domain of interest and dropped, and the kept ones are re-tested against
 /// every new back-face point (Algorithm 2); so is a candidate whose ray meets a surface within
-/// the tracer's ray offset (it could not be traced). The kept rays are path-traced (traceRadiance)
+/// the tracer's ray offset (it could not be traced). The kept rays are path-traced (RadianceTracer)
 /// and, in CaptureMode::Full, the delta lights' direct light at each kept origin is added. Per
 /// node: sh, shStdError (from the kept samples' per-sample estimates), samples = kept rays,
 /// backfaceFraction = the fraction of candidates dropped (1 with no sample kept: the support

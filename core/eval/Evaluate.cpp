@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -28,22 +29,33 @@ namespace {
 /// E = pi/N sum L) plus the delta lights' direct irradiance, computed analytically. `variance`
 /// is the variance of the estimate's luminance: the sample variance of pi lum(L) over N (the
 /// delta lights add none). The draw is stratified in u1, which this estimate ignores: it is an
-/// upper bound, as the stratification only lowers the true variance.
-Rgb referenceIrradiance(const Tracer& tracer, const LightingRig& rig,
+/// upper bound, as the stratification only lowers the true variance. Each path draws from its
+/// own stream (seeded from `rng`), so the paths are traced together (RadianceTracer).
+Rgb referenceIrradiance(const Tracer& tracer, const RadianceTracer& radiance,
                         const std::vector<Light>& lights, Vec3 p, Vec3 n, int spp, uint64_t& rng,
                         double& variance) {
   Vec3 t, b;
   orthonormalBasis(n, t, b);
-  Rgb sum;
-  double lumSum = 0, lumSq = 0;
+  thread_local std::vector<Vec3> dirs;
+  thread_local std::vector<uint64_t> streams;
+  thread_local std::vector<Rgb> L;
+  dirs.resize(size_t(spp));
+  streams.resize(size_t(spp));
+  L.resize(size_t(spp));
+  const uint64_t pathSeed = splitMix64(rng);
   for (int i = 0; i < spp; ++i) {
     // Stratified in u1 so the reference converges faster for the same spp.
     const double u1 = (i + uniform01(rng)) / spp;
     const Vec3 l = cosineHemisphere(u1, uniform01(rng));
-    const Vec3 dir = normalize(t * l.x + b * l.y + n * l.z);
-    const Rgb L = traceRadiance(tracer, rig, p, dir, rng);
-    sum += L;
-    const double y = kPi * luminance(L);
+    dirs[size_t(i)] = normalize(t * l.x + b * l.y + n * l.z);
+    streams[size_t(i)] = streamSeed(pathSeed, uint64_t(i));
+  }
+  radiance.radiance(p, dirs, streams, L);
+  Rgb sum;
+  double lumSum = 0, lumSq = 0;
+  for (const Rgb& li : L) {
+    sum += li;
+    const double y = kPi * luminance(li);
     lumSum += y;
     lumSq += y * y;
   }
@@ -72,6 +84,8 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
     throw ParameterError(std::string("eval: ") + e.what());
   }
   const std::vector<Light> lights = allLights(tracer.scene(), rig);
+  // Every light summed at every vertex: a reference wants the least noise per path.
+  const RadianceTracer radiance(tracer, rig, std::numeric_limits<size_t>::max());
 
   // Query points: uniform in the domain of interest (DomainPoints), each with a uniform normal.
   // Deterministic for the seed.
@@ -107,7 +121,7 @@ EvalReference computeReference(const Tracer& tracer, const LightingRig& rig, con
   tbb::parallel_for(size_t(0), M, [&](size_t q) {
     if (cancelled.load(std::memory_order_relaxed)) return;
     uint64_t rng = streamSeed(s.seed ^ 0xE7A1ull, q);
-    ref.irradiance[q] = referenceIrradiance(tracer, rig, lights, ref.points[q], ref.normals[q],
+    ref.irradiance[q] = referenceIrradiance(tracer, radiance, lights, ref.points[q], ref.normals[q],
                                             s.referenceSpp, rng, ref.variance[q]);
     const size_t d = ++done;
     if (progress) {

@@ -56,7 +56,8 @@ class ReferenceCache {
   const std::filesystem::path& dir() const { return files_.dir(); }
 
   /// Bump when the query sampling or the reference estimator changes its results.
-  static constexpr uint32_t kAlgorithmVersion = 2;  ///< 2: entries hold the variance
+  static constexpr uint32_t kAlgorithmVersion = 3;  ///< 2: entries hold the variance; 3: paths
+                                                    ///< draw from their own streams, lights sampled
   /// Keys only scenes with double-sided surfaces. 2: the back faces of double-sided geometry
   /// count half towards "inside" (backfaceFraction).
   static constexpr uint32_t kDoubleSidedValidityVersion = 2;

@@ -13,6 +13,7 @@
 #include "core/capture/Capture.h"
 #include "core/common/Error.h"
 #include "core/common/Tolerances.h"
+#include "core/math/Random.h"
 #include "tests/core/SceneBuilders.h"
 
 namespace ps {
@@ -509,14 +510,24 @@ TEST(CaptureTraceRadiance, FurnaceRadianceAlongARay) {
   addBox(s, {-1, -1, -1}, {1, 1, 1}, addMaterial(s, {0.5, 0.5, 0.5}, {2, 2, 2}), true);
   const Tracer tracer(s);
   const LightingRig rig;
+  const RadianceTracer radiance(tracer, rig);
   uint64_t rng = 99;
   double sum = 0;
   const int n = 20000;
   for (int k = 0; k < n; ++k) {
-    const Rgb l = traceRadiance(tracer, rig, {0, 0, 0}, normalize(Vec3{1, 2, 3}), rng);
+    const Rgb l = radiance.radiance({0, 0, 0}, normalize(Vec3{1, 2, 3}), rng);
     sum += l.r;
   }
   EXPECT_NEAR(sum / n, 4.0, 0.04);  // Le / (1 - rho)
+  // The same paths traced together, each from its own stream.
+  std::vector<Vec3> dirs(static_cast<size_t>(n), normalize(Vec3{1, 2, 3}));
+  std::vector<uint64_t> streams(static_cast<size_t>(n));
+  for (size_t k = 0; k < streams.size(); ++k) streams[k] = streamSeed(7, k);
+  std::vector<Rgb> out(static_cast<size_t>(n));
+  radiance.radiance({0, 0, 0}, dirs, streams, out);
+  double batched = 0;
+  for (const Rgb& l : out) batched += l.r;
+  EXPECT_NEAR(batched / n, 4.0, 0.04);
 }
 
 // ---- A real scene --------------------------------------------------------------------------

@@ -112,6 +112,38 @@ TEST(LightSampler, FewLightsAreSummedAndDirectionalLightsAlwaysShade) {
   for (const LightChoice& c : out) EXPECT_EQ(c.weight, 1.0);
 }
 
+// Summing more lights than kExactLightCount (the evaluation's reference sums all of them): the
+// tree only skips lights out of range, so every light that adds anything is in the sum once, with
+// weight 1.
+TEST(LightSampler, SummingManyLightsKeepsEveryLightInRange) {
+  const std::vector<Light> lights = randomLights(300, 3, /*sun=*/true);
+  const LightSampler sampler(lights, std::numeric_limits<size_t>::max());
+  EXPECT_FALSE(sampler.sampling());
+  Rng r{5};
+  std::vector<LightChoice> out;
+  size_t skipped = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Vec3 p{r.in(-10, 10), r.in(0, 4), r.in(-10, 10)};
+    const Vec3 n = normalize(Vec3{r.in(-1, 1), r.in(-1, 1), r.in(-1, 1)});
+    out.clear();
+    sampler.choose(p, n, 0.5, out);
+    std::vector<int> times(lights.size(), 0);
+    for (const LightChoice& c : out) {
+      EXPECT_EQ(c.weight, 1.0);
+      ++times[c.light];
+    }
+    for (size_t i = 0; i < lights.size(); ++i) {
+      EXPECT_LE(times[i], 1) << "light " << i;
+      if (deltaLightArrival(lights[i], p)) {
+        EXPECT_EQ(times[i], 1) << "light " << i << " reaches " << p << " but is not summed";
+      } else {
+        skipped += times[i] == 0 ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_GT(skipped, 0u);  // the range windows do cut some lights before any arrival is computed
+}
+
 /// A 20 x 4 x 20 m room of albedo 0.6 (walls, floor, ceiling) with four pillars, lit by `lights`.
 Scene pillarRoom() {
   Scene s;

@@ -304,11 +304,14 @@ TEST(Eval, RelRmseStdErrorPredictsTheSpreadOverQueryDraws) {
   EXPECT_GT(sd, 0.005);
   EXPECT_GT(meanSe, 0.6 * sd);
   EXPECT_LT(meanSe, 1.6 * sd);
-  // It falls as 1 / sqrt(queries).
+  // It falls as 1 / sqrt(queries): 0.25 at 16 times the queries. The relative errors at 8 spp
+  // have heavy tails, which 256 queries sample too rarely, so the 256-query figure runs low and
+  // the ratio high: over seeds 1 to 16 it ran from 0.29 to 0.38 (0.29 to 0.40 over seeds 1 to 8
+  // of a reference traced one ray at a time). The margin takes 0.07 beyond either end.
   es.seed = 1;
   es.queries = 4096;
   const EvalResult many = evaluateVolume(fixture().tracer, fixture().rig, v, es);
-  EXPECT_NEAR(many.relRmseStdError / meanSe, 0.25, 0.1);
+  EXPECT_NEAR(many.relRmseStdError / meanSe, 0.345, 0.125);
 }
 
 TEST(Eval, QueriesKeepTheClearanceFromPointLights) {
