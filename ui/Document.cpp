@@ -332,8 +332,14 @@ std::string Document::staleCapturesText() const {
   return describeStaleCaptures(set_, staleCaptures(set_, sceneHash_));
 }
 
-void Document::saveProbeSet(const QString& path) {
+ProbeSet Document::setToSave() const {
   ProbeSet set = set_;
+  if (placementSource_) set.placement = placementSource_();
+  return set;
+}
+
+void Document::saveProbeSet(const QString& path) {
+  ProbeSet set = setToSave();
   if (sceneHash_ != 0) set.sceneHash = sceneHash_;
   if (!scenePath_.isEmpty())
     set.scenePath = std::filesystem::absolute(toPath(scenePath_)).lexically_normal().string();
@@ -456,7 +462,7 @@ void Document::setImportanceVolumes(const std::vector<ImportanceVolume>& volumes
 }
 
 void Document::writeCopy(const QString& path) const {
-  ProbeSet set = set_;
+  ProbeSet set = setToSave();
   if (!scenePath_.isEmpty())
     set.scenePath = std::filesystem::absolute(toPath(scenePath_)).lexically_normal().string();
   ps::saveProbeSet(set, toPath(path));

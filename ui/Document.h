@@ -153,7 +153,15 @@ class Document : public QObject {
   /// (sceneUnitHint), naming the editor's --units option; empty otherwise.
   const QString& unitHint() const { return unitHint_; }
   /// Saves atomically to `path` and makes it the document's file; marks the document clean.
+  /// The set's placement settings are those of the placement source when there is one.
   void saveProbeSet(const QString& path);
+  /// Where saves (and recovery copies) take the set's method, spacing and budget from: the
+  /// placement panel, so that a reopened set shows the settings it was saved with rather than
+  /// those of the last placement that ran (the editor's proposal, a "greedy adds"). Not an
+  /// edit: it marks nothing modified. Without a source the set keeps the last placement's.
+  void setPlacementSource(std::function<PlacementSettings()> source) {
+    placementSource_ = std::move(source);
+  }
 
   /// Replaces the scene by one built in memory (tests, previews); no tracer, no proposal.
   void setScene(Scene scene);
@@ -407,8 +415,12 @@ class Document : public QObject {
 
   std::shared_ptr<const Scene> scene_;
   std::shared_ptr<const Tracer> tracer_;
+  /// The set as saved: set_ with the placement source's settings.
+  ProbeSet setToSave() const;
+
   ProbeSet set_;
-  std::vector<Light> fileLights_;  ///< the scene file's lights as loaded
+  std::function<PlacementSettings()> placementSource_;  ///< setPlacementSource()
+  std::vector<Light> fileLights_;                       ///< the scene file's lights as loaded
   QString scenePath_, setPath_;
   uint64_t sceneHash_ = 0;
   QString unitHint_;  ///< unitHint()

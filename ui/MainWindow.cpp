@@ -115,6 +115,11 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   tabifyDockWidget(lightingDock, evaluationDock);
   connect(evaluation_, &EvaluationPanel::failed, this, &MainWindow::showError);
   evaluation_->setPlacementSettings([this] { return placement_->placementRequest(); });
+  // A saved set keeps the panel's method, spacing and budget; reopening it shows them again.
+  doc_->setPlacementSource([this] {
+    const PlacementRequest r = placement_->placementRequest();
+    return PlacementSettings{r.method, r.spacingMeters, r.budget};
+  });
   evaluation_->setBakeSettings([this] { return placement_->bakeRequest(); });
   evaluation_->setSaveBeforeBake([this] { return offerSaveBeforeBake(); });
   // The error where it is: a picked query is framed and ringed; a probe added there is selected.

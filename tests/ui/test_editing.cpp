@@ -213,6 +213,56 @@ class TestEditing : public QObject {
     QVERIFY(vp->handleOrigin());
   }
 
+  void aDraggedProbeStopsWhereItIsReleased() {
+    // With the probes captured and lit: once the button is up the probe stays where it was
+    // released, whatever arrives after (its live captures, the rebuilt fields, moves still
+    // queued with the button state they were sent with, moves with the button up).
+    MainWindow w;
+    quiet(w);
+    Document* doc = w.document();
+    QVERIFY(w.openScene(kScene));
+    Viewport* vp = w.viewport();
+    vp->resize(900, 700);
+    const std::vector<Probe> ps = jitteredGrid(doc->scene()->bounds, 4, 2, 3, 9,
+                                               [](int, int, int) { return lightFromAbove(); });
+    const std::vector<uint64_t> ids = doc->addProbes(ps, "Add");
+    vp->frameAll();
+    const uint64_t id = ids.at(8);
+    vp->setSelection({id});
+    const QVector3D o = *vp->handleOrigin();
+    const QPointF from =
+        toPoint(vp->project(toV(o + QVector3D(vp->handleArmMeters() * 0.6f, 0, 0))));
+    QCOMPARE(vp->handlePartAt(from), HandlePart::AxisX);
+    const Vec3 start = doc->probe(id)->position;
+    send(vp, QEvent::MouseButtonPress, from, Qt::LeftButton, Qt::LeftButton);
+    for (int i = 1; i <= 12; ++i) {
+      send(vp, QEvent::MouseMove, from + QPointF(8.0 * i, 0), Qt::NoButton, Qt::LeftButton);
+      QCoreApplication::processEvents();
+    }
+    // Moves queued before the release, delivered after it.
+    const QPointF further = from + QPointF(160, 0);
+    for (int i = 0; i < 4; ++i) {
+      const QPointF p = further + QPointF(10.0 * i, 0);
+      QCoreApplication::postEvent(
+          vp, new QMouseEvent(QEvent::MouseMove, p, vp->mapToGlobal(p), Qt::NoButton,
+                              Qt::LeftButton, Qt::NoModifier));
+    }
+    send(vp, QEvent::MouseButtonRelease, from + QPointF(96, 0), Qt::LeftButton, Qt::NoButton);
+    const Vec3 released = doc->probe(id)->position;
+    QVERIFY(length(released - start) > 0.05);
+    const int steps = doc->undoStack()->count();
+    // The captures and fields of the new place land while the cursor moves on, button up.
+    for (int i = 0; i < 10; ++i) {
+      send(vp, QEvent::MouseMove, further + QPointF(0, 5.0 * i), Qt::NoButton, Qt::NoButton);
+      QTest::qWait(150);
+      QCOMPARE(doc->probe(id)->position, released);
+    }
+    QTRY_VERIFY_WITH_TIMEOUT(!doc->isCapturingLive(), 30000);
+    QTest::qWait(200);
+    QCOMPARE(doc->probe(id)->position, released);
+    QCOMPARE(doc->undoStack()->count(), steps);
+  }
+
   void boxSelectPicksTheProbesInside() {
     MainWindow w;
     quiet(w);

@@ -1,10 +1,13 @@
 // The editor's file handling, headless (QT_QPA_PLATFORM=offscreen): recent files, the unsaved
 // marker in the title, the prompt on close, autosave and recovery after a crash, atomic saves.
 #include <QAbstractButton>
+#include <QComboBox>
 #include <QDir>
 #include <QFile>
 #include <QMessageBox>
 #include <QSettings>
+#include <QSignalSpy>
+#include <QSpinBox>
 #include <QTemporaryDir>
 #include <QTimer>
 #include <QtTest>
@@ -13,6 +16,7 @@
 #include "ui/Autosave.h"
 #include "ui/Document.h"
 #include "ui/MainWindow.h"
+#include "ui/PlacementPanel.h"
 
 using namespace ps;
 using namespace ps::ui;
@@ -124,6 +128,37 @@ class TestFiles : public QObject {
     answerNextMessageBox(QMessageBox::Save);
     QVERIFY(w2.close());
     QCOMPARE(loadProbeSet(path.toStdString()).probes.size(), size_t(2));
+  }
+
+  void reopenedSetShowsThePlacementItWasSavedWith() {
+    // The placement panel's method and budget are saved with the set, whatever placement ran
+    // last (here the opening proposal's uniform grid), and shown again when it is reopened.
+    QTemporaryDir dir;
+    const QString path = dir.filePath("placed.probes.json");
+    {
+      MainWindow w;
+      w.setQuiet(true);
+      w.setPromptOnClose(false);
+      QSignalSpy proposed(w.document(), &Document::jobFinished);
+      QVERIFY(w.openScene(kScene));
+      QVERIFY(proposed.wait(120000));
+      w.placementPanel()->methodBox()->setCurrentText("greedy");
+      w.placementPanel()->budgetBox()->setValue(48);
+      QVERIFY(w.saveAs(path));
+    }
+    const ProbeSet saved = loadProbeSet(path.toStdString());
+    QCOMPARE(saved.placement.method, std::string("greedy"));
+    QCOMPARE(saved.placement.budget, 48);
+    MainWindow w;
+    w.setQuiet(true);
+    w.setPromptOnClose(false);
+    w.document()->setAutoPropose(false);
+    w.placementPanel()->methodBox()->setCurrentText("uniform");
+    w.placementPanel()->budgetBox()->setValue(0);
+    QVERIFY(w.openPath(path));
+    QCOMPARE(w.placementPanel()->methodBox()->currentText(), QStringLiteral("greedy"));
+    QCOMPARE(w.placementPanel()->budgetBox()->value(), 48);
+    QVERIFY(!w.isWindowModified());
   }
 
   void autosaveIsOfferedAfterACrash() {

@@ -27,6 +27,8 @@ using namespace ps::ui;
 
 namespace {
 const QString kScene = QStringLiteral(PS_SOURCE_DIR "/resources/scenes/two-rooms.gltf");
+const QString kApartment =
+    QStringLiteral(PS_SHARED_SCENES_DIR "/dream-apartment/dream-apartment.glb");
 
 /// Counts the paint and resize events a widget receives, and the update requests of its window:
 /// each of those repaints and flushes the window, which a window holding a QOpenGLWidget
@@ -51,6 +53,43 @@ class PaintCounter : public QObject {
  private:
   QWidget* widget_;
 };
+
+/// What a Cancel clicked in the middle of a job's step gave.
+struct CancelOutcome {
+  QString cancelledIn;    ///< the status text when Cancel was clicked
+  QString shownAtCancel;  ///< the status text right after the click
+  QString error;          ///< jobFinished's argument ("cancelled" when it stopped)
+  double seconds = -1;    ///< from the click to the job's end; -1: it ended before the click
+};
+
+/// Starts a job with `start` (false: it did not start) and clicks Cancel `intoMs` after the
+/// first progress report whose message contains `step`; waits up to 5 minutes for the job's end.
+template <class Start>
+CancelOutcome cancelInStep(MainWindow& w, const QString& step, int intoMs, Start start) {
+  Document* doc = w.document();
+  const QLabel* jobLabel = w.findChild<QLabel*>(QStringLiteral("jobLabel"));
+  CancelOutcome out;
+  QElapsedTimer clock;
+  QTimer timer;
+  timer.setSingleShot(true);
+  QObject::connect(&timer, &QTimer::timeout, [&] {
+    out.cancelledIn = jobLabel->text();
+    clock.start();
+    w.cancelButton()->click();
+    out.shownAtCancel = jobLabel->text();
+  });
+  const QMetaObject::Connection watch =
+      QObject::connect(doc, &Document::jobProgress, [&](const QString& message) {
+        if (!timer.isActive() && !clock.isValid() && message.contains(step)) timer.start(intoMs);
+      });
+  QSignalSpy done(doc, &Document::jobFinished);
+  if (start() && done.wait(300000)) {
+    out.error = done.first().first().toString();
+    if (clock.isValid()) out.seconds = double(clock.nsecsElapsed()) * 1e-9;
+  }
+  QObject::disconnect(watch);
+  return out;
+}
 
 }  // namespace
 
@@ -149,41 +188,64 @@ class TestJobs : public QObject {
         QVERIFY(w.saveAs(scratch_.filePath(c.job + ".probes.json")));
       }
       const int steps = doc->undoStack()->count();
-      const QLabel* jobLabel = w.findChild<QLabel*>(QStringLiteral("jobLabel"));
-      QElapsedTimer clock;
-      QString shownAtCancel, cancelledIn;
-      QTimer timer;
-      timer.setSingleShot(true);
-      connect(&timer, &QTimer::timeout, this, [&] {
-        cancelledIn = jobLabel->text();
-        clock.start();
-        w.cancelButton()->click();
-        shownAtCancel = jobLabel->text();
-      });
-      connect(doc, &Document::jobProgress, this, [&](const QString& message) {
-        if (!timer.isActive() && !clock.isValid() && message.contains(c.step))
-          timer.start(kIntoStep);
-      });
-      QSignalSpy done(doc, &Document::jobFinished);
-      if (c.job == QLatin1String("place")) {
-        w.placementPanel()->methodBox()->setCurrentText("greedy");
-        w.placementPanel()->budgetBox()->setValue(64);
-        QVERIFY(w.placementPanel()->run());
-      } else if (c.job == QLatin1String("bake")) {
-        w.placementPanel()->bakeSamplesBox()->setValue(1 << 16);  // long enough to cancel in
-        QVERIFY(w.placementPanel()->bake());
-      } else {
+      const CancelOutcome out = cancelInStep(w, c.step, kIntoStep, [&] {
+        if (c.job == QLatin1String("place")) {
+          w.placementPanel()->methodBox()->setCurrentText("greedy");
+          w.placementPanel()->budgetBox()->setValue(64);
+          return w.placementPanel()->run();
+        }
+        if (c.job == QLatin1String("bake")) {
+          w.placementPanel()->bakeSamplesBox()->setValue(1 << 16);  // long enough to cancel in
+          return w.placementPanel()->bake();
+        }
         w.evaluationPanel()->queriesBox()->setValue(4096);
         w.evaluationPanel()->referenceSamplesBox()->setValue(4096);
-        QVERIFY(w.evaluationPanel()->evaluate());
-      }
-      QVERIFY(done.wait(300000));
-      QVERIFY2(clock.isValid(), qPrintable(c.job + ": ended before the cancel"));
+        return w.evaluationPanel()->evaluate();
+      });
+      QVERIFY2(out.seconds >= 0, qPrintable(c.job + ": ended before the cancel"));
       qInfo("Cancel %d ms into %s (\"%s\"): the job ended %.3f s later", kIntoStep,
-            qPrintable(c.job), qPrintable(cancelledIn), double(clock.nsecsElapsed()) * 1e-9);
-      QCOMPARE(done.first().first().toString(), QStringLiteral("cancelled"));
-      QCOMPARE(shownAtCancel, QStringLiteral("Cancelling…"));
+            qPrintable(c.job), qPrintable(out.cancelledIn), out.seconds);
+      QCOMPARE(out.error, QStringLiteral("cancelled"));
+      QCOMPARE(out.shownAtCancel, QStringLiteral("Cancelling…"));
       QCOMPARE(doc->undoStack()->count(), steps);
+    }
+  }
+
+  void cancelStopsEveryGreedyStepOfALargeSceneInHalfASecond() {
+    // Greedy 64 on dream-apartment under the rig of the placement benchmark (a sun from
+    // (0.4, 0.8, 0.3) at 3 W/m², a sky of (0.3, 0.4, 0.6)): Cancel in the middle of each of its
+    // steps ends the job within kLatency, and says so at once.
+    if (!QFile::exists(kApartment)) QSKIP("the shared scene dream-apartment is not present");
+    constexpr double kLatency = 0.5;  // s, the bound for every step
+    const QString steps[] = {"field", "held-out", "greedy"};
+    for (const QString& step : steps) {
+      MainWindow w;
+      w.setQuiet(true);
+      w.setPromptOnClose(false);
+      Document* doc = w.document();
+      doc->setAutoPropose(false);
+      QVERIFY(w.openPath(kApartment));
+      LightingRig rig;
+      Light sun;
+      sun.type = LightType::Directional;
+      sun.direction = -normalize(Vec3(0.4, 0.8, 0.3));
+      sun.intensity = Rgb(3, 3, 3);
+      rig.lights.push_back(sun);
+      rig.skyRadiance = Rgb(0.3, 0.4, 0.6);
+      doc->setRig(rig, "Rig");
+      // The held-out step is short (4 % of the job): cancel soon after it starts.
+      const int intoMs = step == QLatin1String("held-out") ? 100 : 500;
+      const CancelOutcome out = cancelInStep(w, step, intoMs, [&] {
+        w.placementPanel()->methodBox()->setCurrentText("greedy");
+        w.placementPanel()->budgetBox()->setValue(64);
+        return w.placementPanel()->run();
+      });
+      QVERIFY2(out.seconds >= 0, qPrintable(step + ": ended before the cancel"));
+      qInfo("dream-apartment: Cancel %d ms into \"%s\": the job ended %.3f s later", intoMs,
+            qPrintable(out.cancelledIn), out.seconds);
+      QCOMPARE(out.error, QStringLiteral("cancelled"));
+      QCOMPARE(out.shownAtCancel, QStringLiteral("Cancelling…"));
+      QVERIFY2(out.seconds < kLatency, qPrintable(QStringLiteral("%1 s").arg(out.seconds)));
     }
   }
 
