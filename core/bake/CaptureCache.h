@@ -45,7 +45,8 @@ class CaptureCache {
   const std::filesystem::path& dir() const { return files_.dir(); }
 
   /// Bump when the capture integrator changes its results, to invalidate every old entry.
-  static constexpr uint32_t kAlgorithmVersion = 2;  ///< 2: textures, environment maps, adaptive
+  static constexpr uint32_t kAlgorithmVersion = 3;  ///< 2: textures, environment maps, adaptive;
+                                                    ///< 3: many lights sampled from a tree
 
  private:
   KeyedFileCache files_;

@@ -156,6 +156,10 @@ struct ShadowRay {
   Ray ray;
   Rgb contribution;
   uint32_t path = 0;
+  /// The light a sampled choice (LightChoice::sampled) sent it to, else kNoLight: what it finds
+  /// teaches the probe's LightVisibility.
+  uint32_t light = kNoLight;
+  static constexpr uint32_t kNoLight = std::numeric_limits<uint32_t>::max();
 };
 
 class PathTracer {
@@ -176,6 +180,7 @@ class PathTracer {
   PathTracer& operator=(const PathTracer&) = delete;
 
   const std::vector<Light>& lights() const { return lights_; }
+  const LightSampler& sampler() const { return sampler_; }
   Rgb sky() const { return sky_; }
   /// True when rays that leave the scene can bring light (constant sky or a non-black map).
   bool hasSky() const {
@@ -219,8 +224,10 @@ class PathTracer {
   /// bounce's, which share the probe as origin, as coherent) and its shadow rays in another;
   /// else path by path, one ray at a time. A path's arithmetic and random draws are the same
   /// either way. Radiance that is not finite is set to 0 (a degenerate configuration must not
-  /// poison a probe).
-  void trace(std::span<PathState> paths, bool packets) const {
+  /// poison a probe). `visibility`, when given, steers the choice of lights (LightVisibility) and
+  /// records what the sampled lights' shadow rays found; the caller commits it.
+  void trace(std::span<PathState> paths, bool packets,
+             LightVisibility* visibility = nullptr) const {
     thread_local std::vector<ShadowRay> shadows;
     thread_local std::vector<LightChoice> choices;
     if (!packets) {
@@ -229,9 +236,13 @@ class PathTracer {
         bool going = true;
         while (going) {
           shadows.clear();
-          going = step(s, tracer_.intersect(Ray{s.o, s.d}), 0, shadows, choices);
-          for (const ShadowRay& sh : shadows)
-            if (!tracer_.occluded(sh.ray)) s.L += sh.contribution;
+          going = step(s, tracer_.intersect(Ray{s.o, s.d}), 0, shadows, choices, visibility);
+          for (const ShadowRay& sh : shadows) {
+            const bool blocked = tracer_.occluded(sh.ray);
+            if (!blocked) s.L += sh.contribution;
+            if (visibility && sh.light != ShadowRay::kNoLight)
+              visibility->record(sh.light, !blocked);
+          }
         }
         if (!isFinite(s.L)) s.L = Rgb{};
       }
@@ -251,13 +262,17 @@ class PathTracer {
       shadows.clear();
       next.clear();
       for (size_t k = 0; k < active.size(); ++k)
-        if (step(paths[active[k]], hits[k], active[k], shadows, choices)) next.push_back(active[k]);
+        if (step(paths[active[k]], hits[k], active[k], shadows, choices, visibility))
+          next.push_back(active[k]);
       shadowRays.clear();
       for (const ShadowRay& sh : shadows) shadowRays.push_back(sh.ray);
       blocked.resize(shadowRays.size());
       tracer_.occludedStream(shadowRays, blocked, false);
-      for (size_t k = 0; k < shadows.size(); ++k)
+      for (size_t k = 0; k < shadows.size(); ++k) {
         if (!blocked[k]) paths[shadows[k].path].L += shadows[k].contribution;
+        if (visibility && shadows[k].light != ShadowRay::kNoLight)
+          visibility->record(shadows[k].light, !blocked[k]);
+      }
       std::swap(active, next);
     }
     for (PathState& s : paths)
@@ -273,7 +288,8 @@ class PathTracer {
   /// reaches (sky, emission), appends the vertex's shadow rays (for path `index`) to `shadows`,
   /// and draws the next ray. Returns false when the path ends here; its shadow rays still count.
   bool step(PathState& s, const std::optional<Hit>& hit, uint32_t index,
-            std::vector<ShadowRay>& shadows, std::vector<LightChoice>& choices) const {
+            std::vector<ShadowRay>& shadows, std::vector<LightChoice>& choices,
+            const LightVisibility* visibility) const {
     if (!hit) {
       // Escaped: the constant sky plus the environment map. From the probe (uniform
       // directions) the map counts fully; after a bounce it is weighted by the power
@@ -314,14 +330,15 @@ class PathTracer {
     // lights the sampler picks, each weighted by 1 / its probability (LightSampler.h). A light
     // whose range window has ended at p, or that lies below the surface, costs no ray.
     choices.clear();
-    sampler_.choose(p, n, sampler_.sampling() ? uniform01(s.rng) : 0.0, choices);
+    sampler_.choose(p, n, sampler_.sampling() ? uniform01(s.rng) : 0.0, choices, visibility);
     for (const LightChoice& c : choices) {
       const auto a = finiteDeltaArrival(lights_[c.light], p);
       if (!a) continue;
       const double cosTheta = dot(n, a->directionToLight);
       if (cosTheta <= 0) continue;
       shadows.push_back({deltaLightShadowRay(eps_, p, *a),
-                         betaBrdf * a->irradiance * (cosTheta * c.weight), index});
+                         betaBrdf * a->irradiance * (cosTheta * c.weight), index,
+                         c.sampled ? c.light : ShadowRay::kNoLight});
     }
 
     // Next-event estimation to the environment map, importance-sampled by its luminance and
@@ -590,6 +607,9 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
         double backfaces = 0;
         std::array<PathState, kPathBatchSamples> paths;
         std::array<Vec3, kPathBatchSamples> dirs;
+        // What this probe's shadow rays found, committed after each batch (LightVisibility).
+        thread_local LightVisibility visibility;
+        visibility.reset(pt.sampler());
         int j = 0;
         while (j < maxSamples) {
           if (cancelled.load()) return;
@@ -607,7 +627,9 @@ std::vector<ProbeCapture> captureProbes(const Tracer& tracer, const LightingRig&
             s.d = dirs[size_t(k)] = uniformSphere(u, v);
             s.rng = streamState(probeStream, static_cast<uint64_t>(j + k));
           }
-          pt.trace(std::span<PathState>(paths.data(), size_t(count)), settings.tracePackets);
+          pt.trace(std::span<PathState>(paths.data(), size_t(count)), settings.tracePackets,
+                   settings.learnLightVisibility ? &visibility : nullptr);
+          visibility.commit();
           for (int k = 0; k < count; ++k) {
             const PathState& s = paths[size_t(k)];
             const Vec3 dir = dirs[size_t(k)];

@@ -40,6 +40,9 @@ struct CaptureSettings {
   size_t exactLightCount = kExactLightCount;
   /// When sampling, the most nodes of the tree's cut a light is drawn from (LightSampler.h).
   int maxLightCut = kMaxCut;
+  /// When sampling, steer each probe's choice of lights by what its earlier batches' shadow
+  /// rays found (LightVisibility): lights behind walls are chosen less. Unbiased either way.
+  bool learnLightVisibility = true;
   /// Trace each batch of kPathBatchSamples paths bounce by bounce, every bounce's rays in one
   /// Embree stream call and its shadow rays in another; false: one ray at a time. The random
   /// streams are per sample, so both give the same paths, up to the last bits of Embree's packet

@@ -46,6 +46,47 @@ LightSampler::LightSampler(std::span<const Light> lights, size_t exactCount, int
   }
   nodes_.reserve(2 * local.size() - 1);
   build(local, 0, local.size());
+  parent_.assign(nodes_.size(), 0);
+  leafOf_.assign(lights.size(), std::numeric_limits<uint32_t>::max());
+  for (uint32_t i = 0; i < uint32_t(nodes_.size()); ++i) {
+    if (nodes_[i].leaf) {
+      leafOf_[nodes_[i].light] = i;
+    } else {
+      parent_[i + 1] = i;
+      parent_[nodes_[i].second] = i;
+    }
+  }
+}
+
+void LightVisibility::reset(const LightSampler& sampler) {
+  sampler_ = &sampler;
+  const size_t n = sampler.sampling() ? sampler.nodeCount() : 0;
+  tried_.assign(n, 0.0f);
+  reached_.assign(n, 0.0f);
+  pendingTried_.assign(n, 0.0f);
+  pendingReached_.assign(n, 0.0f);
+}
+
+void LightVisibility::record(uint32_t light, bool reached) {
+  if (!sampler_ || tried_.empty()) return;
+  PS_CHECK_LT(size_t{light}, sampler_->leafOf_.size());
+  uint32_t node = sampler_->leafOf_[light];
+  PS_CHECK_LT(size_t{node}, pendingTried_.size());
+  for (;;) {
+    pendingTried_[node] += 1.0f;
+    pendingReached_[node] += reached ? 1.0f : 0.0f;
+    if (node == 0) break;
+    node = sampler_->parent_[node];
+  }
+}
+
+void LightVisibility::commit() {
+  for (size_t i = 0; i < tried_.size(); ++i) {
+    tried_[i] += pendingTried_[i];
+    reached_[i] += pendingReached_[i];
+    pendingTried_[i] = 0.0f;
+    pendingReached_[i] = 0.0f;
+  }
 }
 
 uint32_t LightSampler::build(std::vector<uint32_t>& ids, size_t first, size_t last) {
@@ -120,7 +161,8 @@ double LightSampler::importance(const Node& node, Vec3 p, Vec3 n) const {
   return node.power * cosBound / std::max(d2, radius * radius);
 }
 
-void LightSampler::choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& out) const {
+void LightSampler::choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& out,
+                          const LightVisibility* visibility) const {
   for (uint32_t i : directional_) out.push_back({i, 1.0});
   for (uint32_t i : summed_) out.push_back({i, 1.0});
   if (nodes_.empty()) return;
@@ -152,18 +194,23 @@ void LightSampler::choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& ou
     uint32_t node;
     double importance;
   };
+  // A node's importance, scaled by the probe's learnt visibility of its lights (LightVisibility).
+  auto weigh = [&](uint32_t node) {
+    const double i = importance(nodes_[node], p, n);
+    return visibility ? i * visibility->factor(node) : i;
+  };
   Entry cut[kMaxCut];
   int size = 0;
   Entry pending[kMaxCut];
   int top = 0;
-  pending[top++] = {0, importance(nodes_[0], p, n)};
+  pending[top++] = {0, weigh(0)};
   while (top > 0) {
     const Entry e = pending[--top];
     if (!(e.importance > 0) || !std::isfinite(e.importance)) continue;
     const Node& node = nodes_[e.node];
     if (!node.leaf && size + top + 2 <= maxCut_ && looksLarge(node, p)) {
-      pending[top++] = {e.node + 1, importance(nodes_[e.node + 1], p, n)};
-      pending[top++] = {node.second, importance(nodes_[node.second], p, n)};
+      pending[top++] = {e.node + 1, weigh(e.node + 1)};
+      pending[top++] = {node.second, weigh(node.second)};
       continue;
     }
     cut[size++] = e;
@@ -197,8 +244,8 @@ void LightSampler::choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& ou
   uint32_t at = cut[pick].node;
   while (!nodes_[at].leaf) {
     const uint32_t first = at + 1, second = nodes_[at].second;
-    const double i0 = importance(nodes_[first], p, n);
-    const double i1 = importance(nodes_[second], p, n);
+    const double i0 = weigh(first);
+    const double i1 = weigh(second);
     const double sum = i0 + i1;
     if (!(sum > 0) || !std::isfinite(sum)) return;  // no light here adds anything
     const double p0 = i0 / sum;
@@ -212,7 +259,7 @@ void LightSampler::choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& ou
       at = second;
     }
   }
-  if (probability > 0) out.push_back({nodes_[at].light, 1.0 / probability});
+  if (probability > 0) out.push_back({nodes_[at].light, 1.0 / probability, true});
 }
 
 bool LightSampler::looksLarge(const Node& node, Vec3 p) const {

@@ -16,6 +16,39 @@ namespace ps {
 struct LightChoice {
   uint32_t light = 0;  ///< index into the lights the sampler was built over
   double weight = 1;
+  bool sampled = false;  ///< drawn from the tree (its shadow ray can teach a LightVisibility)
+};
+
+class LightSampler;
+
+/// What one probe's shadow rays have told about the tree's nodes: per node, how many shadow rays
+/// went to its lights and how many of them reached the light. LightSampler::choose scales each
+/// node's importance by (reached + 1) / (tried + 2), so that lights behind walls, which bounds
+/// cannot tell from lights in the room, are chosen less once the probe's paths have found them
+/// blocked (a learnt visibility factor, as many-light samplers cache light visibility per
+/// region, e.g. Vevoda et al. 2018, "Bayesian online regression for adaptive direct illumination
+/// sampling"). The factor is never 0, so every light that adds anything keeps a positive
+/// probability and the estimate stays unbiased. What is recorded goes to a pending table,
+/// folded in by commit(): a capture commits after each batch of paths, so that a batch's choices
+/// depend on the earlier batches of the same probe only, whatever order its rays are traced in.
+class LightVisibility {
+ public:
+  /// Sized for `sampler` and emptied.
+  void reset(const LightSampler& sampler);
+  /// The shadow ray of a sampled choice of `light` was (not) blocked.
+  void record(uint32_t light, bool reached);
+  /// Folds the pending records into the table choose() reads.
+  void commit();
+  /// The factor of node `node` (1 when the table is empty).
+  double factor(uint32_t node) const {
+    if (node >= tried_.size()) return 1.0;
+    return (reached_[node] + 1.0) / (tried_[node] + 2.0);
+  }
+
+ private:
+  const LightSampler* sampler_ = nullptr;
+  std::vector<float> tried_, reached_;                ///< per node, committed
+  std::vector<float> pendingTried_, pendingReached_;  ///< per node, since the last commit
 };
 
 /// Point and spot lights are summed at every path vertex up to this many; above it, one is
@@ -60,12 +93,19 @@ class LightSampler {
   /// sampling; when summing, a tree over more than kExactLightCount lights skips the subtrees
   /// whose windows have all ended, and the caller skips the rest before any ray
   /// (deltaLightArrival says nothing). `u` is uniform in [0, 1) and is read only when sampling.
-  void choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& out) const;
+  /// `visibility`, when given, scales the importance of the tree's nodes by what the probe's
+  /// earlier shadow rays found (LightVisibility); the probabilities and weights stay exact.
+  void choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& out,
+              const LightVisibility* visibility = nullptr) const;
 
   /// True when point and spot lights are sampled rather than summed.
   bool sampling() const { return sampling_; }
+  /// The nodes of the tree (0 without one).
+  size_t nodeCount() const { return nodes_.size(); }
 
  private:
+  friend class LightVisibility;
+
   /// A node of the tree over the point and spot lights. Its first child is the next node, its
   /// second `second`; a leaf holds one light.
   struct Node {
@@ -93,6 +133,8 @@ class LightSampler {
   /// skips the subtrees whose range windows have all ended at the point); root at 0.
   std::vector<Node> nodes_;
   bool sampling_ = false;
+  std::vector<uint32_t> leafOf_;  ///< per light index: its leaf (UINT32_MAX when none)
+  std::vector<uint32_t> parent_;  ///< per node: its parent (the root: itself)
 };
 
 }  // namespace ps
