@@ -104,6 +104,8 @@ uint32_t LightSampler::build(std::vector<uint32_t>& ids, size_t first, size_t la
     node.maxRange = std::max(
         node.maxRange, l.rangeMeters > 0 ? l.rangeMeters : std::numeric_limits<double>::infinity());
   }
+  node.centre = (node.lo + node.hi) * 0.5;
+  node.radius = 0.5 * length(node.hi - node.lo) * (1 + 1e-9) + 1e-12;
   if (last - first == 1) {
     node.leaf = true;
     node.light = ids[first];
@@ -134,14 +136,15 @@ double LightSampler::importance(const Node& node, Vec3 p, Vec3 n) const {
     return std::isfinite(f) && f > 0 ? f : 0;
   }
   // Every light's window clamp(1 - (d / range)^4, 0, 1)^2 is 0 at d >= range.
-  if (distanceSquaredToBox(p, node.lo, node.hi) >= node.maxRange * node.maxRange) return 0;
+  if (node.maxRange < std::numeric_limits<double>::infinity() &&
+      distanceSquaredToBox(p, node.lo, node.hi) >= node.maxRange * node.maxRange)
+    return 0;
   // The cone from p around the bounding sphere's centre that holds the sphere (half-angle
   // thetaB, the radius widened against rounding): every light lies within thetaB of the
   // centre's direction, so cos(max(0, theta - thetaB)) bounds every light's cosine, and no
   // light faces the surface when theta - thetaB is at least 90 degrees.
-  const Vec3 centre = (node.lo + node.hi) * 0.5;
-  const double radius = 0.5 * length(node.hi - node.lo) * (1 + 1e-9) + 1e-12;
-  const Vec3 toCentre = centre - p;
+  const double radius = node.radius;
+  const Vec3 toCentre = node.centre - p;
   const double d2 = dot(toCentre, toCentre);
   double cosBound = 1;
   if (d2 > radius * radius) {
@@ -263,12 +266,9 @@ void LightSampler::choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& ou
 }
 
 bool LightSampler::looksLarge(const Node& node, Vec3 p) const {
-  // A node whose lights' range windows have all ended adds nothing: splitting it gains nothing.
-  if (distanceSquaredToBox(p, node.lo, node.hi) >= node.maxRange * node.maxRange) return false;
-  const Vec3 centre = (node.lo + node.hi) * 0.5;
-  const Vec3 half = (node.hi - node.lo) * 0.5;
-  const Vec3 toCentre = centre - p;
-  return dot(half, half) > kSplitRatioSquared * dot(toCentre, toCentre);
+  // Called only for nodes of positive importance, whose range windows have not all ended.
+  const Vec3 toCentre = node.centre - p;
+  return node.radius * node.radius > kSplitRatioSquared * dot(toCentre, toCentre);
 }
 
 }  // namespace ps

@@ -110,6 +110,8 @@ class LightSampler {
   /// second `second`; a leaf holds one light.
   struct Node {
     Vec3 lo, hi;          ///< bounds of the light positions
+    Vec3 centre;          ///< of the bounds
+    double radius = 0;    ///< half the bounds' diagonal, widened against rounding
     double power = 0;     ///< sum of the lights' mean intensity over the channels (W/sr)
     double maxRange = 0;  ///< the largest range window; infinity when a light has none
     uint32_t second = 0;  ///< internal nodes: index of the second child
