@@ -1,11 +1,11 @@
 // probestudio-editor [SCENE | SET.json] [--probes SET.json] [--screenshot OUT.png] [--size WxH]
 //                    [--overlays glyphs,slice,tets,test-object,domain,preview,flat] [--select ID]
-//                    [--time-jobs place,bake,eval]
+//                    [--time-jobs place,bake,eval [--progress-log]]
 // The Qt editor. In --screenshot mode it loads, waits for the background proposal (or the given
 // probe set), renders one frame of the viewport at --size, writes OUT.png and OUT.png.json (the
 // projected pixel position of every probe, the camera, the cut-away height) and exits: 0 on
 // success, 1 with a one-line error. With --time-jobs it runs those jobs as their buttons do and
-// prints the wall time of each.
+// prints the wall time of each (with --progress-log, also every progress report the window got).
 #include <QAction>
 #include <QApplication>
 #include <QCommandLineParser>
@@ -153,12 +153,16 @@ bool writeScreenshot(ps::ui::MainWindow& w, const QString& out, int timeFrames) 
 /// them, with the panels' settings, in the shown window, and prints each one's wall time (from
 /// the click to the job's end reaching the window) to stdout. Quits the application when done:
 /// 0 when every job succeeded, 1 otherwise. Each job starts once the editor is idle, as an
-/// artist's click finds it: no job runs and the view computes nothing in the background.
-void timeJobs(QApplication& app, ps::ui::MainWindow& w, QStringList jobs) {
+/// artist's click finds it: no job runs and the view computes nothing in the background. With
+/// `logProgress`, every progress report that reaches the window is printed before the job's
+/// time as `progress JOB SECONDS FRACTION`: seconds from the click, the job's overall fraction
+/// in [0, 1] (what the status bar's bar and time left are computed from).
+void timeJobs(QApplication& app, ps::ui::MainWindow& w, QStringList jobs, bool logProgress) {
   ps::ui::Document* doc = w.document();
   if (doc->isBusy() || doc->isCapturingLive() || !w.viewport()->isSettled()) {
     constexpr int kPollMs = 100;
-    QTimer::singleShot(kPollMs, &w, [&app, &w, jobs] { timeJobs(app, w, jobs); });
+    QTimer::singleShot(kPollMs, &w,
+                       [&app, &w, jobs, logProgress] { timeJobs(app, w, jobs, logProgress); });
     return;
   }
   if (jobs.isEmpty()) {
@@ -168,6 +172,13 @@ void timeJobs(QApplication& app, ps::ui::MainWindow& w, QStringList jobs) {
   const QString job = jobs.takeFirst();
   auto timer = std::make_shared<QElapsedTimer>();
   timer->start();
+  QMetaObject::Connection progressLog;
+  if (logProgress)
+    progressLog = QObject::connect(doc, &ps::ui::Document::jobProgress, &w,
+                                   [job, timer](const QString&, double fraction) {
+                                     std::printf("progress %s %.3f %.4f\n", qPrintable(job),
+                                                 double(timer->nsecsElapsed()) * 1e-9, fraction);
+                                   });
   bool started = false;
   if (job == QLatin1String("place"))
     started = w.placementPanel()->run();
@@ -182,7 +193,8 @@ void timeJobs(QApplication& app, ps::ui::MainWindow& w, QStringList jobs) {
   }
   QObject::connect(
       doc, &ps::ui::Document::jobFinished, &w,
-      [&app, &w, jobs, job, timer](const QString& error) {
+      [&app, &w, jobs, job, timer, logProgress, progressLog](const QString& error) {
+        QObject::disconnect(progressLog);
         std::printf("editor %s: %.2f s%s\n", qPrintable(job), double(timer->nsecsElapsed()) * 1e-9,
                     qPrintable(error.isEmpty() ? QString() : QStringLiteral(" (") + error + ")"));
         std::fflush(stdout);
@@ -190,7 +202,8 @@ void timeJobs(QApplication& app, ps::ui::MainWindow& w, QStringList jobs) {
           app.exit(1);
           return;
         }
-        QTimer::singleShot(0, &w, [&app, &w, jobs] { timeJobs(app, w, jobs); });
+        QTimer::singleShot(0, &w,
+                           [&app, &w, jobs, logProgress] { timeJobs(app, w, jobs, logProgress); });
       },
       Qt::SingleShotConnection);
 }
@@ -246,13 +259,17 @@ int main(int argc, char** argv) {
       "Run these jobs one after the other as their buttons do, with the panels' settings, print "
       "each one's wall time and exit: any of place, bake, eval (e.g. bake,eval).",
       "LIST");
+  const QCommandLineOption progressLogOpt(
+      "progress-log",
+      "With --time-jobs: also print every progress report the window gets, as 'progress JOB "
+      "SECONDS FRACTION' (seconds from the click, the job's overall fraction).");
   const QCommandLineOption acceptOpt(
       "accept-proposal",
       "Accept the proposed candidates once they are there (one undo step, an unsaved edit): "
       "a scripted session's work, for the recovery test.");
   parser.addOptions({acceptOpt, unitsOpt, probesOpt, shotOpt, sizeOpt, noProbesOpt, timeOpt,
                      overlaysOpt, selectOpt, saveOpt, recoveryDirOpt, autosaveOpt, recoverOpt,
-                     windowShotOpt, noCutsOpt, timeJobsOpt});
+                     windowShotOpt, noCutsOpt, timeJobsOpt, progressLogOpt});
   parser.process(app);
 
   const QString shot = parser.value(shotOpt);
@@ -364,7 +381,9 @@ int main(int argc, char** argv) {
       if (!ok) return 1;
       w.setPromptOnClose(false);
       w.setQuiet(true);
-      QTimer::singleShot(0, &w, [&app, &w, jobs] { timeJobs(app, w, jobs); });
+      const bool logProgress = parser.isSet(progressLogOpt);
+      QTimer::singleShot(0, &w,
+                         [&app, &w, jobs, logProgress] { timeJobs(app, w, jobs, logProgress); });
       return app.exec();
     }
     if (!screenshot) {
