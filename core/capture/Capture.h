@@ -46,8 +46,12 @@ struct CaptureSettings {
   /// Trace each batch of kPathBatchSamples paths bounce by bounce, every bounce's rays in one
   /// Embree stream call and its shadow rays in another; false: one ray at a time. The random
   /// streams are per sample, so both give the same paths, up to the last bits of Embree's packet
-  /// kernels (and, where two coincident triangles tie, which one is reported).
-  bool tracePackets = true;
+  /// kernels (and, where two coincident triangles tie, which one is reported). Off by default:
+  /// a ray at a time was the faster in bench_capture on a quiet machine (packets took 1.06 to
+  /// 1.18 times as long on cornell, two-rooms and dream-apartment, and the same on the full
+  /// level's bake): a probe's rays and its shadow rays go every way, which leaves Embree's
+  /// stream calls little coherence to use, and the copies into and out of them cost.
+  bool tracePackets = false;
   /// Record each probe's visibility map (ProbeCapture::distanceMoments). Off by default: the
   /// bake turns it on for the probes it stores; placement's many cheap captures do not need
   /// the 2 KB per probe.
