@@ -230,6 +230,12 @@ class PathTracer {
              LightVisibility* visibility = nullptr) const {
     thread_local std::vector<ShadowRay> shadows;
     thread_local std::vector<LightChoice> choices;
+    // What a shadow ray found: its light when nothing blocked it, and a record of it for the
+    // visibility when it went to a sampled light.
+    auto settle = [visibility](PathState& path, const ShadowRay& sh, bool blocked) {
+      if (!blocked) path.L += sh.contribution;
+      if (visibility && sh.light != ShadowRay::kNoLight) visibility->record(sh.light, !blocked);
+    };
     if (!packets) {
       for (size_t i = 0; i < paths.size(); ++i) {
         PathState& s = paths[i];
@@ -237,12 +243,7 @@ class PathTracer {
         while (going) {
           shadows.clear();
           going = step(s, tracer_.intersect(Ray{s.o, s.d}), 0, shadows, choices, visibility);
-          for (const ShadowRay& sh : shadows) {
-            const bool blocked = tracer_.occluded(sh.ray);
-            if (!blocked) s.L += sh.contribution;
-            if (visibility && sh.light != ShadowRay::kNoLight)
-              visibility->record(sh.light, !blocked);
-          }
+          for (const ShadowRay& sh : shadows) settle(s, sh, tracer_.occluded(sh.ray));
         }
         if (!isFinite(s.L)) s.L = Rgb{};
       }
@@ -268,11 +269,8 @@ class PathTracer {
       for (const ShadowRay& sh : shadows) shadowRays.push_back(sh.ray);
       blocked.resize(shadowRays.size());
       tracer_.occludedStream(shadowRays, blocked, false);
-      for (size_t k = 0; k < shadows.size(); ++k) {
-        if (!blocked[k]) paths[shadows[k].path].L += shadows[k].contribution;
-        if (visibility && shadows[k].light != ShadowRay::kNoLight)
-          visibility->record(shadows[k].light, !blocked[k]);
-      }
+      for (size_t k = 0; k < shadows.size(); ++k)
+        settle(paths[shadows[k].path], shadows[k], blocked[k] != 0);
       std::swap(active, next);
     }
     for (PathState& s : paths)

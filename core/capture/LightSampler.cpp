@@ -127,6 +127,12 @@ uint32_t LightSampler::build(std::vector<uint32_t>& ids, size_t first, size_t la
   return index;
 }
 
+bool LightSampler::outOfRange(const Node& node, Vec3 p) {
+  // Every light's window clamp(1 - (d / range)^4, 0, 1)^2 is 0 at d >= range.
+  return node.maxRange < std::numeric_limits<double>::infinity() &&
+         distanceSquaredToBox(p, node.lo, node.hi) >= node.maxRange * node.maxRange;
+}
+
 double LightSampler::importance(const Node& node, Vec3 p, Vec3 n) const {
   if (node.leaf) {
     // A single light: its exact unshadowed contribution (range window and spot cone included).
@@ -135,10 +141,7 @@ double LightSampler::importance(const Node& node, Vec3 p, Vec3 n) const {
     const double f = meanChannel(a->irradiance) * dot(n, a->directionToLight);
     return std::isfinite(f) && f > 0 ? f : 0;
   }
-  // Every light's window clamp(1 - (d / range)^4, 0, 1)^2 is 0 at d >= range.
-  if (node.maxRange < std::numeric_limits<double>::infinity() &&
-      distanceSquaredToBox(p, node.lo, node.hi) >= node.maxRange * node.maxRange)
-    return 0;
+  if (outOfRange(node, p)) return 0;
   // The cone from p around the bounding sphere's centre that holds the sphere (half-angle
   // thetaB, the radius widened against rounding): every light lies within thetaB of the
   // centre's direction, so cos(max(0, theta - thetaB)) bounds every light's cosine, and no
@@ -175,15 +178,16 @@ void LightSampler::choose(Vec3 p, Vec3 n, double u, std::vector<LightChoice>& ou
     int depth = 0;
     stack[depth++] = 0;
     while (depth > 0) {
-      const Node& node = nodes_[stack[--depth]];
-      if (distanceSquaredToBox(p, node.lo, node.hi) >= node.maxRange * node.maxRange) continue;
+      const uint32_t at = stack[--depth];
+      const Node& node = nodes_[at];
+      if (outOfRange(node, p)) continue;
       if (node.leaf) {
         out.push_back({node.light, 1.0});
         continue;
       }
       PS_CHECK_LT(depth + 2, 64);
       stack[depth++] = node.second;
-      stack[depth++] = uint32_t(&node - nodes_.data()) + 1;
+      stack[depth++] = at + 1;
     }
     return;
   }

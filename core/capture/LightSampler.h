@@ -120,6 +120,9 @@ class LightSampler {
   };
 
   uint32_t build(std::vector<uint32_t>& ids, size_t first, size_t last);
+  /// Whether every light of the node lies at or beyond its range window from p (it adds nothing
+  /// there).
+  static bool outOfRange(const Node& node, Vec3 p);
   /// Whether the cut replaces the node by its children (kSplitRatioSquared).
   bool looksLarge(const Node& node, Vec3 p) const;
   /// An upper bound (up to a constant factor shared by all nodes) of the contribution the
